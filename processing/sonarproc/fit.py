@@ -1,0 +1,354 @@
+"""Curve fitting of the processed map (section 3.2 of the paper).
+
+Three fits, each a pure function from points to a small immutable fit object:
+
+* :func:`fit_polynomial`: the paper's least-squares polynomial of order ``m`` (Eq. 2),
+  expressed in the Chebyshev basis on the domain scaled to [-1, 1] so high orders stay
+  well conditioned.
+* :func:`fit_spline`: a cubic smoothing spline (penalised least squares, the smoothing
+  chosen by generalised cross-validation unless given).
+* :func:`fit_polar`: for a map around the robot (a room), a truncated Fourier series
+  r(phi) about a centre, periodic by construction.
+
+Every fit takes the points grouped by column (or by angular bin): the bin positions,
+the mean ordinate of the points in each bin and the number of points. Eq. 2 sums the
+squared residuals over every point, and for points sharing an abscissa
+``sum_j (p(x_i) - f_ij)**2 = M_i (p(x_i) - mean_i)**2 + const``, so a fit to the bin means
+weighted by ``M_i`` is *exactly* the paper's fit over every point, at the cost of one
+row per column instead of one per point.
+
+Degenerate input (no points, fewer distinct bins than parameters, a rank-deficient
+system) returns a :class:`FitFailure` that says why, never a curve.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "Fit",
+    "FitFailure",
+    "FitKind",
+    "PolarFit",
+    "PolyFit",
+    "SplineFit",
+    "fit_polar",
+    "fit_polynomial",
+    "fit_spline",
+]
+
+log = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+FitKind = Literal["poly", "spline", "polar"]
+
+
+def _floats(a: npt.ArrayLike) -> FloatArray:
+    return np.asarray(a, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class FitFailure:
+    """A fit that could not be made, and why (shown in the report instead of a curve)."""
+
+    kind: str
+    reason: str
+    order: int | None = None
+    ok: bool = False
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the JSON-ready description used in ``report.json``."""
+        return {"kind": self.kind, "ok": False, "order": self.order, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class PolyFit:
+    """A polynomial y = p(x) of order ``order`` in the Chebyshev basis.
+
+    ``p(x) = sum_k coef[k] * T_k(u)`` with ``u = (2x - (a + b)) / (b - a)`` and
+    ``(a, b) = domain``; ``numpy.polynomial.Chebyshev(coef, domain=domain)`` evaluates it.
+    """
+
+    order: int
+    coef: FloatArray
+    domain: tuple[float, float]
+    kind: str = "poly"
+    ok: bool = True
+
+    def __call__(self, x: npt.ArrayLike) -> FloatArray:
+        """Evaluate the polynomial at ``x`` (extrapolating outside the domain)."""
+        cheb = np.polynomial.Chebyshev(self.coef, domain=list(self.domain))
+        return _floats(cheb(_floats(x)))
+
+    def sample(self, step: float) -> FloatArray:
+        """Return ``(K, 2)`` points ``(x, p(x))`` every ``step`` across the domain, x sorted."""
+        return _sample_x(self, self.domain, step)
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the JSON-ready description used in ``report.json``."""
+        return {
+            "kind": "poly",
+            "ok": True,
+            "order": self.order,
+            "basis": "chebyshev",
+            "domain": list(self.domain),
+            "window": [-1.0, 1.0],
+            "coefficients": self.coef.tolist(),
+        }
+
+
+@dataclass(frozen=True)
+class SplineFit:
+    """A cubic smoothing spline y = s(x): B-spline knots, coefficients and degree."""
+
+    knots: FloatArray
+    coef: FloatArray
+    degree: int
+    domain: tuple[float, float]
+    lam: float | None
+    kind: str = "spline"
+    order: int = 3
+    ok: bool = True
+
+    def __call__(self, x: npt.ArrayLike) -> FloatArray:
+        """Evaluate the spline at ``x`` (extrapolating outside the domain)."""
+        from scipy.interpolate import BSpline
+
+        return _floats(BSpline(self.knots, self.coef, self.degree, extrapolate=True)(_floats(x)))
+
+    def sample(self, step: float) -> FloatArray:
+        """Return ``(K, 2)`` points ``(x, s(x))`` every ``step`` across the domain, x sorted."""
+        return _sample_x(self, self.domain, step)
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the JSON-ready description used in ``report.json``."""
+        return {
+            "kind": "spline",
+            "ok": True,
+            "order": self.degree,
+            "basis": "bspline",
+            "domain": list(self.domain),
+            "knots": self.knots.tolist(),
+            "coefficients": self.coef.tolist(),
+            "smoothing_lambda": self.lam,
+        }
+
+
+@dataclass(frozen=True)
+class PolarFit:
+    """A closed profile r(phi) = a0 + sum_k a_k cos(k phi) + b_k sin(k phi) about ``centre``."""
+
+    centre: tuple[float, float]
+    order: int
+    a0: float
+    a: FloatArray
+    b: FloatArray
+    kind: str = "polar"
+    ok: bool = True
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """The angular domain, always the full turn ``(-pi, pi)``."""
+        return (-np.pi, np.pi)
+
+    def __call__(self, phi: npt.ArrayLike) -> FloatArray:
+        """Evaluate the radius r(phi) (m) at angles ``phi`` (rad)."""
+        phi = _floats(phi)
+        k = np.arange(1, self.order + 1, dtype=np.float64)
+        ang = np.multiply.outer(phi, k)
+        return _floats(self.a0 + np.cos(ang) @ self.a + np.sin(ang) @ self.b)
+
+    def sample(self, step: float) -> FloatArray:
+        """Return a closed ``(K + 1, 2)`` polyline of world points, ``step`` apart on average.
+
+        The points run counter-clockwise from phi = -pi; the last repeats the first.
+        """
+        mean_r = max(abs(self.a0), step)
+        count = max(int(np.ceil(2.0 * np.pi * mean_r / step)), 8)
+        phi = np.linspace(-np.pi, np.pi, count, endpoint=False)
+        r = self(phi)
+        pts = np.column_stack((self.centre[0] + r * np.cos(phi), self.centre[1] + r * np.sin(phi)))
+        return np.vstack((pts, pts[:1]))
+
+    def to_json(self) -> dict[str, Any]:
+        """Return the JSON-ready description used in ``report.json``."""
+        return {
+            "kind": "polar",
+            "ok": True,
+            "order": self.order,
+            "basis": "fourier",
+            "centre": list(self.centre),
+            "domain": [-np.pi, np.pi],
+            "coefficients": {"a0": self.a0, "a": self.a.tolist(), "b": self.b.tolist()},
+        }
+
+
+Fit = PolyFit | SplineFit | PolarFit | FitFailure
+
+
+def _sample_x(f: PolyFit | SplineFit, domain: tuple[float, float], step: float) -> FloatArray:
+    if not step > 0:
+        raise ValueError(f"sample step must be > 0, got {step}")
+    lo, hi = domain
+    count = int(np.floor((hi - lo) / step + 1e-9)) + 1
+    x = lo + step * np.arange(count, dtype=np.float64)
+    return np.column_stack((x, f(x)))
+
+
+def _check_bins(
+    kind: str, x: FloatArray, y: FloatArray, w: FloatArray, needed: int, order: int
+) -> FitFailure | None:
+    if x.shape != y.shape or x.shape != w.shape or x.ndim != 1:
+        raise ValueError("x, y and counts must be 1-D arrays of one length")
+    used = int(np.count_nonzero(w > 0))
+    if used == 0:
+        return FitFailure(kind, "no points left in the processed map", order)
+    distinct = np.unique(x[w > 0]).size
+    if distinct < needed:
+        return FitFailure(
+            kind,
+            f"only {distinct} distinct column(s) hold points; order {order} needs {needed}",
+            order,
+        )
+    return None
+
+
+def fit_polynomial(
+    x: npt.ArrayLike, y: npt.ArrayLike, counts: npt.ArrayLike, *, order: int
+) -> PolyFit | FitFailure:
+    """Least-squares polynomial of order ``order`` over every point (Eq. 2 of the paper).
+
+    Parameters
+    ----------
+    x : array_like, shape (K,)
+        Column centres (m).
+    y : array_like, shape (K,)
+        Mean ordinate of the points in each column (m).
+    counts : array_like, shape (K,)
+        Number of points in each column (``M_i``); columns with 0 are ignored.
+    order : int
+        Polynomial order ``m`` (>= 0).
+
+    Returns
+    -------
+    PolyFit or FitFailure
+
+    Examples
+    --------
+    >>> x = np.linspace(0.0, 2.0, 21)
+    >>> f = fit_polynomial(x, 1.0 + 0.5 * x**2, np.ones(21), order=2)
+    >>> round(float(f(3.0)[()]), 6)
+    5.5
+    """
+    if order < 0:
+        raise ValueError(f"polynomial order must be >= 0, got {order}")
+    xa, ya, wa = _floats(x), _floats(y), _floats(counts)
+    failure = _check_bins("poly", xa, ya, wa, order + 1, order)
+    if failure is not None:
+        return failure
+    keep = wa > 0
+    xk, yk, wk = xa[keep], ya[keep], wa[keep]
+    lo, hi = float(xk.min()), float(xk.max())
+    if hi <= lo:
+        hi = lo + 1.0  # order 0 with one column: any non-empty domain will do
+    cheb, (_resid, rank, _sv, _rcond) = np.polynomial.Chebyshev.fit(
+        xk, yk, order, domain=[lo, hi], w=np.sqrt(wk), full=True
+    )
+    if rank < order + 1:
+        return FitFailure("poly", f"rank-deficient system (rank {rank} < {order + 1})", order)
+    return PolyFit(order=order, coef=_floats(cheb.coef), domain=(lo, hi))
+
+
+def fit_spline(
+    x: npt.ArrayLike, y: npt.ArrayLike, counts: npt.ArrayLike, *, lam: float | None = None
+) -> SplineFit | FitFailure:
+    """Cubic smoothing spline through the column means, weighted by the column counts.
+
+    Parameters
+    ----------
+    x, y, counts : array_like, shape (K,)
+        As for :func:`fit_polynomial`.
+    lam : float, optional
+        Roughness penalty; ``None`` chooses it by generalised cross-validation.
+
+    Returns
+    -------
+    SplineFit or FitFailure
+    """
+    from scipy.interpolate import make_smoothing_spline
+
+    xa, ya, wa = _floats(x), _floats(y), _floats(counts)
+    failure = _check_bins("spline", xa, ya, wa, 5, 3)
+    if failure is not None:
+        return failure
+    keep = wa > 0
+    order = np.argsort(xa[keep], kind="stable")
+    xk, yk, wk = xa[keep][order], ya[keep][order], wa[keep][order]
+    try:
+        spl = make_smoothing_spline(xk, yk, w=wk, lam=lam)
+    except (ValueError, np.linalg.LinAlgError) as err:
+        return FitFailure("spline", f"smoothing spline failed: {err}", 3)
+    return SplineFit(
+        knots=_floats(spl.t),
+        coef=_floats(spl.c),
+        degree=int(spl.k),
+        domain=(float(xk[0]), float(xk[-1])),
+        lam=lam,
+    )
+
+
+def fit_polar(
+    phi: npt.ArrayLike,
+    r: npt.ArrayLike,
+    counts: npt.ArrayLike,
+    *,
+    centre: tuple[float, float],
+    order: int,
+) -> PolarFit | FitFailure:
+    """Least-squares Fourier series r(phi) of ``order`` harmonics about ``centre``.
+
+    Parameters
+    ----------
+    phi : array_like, shape (K,)
+        Angular bin centres (rad).
+    r : array_like, shape (K,)
+        Mean radius of the points in each bin (m).
+    counts : array_like, shape (K,)
+        Number of points in each bin; bins with 0 are ignored.
+    centre : (float, float)
+        The centre the angles and radii are measured about (m).
+    order : int
+        Number of harmonics (>= 0); the fit has ``2 * order + 1`` parameters.
+
+    Returns
+    -------
+    PolarFit or FitFailure
+    """
+    if order < 0:
+        raise ValueError(f"polar order must be >= 0, got {order}")
+    pa, ra, wa = _floats(phi), _floats(r), _floats(counts)
+    failure = _check_bins("polar", pa, ra, wa, 2 * order + 1, order)
+    if failure is not None:
+        return failure
+    keep = wa > 0
+    pk, rk, sw = pa[keep], ra[keep], np.sqrt(wa[keep])
+    k = np.arange(1, order + 1, dtype=np.float64)
+    ang = np.multiply.outer(pk, k)
+    design = np.hstack((np.ones((pk.size, 1)), np.cos(ang), np.sin(ang)))
+    sol, _res, rank, _sv = np.linalg.lstsq(design * sw[:, None], rk * sw, rcond=None)
+    if rank < design.shape[1]:
+        return FitFailure(
+            "polar", f"rank-deficient system (rank {rank} < {design.shape[1]})", order
+        )
+    return PolarFit(
+        centre=(float(centre[0]), float(centre[1])),
+        order=order,
+        a0=float(sol[0]),
+        a=_floats(sol[1 : order + 1]),
+        b=_floats(sol[order + 1 :]),
+    )
