@@ -1,0 +1,1 @@
+"""sonard: the acquisition daemon for the Nomad 200 sonar ring."""

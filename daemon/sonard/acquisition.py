@@ -1,0 +1,287 @@
+"""The acquisition loop: the only code that talks to the robot while a plan runs.
+
+:class:`Acquisition` owns the :class:`nomad200.Client`. Every reply the robot sends is a
+state packet; each one (polls and motion commands alike) goes through
+:class:`sonard.tagging.Tagger`, and the new readings and the pose are queued on the
+:class:`sonard.writer_thread.LogSink` (never written here, so a slow disk never stalls the
+serial line).
+
+Pacing: polls (GS) go out every ``max(firing interval, line time of one poll)``: the line
+time follows from the mask (:func:`sonard.link.poll_seconds`), and a poll per firing
+interval sees every firing. The wait between polls is a wait on the stop event, so SIGTERM
+is noticed at once.
+
+Faults: a garbled or missing poll reply is skipped (the next poll sees the same readings).
+When no good reply arrived for ``LINK_LOST_S`` or the port went away, the loop records a
+``fault`` event, sends ST if it can, and reconnects with exponential backoff (0.1 s doubling
+to 2 s) until ``fault_timeout_s`` has passed; then it records ``reconnect`` and raises
+:class:`Resume` so the current step restarts from its recorded progress, or records
+``abort`` and raises :class:`FaultAbort`.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any, Protocol
+
+import numpy as np
+
+from sonard.link import poll_seconds
+from sonard.notify import Notifier
+from sonard.plan import Plan
+from sonard.tagging import Tagger
+from sonard.writer_thread import LogSink
+
+__all__ = ["Acquisition", "FaultAbort", "Resume", "Stopped"]
+
+log = logging.getLogger(__name__)
+
+#: no good reply for this long (s) means the link is lost
+LINK_LOST_S = 1.0
+#: motor status bits: translating, steering, turret
+MOVING = 0b111
+
+
+class Resume(Exception):
+    """The link came back after a fault: restart the current step from its progress."""
+
+
+class Stopped(Exception):
+    """A stop was requested (SIGTERM/SIGINT)."""
+
+
+class FaultAbort(RuntimeError):
+    """The link stayed down longer than the fault timeout."""
+
+
+class ClientLike(Protocol):
+    """The :class:`nomad200.Client` methods the daemon uses (SI units)."""
+
+    def open(self) -> None: ...
+    def close(self) -> None: ...
+    def get_state(self) -> Any: ...
+    def stop(self) -> Any: ...
+    def configure_mask(self, mask: Any) -> Any: ...
+    def configure_sonars(self, order: list[int], interval_s: float) -> Any: ...
+    def configure_watchdog(self, seconds: int) -> Any: ...
+
+
+class Acquisition:
+    """Run the serial side of a plan: configure, poll, command, tag, queue.
+
+    Parameters
+    ----------
+    client : ClientLike
+        An unopened or open :class:`nomad200.Client`.
+    plan : Plan
+        The validated plan (sonars, interval, baud, attachments, fault timeout).
+    sink : LogSink
+        Where readings, poses and events go.
+    stop : threading.Event
+        Set by the signal handlers; every wait returns early when it is set.
+    notifier : Notifier, optional
+        systemd notifications (watchdog pings from the loop).
+    fault_timeout_s : float, optional
+        Overrides the plan's ``fault_timeout_s``.
+    mask_factory : callable, optional
+        Builds the CT mask from (sonars, attachments); defaults to :class:`nomad200.StateMask`.
+    """
+
+    def __init__(
+        self,
+        client: Any,
+        plan: Plan,
+        sink: LogSink,
+        *,
+        stop: threading.Event,
+        notifier: Notifier | None = None,
+        fault_timeout_s: float | None = None,
+        mask_factory: Callable[[list[int], bool], Any] | None = None,
+    ) -> None:
+        self.client = client
+        self.plan = plan
+        self.sink = sink
+        self.stop_event = stop
+        self.notifier = notifier or Notifier(env={})
+        self.fault_timeout_s = plan.fault_timeout_s if fault_timeout_s is None else fault_timeout_s
+        self._mask_factory = mask_factory or _default_mask
+        self.tagger = Tagger(
+            plan.sonars,
+            speed_of_sound=plan.speed_of_sound,
+            interval=plan.interval,
+            attachments=plan.use_attachments,
+        )
+        self.poll_period = max(
+            plan.interval, poll_seconds(len(plan.sonars), plan.use_attachments, plan.baud)
+        )
+        self.state: Any = None
+        self.latest: np.ndarray = np.zeros(0)  # readings of the last state fed
+        self._next_poll = 0.0
+        self._last_good = time.monotonic()
+        self.n_faults = 0
+
+    # -- life cycle -------------------------------------------------------------------
+    def start(self) -> None:
+        """Open the port if needed and configure mask, sonars and motion watchdog."""
+        if not getattr(self.client, "is_open", False):
+            self.client.open()
+        self._configure()
+
+    def _configure(self) -> None:
+        p = self.plan
+        self.feed(self.client.configure_mask(self._mask_factory(list(p.sonars), p.use_attachments)))
+        self.feed(self.client.configure_sonars(order=list(p.sonars), interval_s=p.interval))
+        self.feed(self.client.configure_watchdog(seconds=p.watchdog))
+        self._last_good = time.monotonic()
+
+    def stop_robot(self) -> bool:
+        """Send ST (best effort); return whether the robot acknowledged it."""
+        for _ in range(2):
+            try:
+                self.feed(self.client.stop())
+                return True
+            except Exception as exc:
+                log.debug("ST failed: %s", exc)
+        return False
+
+    # -- feeding ----------------------------------------------------------------------
+    def feed(self, state: Any) -> Any:
+        """Tag a state reply, queue its readings and pose, and remember it."""
+        if state is None:
+            return None
+        rows, pose = self.tagger.feed(state, time.time())
+        self.sink.readings(rows)
+        self.sink.poses(pose)
+        self.latest = rows
+        self.state = state
+        self._last_good = time.monotonic()
+        self.notifier.watchdog()
+        return state
+
+    def check_stop(self) -> None:
+        """Raise :class:`Stopped` when a stop was requested."""
+        if self.stop_event.is_set():
+            raise Stopped
+
+    # -- serial calls -----------------------------------------------------------------
+    def command(self, name: str, *args: Any, idempotent: bool = True) -> Any:
+        """Call a client method and feed its reply.
+
+        A timeout or garbled reply is retried when ``idempotent`` (twice), otherwise
+        returns None (the caller's closed loop checks the outcome on the next poll). A
+        lost link goes through :meth:`recover`.
+        """
+        from nomad200 import NomadDisconnected, NomadError
+
+        self.check_stop()
+        tries = 3 if idempotent else 1
+        for i in range(tries):
+            try:
+                return self.feed(getattr(self.client, name)(*args))
+            except NomadDisconnected as exc:
+                self.recover(exc)
+            except NomadError as exc:
+                log.debug("%s failed (%d/%d): %s", name, i + 1, tries, exc)
+                if time.monotonic() - self._last_good > LINK_LOST_S:
+                    self.recover(exc)
+                self.check_stop()
+        return None
+
+    def poll(self) -> Any:
+        """Wait for the next poll slot, then GS; returns the newest state (maybe an older one)."""
+        from nomad200 import NomadDisconnected, NomadError
+
+        now = time.monotonic()
+        if self._next_poll > now and self.stop_event.wait(self._next_poll - now):
+            raise Stopped
+        self.check_stop()
+        self._next_poll = max(self._next_poll + self.poll_period, time.monotonic())
+        try:
+            self.feed(self.client.get_state())
+        except NomadDisconnected as exc:
+            self.recover(exc)
+        except NomadError as exc:
+            log.debug("poll failed: %s", exc)
+            if time.monotonic() - self._last_good > LINK_LOST_S:
+                self.recover(exc)
+        return self.state
+
+    def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` of wall time, polling; raise :class:`Stopped` on a stop request."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.poll()
+
+    def wait_robot_time(self, seconds: float) -> None:
+        """Poll until the robot clock advanced by ``seconds`` (fast emulators run it faster)."""
+        start = self.poll().clock
+        guard = time.monotonic() + seconds + 5.0
+        while self.state.clock - start < seconds:
+            self.poll()
+            if time.monotonic() > guard:  # a stalled robot clock must not hang the plan
+                log.warning("robot clock stalled at %.3f s", self.state.clock)
+                return
+
+    def moving(self) -> bool:
+        """Whether the last state shows any motor moving."""
+        return bool(self.state is not None and self.state.motor_status & MOVING)
+
+    # -- faults -----------------------------------------------------------------------
+    def recover(self, exc: BaseException) -> None:
+        """Stop the robot, reconnect with backoff, then raise Resume (or FaultAbort)."""
+        self.n_faults += 1
+        detail = f"{type(exc).__name__}: {exc}"[:200]
+        log.warning("link fault: %s", detail)
+        self.sink.event("fault", detail)
+        self.notifier.status(f"link fault: {detail}")
+        if not isinstance(exc, ConnectionError) and self.stop_robot() and self._reconfigure():
+            self._resumed("noisy link")  # the robot answers again: the line was only noisy
+        deadline = time.monotonic() + self.fault_timeout_s
+        delay = 0.1
+        while True:
+            self.notifier.watchdog()
+            self.check_stop()
+            try:
+                self.client.close()
+            except Exception as close_exc:
+                log.debug("close failed: %s", close_exc)
+            try:
+                self.client.open()
+            except Exception as open_exc:
+                log.info("reconnect failed: %s", open_exc)
+            else:
+                if self.stop_robot() and self._reconfigure():
+                    self._resumed("reconnected")
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                self.sink.event("abort", f"link down longer than {self.fault_timeout_s:g} s")
+                raise FaultAbort(
+                    f"link down longer than {self.fault_timeout_s:g} s ({detail})"
+                ) from exc
+            if self.stop_event.wait(min(delay, remaining)):
+                raise Stopped from exc
+            delay = min(delay * 2, 2.0)
+
+    def _reconfigure(self) -> bool:
+        try:
+            self._configure()
+        except Exception as exc:
+            log.info("reconfigure failed: %s", exc)
+            return False
+        return True
+
+    def _resumed(self, why: str) -> None:
+        log.info("link back (%s); resuming", why)
+        self.sink.event("reconnect", why)
+        self.notifier.status("running")
+        self._next_poll = 0.0
+        raise Resume
+
+
+def _default_mask(sonars: list[int], attachments: bool) -> Any:
+    from nomad200 import StateMask
+
+    return StateMask(sonars=frozenset(sonars), pose=True, sonar_pose_attachment=attachments)
