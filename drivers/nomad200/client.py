@@ -1,0 +1,477 @@
+"""Serial client for the Nomad 200 host link, in SI units.
+
+The client opens its port with :func:`serial.serial_for_url`, so ``port`` may be a device
+path (``/dev/ttyUSB0``), a pyserial URL such as ``spy:///dev/ttyUSB0`` (hex trace of the
+traffic) or the emulator's ``nomad://?world=...`` scheme (importing :mod:`nomad200`
+registers it). Every command is one request and one reply (the robot's strict protocol);
+the input is flushed before each request, replies of the wrong type are dropped, and
+damaged bytes are skipped by a resynchronising decoder.
+
+Idempotent commands (GS, GET_SN, GET_RC, GET_RV and the setters CT, CONF_SN, CONF_TM, AC,
+SP, DP, DA, VM, ST, LP) are retried up to ``retries`` times after a timeout, a damaged reply
+or a NAK; PR, PA, MV, ZR and WS are never retried.
+
+Counters (``requests``, ``retry_count``, ``timeouts``, ``naks``, ``frame_errors``,
+``skipped_bytes``, ``stale_packets``, ``reconnects``) are plain attributes; ``counters()``
+returns them as a dict for logging.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+import weakref
+from collections.abc import Sequence
+from types import TracebackType
+from typing import Any, Final
+
+import serial
+
+from nomad200.codec import Cmd, MvMode, Packet, encode_command
+from nomad200.errors import (
+    FrameError,
+    NomadDisconnected,
+    NomadError,
+    NomadNak,
+    NomadPortBusy,
+    NomadProtocolError,
+    NomadTimeout,
+)
+from nomad200.state import (
+    DEG10,
+    IN10,
+    Configuration,
+    SonarScan,
+    State,
+    StateLayout,
+    StateMask,
+    decode_get_rc,
+    decode_get_rv,
+    decode_get_sn,
+    layout_for,
+)
+from nomad200.stream import StreamDecoder
+
+__all__ = ["ZR_TIMEOUT", "Client", "open_clients"]
+
+logger = logging.getLogger(__name__)
+
+#: seconds a ZR (zeroing) may take
+ZR_TIMEOUT: Final = 120.0
+_IDEMPOTENT: Final = frozenset(
+    {
+        Cmd.GS,
+        Cmd.GET_SN,
+        Cmd.GET_RC,
+        Cmd.GET_RV,
+        Cmd.CT,
+        Cmd.CONF_SN,
+        Cmd.CONF_TM,
+        Cmd.AC,
+        Cmd.SP,
+        Cmd.DP,
+        Cmd.DA,
+        Cmd.VM,
+        Cmd.ST,
+        Cmd.LP,
+    }
+)
+_OPEN: weakref.WeakSet[Client] = weakref.WeakSet()
+
+
+def open_clients() -> list[Client]:
+    """Clients whose port is open (for leak checks in tests)."""
+    return [c for c in _OPEN if c.is_open]
+
+
+def _ticks(value: float, unit: float, what: str, *, unsigned: bool = False) -> int:
+    if not math.isfinite(value):
+        raise ValueError(f"{what} must be finite, got {value}")
+    n = round(value / unit)
+    lo = 0 if unsigned else -32767
+    if not lo <= n <= 32767:
+        raise ValueError(f"{what} = {value} is out of range for the robot ({n} robot units)")
+    return n
+
+
+class Client:
+    """A Nomad 200 on a serial port.
+
+    Parameters
+    ----------
+    port : str
+        Device path or pyserial URL.
+    baud : int
+        4800, 9600, 19200 or 38400 on a real robot.
+    timeout : float
+        Reply timeout in seconds for ordinary commands (ZR gets 120 s, WS its own + 1 s).
+    retries : int
+        Extra attempts for idempotent commands.
+    exclusive : bool
+        Lock the port (pyserial ``exclusive=True``: an ``flock`` on device files and ptys,
+        the emulator URL refuses a second open).
+    sync_on_open : bool
+        Send CT with the current mask when the port opens, so a reopened robot replies in
+        the layout the client expects.
+    """
+
+    def __init__(
+        self,
+        port: str,
+        *,
+        baud: int = 9600,
+        timeout: float = 1.0,
+        retries: int = 2,
+        exclusive: bool = True,
+        sync_on_open: bool = True,
+    ) -> None:
+        self.port = port
+        self.baud = baud
+        self.timeout = timeout
+        self.retries = retries
+        self.exclusive = exclusive
+        self.sync_on_open = sync_on_open
+        self._ser: Any = None
+        self._io_timeout: float | None = None
+        self._lock = threading.RLock()
+        self._mask = StateMask()
+        self._layout: StateLayout = layout_for(self._mask)
+        self._decoder = StreamDecoder()
+        self.requests = 0
+        self.retry_count = 0
+        self.timeouts = 0
+        self.naks = 0
+        self.frame_errors = 0
+        self.stale_packets = 0
+        self.reconnects = 0
+        self._skipped_before = 0
+
+    # ------------------------------------------------------------ port handling
+    @property
+    def is_open(self) -> bool:
+        """Whether the serial port is open."""
+        return self._ser is not None
+
+    @property
+    def mask(self) -> StateMask:
+        """The mask the client decodes state replies with (the last CT sent)."""
+        return self._mask
+
+    @property
+    def skipped_bytes(self) -> int:
+        """Received bytes discarded as garbage, damaged or stale (all time)."""
+        return self._skipped_before + self._decoder.skipped_bytes
+
+    def counters(self) -> dict[str, int]:
+        """All counters as a dict."""
+        return {
+            "requests": self.requests,
+            "retries": self.retry_count,
+            "timeouts": self.timeouts,
+            "naks": self.naks,
+            "frame_errors": self.frame_errors,
+            "skipped_bytes": self.skipped_bytes,
+            "stale_packets": self.stale_packets,
+            "reconnects": self.reconnects,
+        }
+
+    def open(self) -> None:
+        """Open (and lock) the port; with ``sync_on_open`` send the current mask.
+
+        Raises
+        ------
+        NomadPortBusy
+            Another process holds the port.
+        NomadDisconnected
+            The port does not exist or cannot be opened.
+        NomadTimeout, NomadProtocolError
+            The port opened but the robot did not answer the mask (the port is closed again).
+        """
+        with self._lock:
+            if self._ser is not None:
+                return
+            try:
+                self._ser = serial.serial_for_url(
+                    self.port,
+                    baudrate=self.baud,
+                    timeout=self.timeout,
+                    write_timeout=self.timeout,
+                    exclusive=self.exclusive,
+                )
+            except serial.SerialException as err:
+                if "lock" in str(err).lower() or "busy" in str(err).lower():
+                    raise NomadPortBusy(f"{self.port}: port is in use ({err})") from err
+                raise NomadDisconnected(f"{self.port}: cannot open ({err})") from err
+            except (OSError, ValueError) as err:
+                raise NomadDisconnected(f"{self.port}: cannot open ({err})") from err
+            self._io_timeout = self.timeout
+            _OPEN.add(self)
+            if self.sync_on_open:
+                try:
+                    self.configure_mask(self._mask)
+                except NomadError:
+                    self._drop_port()
+                    raise
+
+    def close(self) -> None:
+        """Close the port (idempotent)."""
+        with self._lock:
+            self._drop_port()
+
+    def __enter__(self) -> Client:
+        self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def reconnect(self, deadline_s: float = 30.0) -> None:
+        """Close and reopen the port, retrying with backoff for up to ``deadline_s`` seconds.
+
+        Raises
+        ------
+        NomadDisconnected
+            The port did not come back in time (chained to the last error).
+        """
+        with self._lock:
+            self._drop_port()
+            end = time.monotonic() + deadline_s
+            delay = 0.05
+            while True:
+                try:
+                    self.open()
+                except NomadError as err:
+                    last: NomadError = err
+                else:
+                    self.reconnects += 1
+                    logger.info("reconnected to %s", self.port)
+                    return
+                if time.monotonic() + delay > end:
+                    raise NomadDisconnected(
+                        f"{self.port}: not back within {deadline_s:g} s ({last})"
+                    ) from last
+                time.sleep(delay)
+                delay = min(delay * 2, 1.0)
+
+    def _drop_port(self) -> None:
+        ser, self._ser = self._ser, None
+        _OPEN.discard(self)
+        if ser is not None:
+            try:
+                ser.close()
+            except (OSError, serial.SerialException) as err:  # pragma: no cover - best effort
+                logger.debug("closing %s: %s", self.port, err)
+
+    # ------------------------------------------------------------ transactions
+    def _transact(self, code: Cmd, args: tuple[int, ...], reply_len: int, timeout: float) -> Packet:
+        frame = encode_command(code, *args)
+        attempts = 1 + (self.retries if code in _IDEMPOTENT else 0)
+        with self._lock:
+            last: NomadError | None = None
+            for attempt in range(attempts):
+                if attempt:
+                    self.retry_count += 1
+                    logger.debug("retry %d of %s after %s", attempt, code.name, last)
+                try:
+                    return self._exchange(frame, code, reply_len, timeout)
+                except (NomadTimeout, NomadProtocolError, NomadNak) as err:
+                    last = err
+            assert last is not None
+            raise last
+
+    def _exchange(self, frame: bytes, code: Cmd, reply_len: int, timeout: float) -> Packet:
+        ser = self._ser
+        if ser is None:
+            raise NomadDisconnected(f"{self.port}: not open")
+        dec = self._decoder
+        dec.accept_lengths = (reply_len, 2)
+        self.requests += 1
+        last_err: FrameError | None = None
+        try:
+            ser.reset_input_buffer()
+            dec.reset()
+            if self._io_timeout != timeout:
+                ser.timeout = timeout
+                self._io_timeout = timeout
+            ser.write(frame)
+            deadline = time.monotonic() + timeout
+            while True:
+                data = ser.read(dec.needed())
+                if data:
+                    for ev in dec.feed(data):
+                        if isinstance(ev, FrameError):
+                            self.frame_errors += 1
+                            last_err = ev
+                        elif ev.type == code:
+                            return ev
+                        elif ev.type == Cmd.NAK:
+                            self.naks += 1
+                            raise NomadNak(f"robot refused {code.name}")
+                        else:
+                            self.stale_packets += 1
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                if remaining < self._io_timeout:
+                    ser.timeout = remaining
+                    self._io_timeout = remaining
+        except NomadError:
+            raise
+        except serial.SerialTimeoutException as err:
+            self.timeouts += 1
+            raise NomadTimeout(f"{self.port}: write of {code.name} timed out") from err
+        except (serial.SerialException, OSError, TypeError, AttributeError) as err:
+            # pyserial raises TypeError/AttributeError when the fd vanished under it
+            self._drop_port()
+            raise NomadDisconnected(f"{self.port}: {err}") from err
+        trunc = dec.flush()
+        if trunc is not None:
+            self.frame_errors += 1
+            raise trunc
+        if last_err is not None:
+            raise NomadProtocolError(f"{code.name}: damaged reply ({last_err})") from last_err
+        self.timeouts += 1
+        raise NomadTimeout(f"{self.port}: no reply to {code.name} within {timeout:g} s")
+
+    def _state_cmd(
+        self, code: Cmd, args: tuple[int, ...] = (), timeout: float | None = None
+    ) -> State:
+        lay = self._layout
+        pkt = self._transact(
+            code, args, lay.frame_len, self.timeout if timeout is None else timeout
+        )
+        return lay.decode(pkt.payload)
+
+    # ------------------------------------------------------------ configuration
+    def configure_mask(self, mask: StateMask) -> State:
+        """Send CT: choose what every state reply carries. Returns the first such reply."""
+        with self._lock:
+            self._mask = mask
+            self._layout = layout_for(mask)
+            return self._state_cmd(Cmd.CT, mask.ct_args())
+
+    def configure_sonars(self, order: Sequence[int], interval_s: float) -> State:
+        """Send CONF_SN: fire ``order`` (sonar ids) cyclically, one every ``interval_s``.
+
+        The interval is rounded to the robot's 4 ms steps (1..255 steps).
+        """
+        rate = round(interval_s / 0.004)
+        if not 1 <= rate <= 255:
+            raise ValueError(f"sonar interval {interval_s} s is outside 0.004..1.02 s")
+        ids = [int(i) for i in order]
+        if len(ids) > 16 or any(not 0 <= i <= 15 for i in ids):
+            raise ValueError(f"sonar order must list at most 16 ids 0..15, got {ids}")
+        ids += [255] * (16 - len(ids))
+        return self._state_cmd(Cmd.CONF_SN, (rate, *ids))
+
+    def configure_watchdog(self, seconds: int) -> State:
+        """Send CONF_TM: stop the motors if no command arrives for ``seconds`` (0 = off)."""
+        if not 0 <= int(seconds) <= 255:
+            raise ValueError(f"watchdog must be 0..255 s, got {seconds}")
+        return self._state_cmd(Cmd.CONF_TM, (int(seconds),))
+
+    # ------------------------------------------------------------ frames and limits
+    def zero(self) -> State:
+        """ZR: home steering and turret and set the pose to zero (may take long)."""
+        return self._state_cmd(Cmd.ZR, (), max(ZR_TIMEOUT, self.timeout))
+
+    def define_position(self, x: float, y: float) -> State:
+        """DP: declare the current position to be (x, y) metres."""
+        return self._state_cmd(Cmd.DP, (_ticks(x, IN10, "x"), _ticks(y, IN10, "y")))
+
+    def define_angles(self, steer: float, turret: float) -> State:
+        """DA: declare the current steering and turret angles (rad)."""
+        return self._state_cmd(
+            Cmd.DA, (_ticks(steer, DEG10, "steer"), _ticks(turret, DEG10, "turret"))
+        )
+
+    def set_speed(self, trans: float, steer: float, turret: float) -> State:
+        """SP: speeds used by position moves (m/s, rad/s, rad/s)."""
+        return self._state_cmd(Cmd.SP, self._axes(trans, steer, turret, unsigned=True))
+
+    def set_acceleration(self, trans: float, steer: float, turret: float) -> State:
+        """AC: accelerations (m/s^2, rad/s^2, rad/s^2)."""
+        return self._state_cmd(Cmd.AC, self._axes(trans, steer, turret, unsigned=True))
+
+    # ------------------------------------------------------------ motion
+    def move_relative(self, trans: float, steer: float, turret: float) -> State:
+        """PR: move each axis by the given amount (m, rad, rad)."""
+        return self._state_cmd(Cmd.PR, self._axes(trans, steer, turret))
+
+    def move_absolute(self, trans: float, steer: float, turret: float) -> State:
+        """PA: move each axis to an absolute encoder position (m, rad, rad)."""
+        return self._state_cmd(Cmd.PA, self._axes(trans, steer, turret))
+
+    def move_velocity(self, v: float, w_steer: float, w_turret: float) -> State:
+        """VM: run at constant velocities (m/s, rad/s, rad/s) until told otherwise."""
+        return self._state_cmd(Cmd.VM, self._axes(v, w_steer, w_turret))
+
+    def move(
+        self,
+        trans: tuple[MvMode, float] = (MvMode.IGNORE, 0.0),
+        steer: tuple[MvMode, float] = (MvMode.IGNORE, 0.0),
+        turret: tuple[MvMode, float] = (MvMode.IGNORE, 0.0),
+    ) -> State:
+        """MV: a mode and a value (SI) per axis, e.g. ``trans=(MvMode.VM, 0.2)``."""
+        args: list[int] = []
+        for (mode, val), unit, name in (
+            (trans, IN10, "trans"),
+            (steer, DEG10, "steer"),
+            (turret, DEG10, "turret"),
+        ):
+            args += [int(mode), _ticks(val, unit, name)]
+        return self._state_cmd(Cmd.MV, tuple(args))
+
+    def stop(self) -> State:
+        """ST: decelerate every axis to a stop."""
+        return self._state_cmd(Cmd.ST)
+
+    def limp(self) -> State:
+        """LP: switch the motors off."""
+        return self._state_cmd(Cmd.LP)
+
+    def wait_stopped(
+        self,
+        timeout_s: float = 30.0,
+        *,
+        trans: bool = True,
+        steer: bool = True,
+        turret: bool = True,
+    ) -> State:
+        """WS: the robot replies once the chosen axes stop or after ``timeout_s`` (1..255 s)."""
+        t = min(255, max(1, math.ceil(timeout_s)))
+        return self._state_cmd(Cmd.WS, (int(trans), int(steer), int(turret), t), t + 1.0)
+
+    # ------------------------------------------------------------ reads
+    def get_state(self) -> State:
+        """GS: the current state, laid out by the mask."""
+        return self._state_cmd(Cmd.GS)
+
+    def get_sonars(self) -> SonarScan:
+        """GET_SN: the latest reading of all 16 sonars (attachments if the mask asks)."""
+        att = self._mask.sonar_pose_attachment
+        pkt = self._transact(Cmd.GET_SN, (), 16 + (576 if att else 0) + 6, self.timeout)
+        return decode_get_sn(pkt.payload, attachments=att)
+
+    def get_configuration(self) -> Configuration:
+        """GET_RC: x, y, steering and turret angle."""
+        return decode_get_rc(self._transact(Cmd.GET_RC, (), 10, self.timeout).payload)
+
+    def get_velocities(self) -> tuple[float, float, float]:
+        """GET_RV: translation (m/s), steering and turret rates (rad/s)."""
+        return decode_get_rv(self._transact(Cmd.GET_RV, (), 8, self.timeout).payload)
+
+    @staticmethod
+    def _axes(a: float, b: float, c: float, *, unsigned: bool = False) -> tuple[int, int, int]:
+        return (
+            _ticks(a, IN10, "translation", unsigned=unsigned),
+            _ticks(b, DEG10, "steering", unsigned=unsigned),
+            _ticks(c, DEG10, "turret", unsigned=unsigned),
+        )

@@ -1,0 +1,370 @@
+"""The Nomad 200 device model: bytes in, bytes out, no transport.
+
+:meth:`NomadModel.feed` takes the bytes the host sent and the (simulated) time they arrived
+and returns the replies as ``(time ready, frame)`` pairs. Between commands the robot lives
+on its own clock: axes move, the sonar ring fires in its configured order and rate, the
+CONF_TM watchdog stops the motors when the host falls silent. Time comes from an injected
+clock (real monotonic time, or a :class:`~nomad200.emulator.clock.VirtualClock`).
+
+Damaged packets (bad checksum or end byte, a payload of the wrong size, an unsupported
+command or mask) are answered with NAK; stray bytes outside packets are ignored.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from typing import IO, Any
+
+import numpy as np
+
+from nomad200.codec import Cmd, Command, MvMode, Packet, decode_command, encode_frame
+from nomad200.emulator.clock import Clock, MonotonicClock
+from nomad200.emulator.motion import Drive
+from nomad200.emulator.sonar import EchoFn, simulate_firings
+from nomad200.errors import ChecksumError, EndByteError, FrameError, PayloadError
+from nomad200.state import (
+    DEG10,
+    IN10,
+    NO_ECHO,
+    RawState,
+    StateMask,
+    encode_get_rc,
+    encode_get_rv,
+    encode_get_sn,
+    layout_for,
+)
+from nomad200.stream import StreamDecoder
+
+__all__ = ["NomadModel"]
+
+logger = logging.getLogger(__name__)
+
+_STATE_REPLY = frozenset(
+    {
+        Cmd.AC, Cmd.SP, Cmd.PR, Cmd.PA, Cmd.VM, Cmd.MV, Cmd.CT, Cmd.GS, Cmd.ST, Cmd.LP,
+        Cmd.DP, Cmd.DA, Cmd.WS, Cmd.ZR, Cmd.CONF_SN, Cmd.CONF_TM,
+    }
+)  # fmt: skip
+_NAK = encode_frame(Cmd.NAK)
+_PARTIAL_TIMEOUT = 0.5  # s: a packet not completed within this is dropped
+_Att = tuple[int, ...]
+
+
+def _clip16(v: float) -> int:
+    return max(-32767, min(32767, round(v)))
+
+
+def _angle10(v: float) -> int:
+    return round(v) % 3600
+
+
+class NomadModel:
+    """An emulated Nomad 200.
+
+    Parameters
+    ----------
+    echo : EchoFn, optional
+        Sonar path function (see :mod:`nomad200.emulator.sonar`); ``None`` = no echoes.
+    start_pose : tuple of float
+        TRUE world pose (x m, y m, theta rad) at power-on.
+    clock : callable, optional
+        Seconds, monotonic; defaults to real time.
+    trace : text file, optional
+        JSON lines: every command and every sonar firing with the TRUE pose.
+    cpu_voltage_raw, motor_voltage_raw : int
+        Raw battery bytes reported in every state reply.
+    """
+
+    def __init__(
+        self,
+        *,
+        echo: EchoFn | None = None,
+        start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        clock: Clock | None = None,
+        trace: IO[str] | None = None,
+        cpu_voltage_raw: int = 230,
+        motor_voltage_raw: int = 230,
+    ) -> None:
+        self.clock: Clock = clock or MonotonicClock()
+        self.echo = echo
+        self.drive = Drive(start=start_pose)
+        self.trace = trace
+        self.t0 = self.clock()
+        self.t = self.t0
+        self.mask = StateMask()
+        self.cpu_v, self.motor_v = cpu_voltage_raw, motor_voltage_raw
+        self.watchdog_s = 0
+        self.last_cmd_t = self.t0
+        self._watchdog_armed = False
+        self.order: list[int] = []
+        self.interval = 0.04
+        self._next_fire = math.inf
+        self._fire_k = 0
+        self._prev_fire: tuple[float, int, np.ndarray, float] | None = None
+        self.sonar_raw = [NO_ECHO] * 16
+        self.sonar_att: list[_Att] = [(0,) * 9] * 16
+        self._decoder = StreamDecoder()
+        self._partial_since = self.t0
+        self.naks = 0
+        self.commands = 0
+
+    # ------------------------------------------------------------ time
+    def clock_ms(self, t: float | None = None) -> int:
+        """The robot clock (ms since power-on) at time ``t`` (default: model time)."""
+        return round(((self.t if t is None else t) - self.t0) * 1000.0) & 0xFFFFFFFF
+
+    def advance(self, t: float | None = None) -> None:
+        """Run the robot up to time ``t`` (default: the clock): motion, firings, watchdog."""
+        t = self.clock() if t is None else t
+        if t <= self.t:
+            return
+        fires: list[tuple[float, int, tuple[float, float, float, float], _Att]] = []
+        while True:
+            wd = (
+                self.last_cmd_t + self.watchdog_s
+                if self._watchdog_armed and self.watchdog_s
+                else math.inf
+            )
+            nxt = min(t, self._next_fire, wd)
+            self.drive.step(nxt - self.t)
+            self.t = nxt
+            if nxt == wd and wd <= t:
+                logger.info("watchdog: no command for %d s, stopping", self.watchdog_s)
+                for ax in self.drive.axes:
+                    ax.stop()
+                self._watchdog_armed = False
+                self._emit({"type": "watchdog", "t": self.clock_ms() / 1000.0})
+            if nxt == self._next_fire and nxt <= t:
+                sid = self.order[self._fire_k % len(self.order)]
+                fires.append((nxt, sid, self.drive.world_pose(), self._odom_att(nxt)))
+                self._fire_k += 1
+                self._next_fire += self.interval
+            if nxt >= t:
+                break
+        if fires:
+            self._process_fires(fires)
+
+    def _odom_att(self, t: float) -> _Att:
+        d = self.drive
+        ms = self.clock_ms(t)
+        return (
+            _clip16(d.x),
+            _clip16(d.y),
+            _angle10(d.steer.pos),
+            _angle10(d.turret.pos),
+            _clip16(d.trans.vel),
+            _clip16(d.steer.vel),
+            _clip16(d.turret.vel),
+            ms,
+            ms,
+        )
+
+    def _process_fires(
+        self, fires: list[tuple[float, int, tuple[float, float, float, float], _Att]]
+    ) -> None:
+        t = np.array([f[0] for f in fires])
+        sid = np.array([f[1] for f in fires], dtype=np.int_)
+        xy = np.array([(f[2][0], f[2][1]) for f in fires])
+        tur = np.array([f[2][3] for f in fires])
+        window = np.full(len(fires), self.interval)
+        batch = simulate_firings(self.echo, t, sid, xy, tur, window, self._prev_fire)
+        self._prev_fire = (float(t[-1]), int(sid[-1]), xy[-1].copy(), float(tur[-1]))
+        for k, (tk, s, wp, att) in enumerate(fires):
+            raw = int(batch.raw[k])
+            tau = float(batch.tau[k])
+            done = self.clock_ms(tk + (tau if math.isfinite(tau) else self.interval))
+            self.sonar_raw[s] = raw
+            self.sonar_att[s] = (*att[:8], done)
+            if self.trace is not None:
+                tr = float(batch.true_range[k])
+                self._emit(
+                    {
+                        "type": "firing",
+                        "t": self.clock_ms(tk) / 1000.0,
+                        "sonar": s,
+                        "raw": raw,
+                        "range_m": None if raw == NO_ECHO else raw * 0.0254,
+                        "echo_range_m": None if not math.isfinite(tau) else tau * 343.3 / 2,
+                        "true_range_m": None if not math.isfinite(tr) else tr,
+                        "crosstalk": bool(batch.crosstalk[k]),
+                        "odom": {
+                            "x": att[0] * IN10,
+                            "y": att[1] * IN10,
+                            "steer": att[2] * DEG10,
+                            "turret": att[3] * DEG10,
+                        },
+                        "world": {"x": wp[0], "y": wp[1], "theta": wp[2], "turret": wp[3]},
+                    }
+                )
+
+    def _emit(self, rec: dict[str, Any]) -> None:
+        if self.trace is not None:
+            import json
+
+            self.trace.write(json.dumps(rec) + "\n")
+
+    # ------------------------------------------------------------ bytes in, bytes out
+    def feed(self, data: bytes, t: float | None = None) -> list[tuple[float, bytes]]:
+        """Take host bytes that arrived at time ``t``; return ``(ready time, frame)`` replies."""
+        t = self.clock() if t is None else t
+        t = max(t, self.t)
+        self.advance(t)
+        dec = self._decoder
+        if dec.pending and t - self._partial_since > _PARTIAL_TIMEOUT:
+            dec.reset()
+        if not dec.pending:
+            self._partial_since = t
+        out: list[tuple[float, bytes]] = []
+        for ev in dec.feed(data):
+            if isinstance(ev, FrameError):
+                if isinstance(ev, ChecksumError | EndByteError):
+                    self.naks += 1
+                    out.append((self.t, _NAK))
+                    self._emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(ev)})
+                continue
+            out.append(self._handle(ev))
+        if dec.pending:
+            self._partial_since = t
+        return out
+
+    def _handle(self, pkt: Packet) -> tuple[float, bytes]:
+        try:
+            cmd = decode_command(pkt)
+            reply = self._execute(cmd)
+        except (PayloadError, ValueError) as err:
+            self.naks += 1
+            self._emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(err)})
+            return self.t, _NAK
+        return self.t, reply
+
+    def _execute(self, cmd: Command) -> bytes:
+        code, a = cmd.code, cmd.args
+        d = self.drive
+        self.commands += 1
+        self.last_cmd_t = self.t
+        self._watchdog_armed = True
+        self._emit(
+            {"type": "command", "t": self.clock_ms() / 1000.0, "cmd": code.name, "args": list(a)}
+        )
+        if code == Cmd.CT:
+            self.mask = StateMask.from_ct_args(a)
+        elif code == Cmd.AC:
+            for ax, v in zip(d.axes, a, strict=True):
+                ax.acc = min(float(v), ax.max_acc) if v else ax.acc
+        elif code == Cmd.SP:
+            for ax, v in zip(d.axes, a, strict=True):
+                ax.speed = min(float(v), ax.max_speed)
+        elif code == Cmd.PR:
+            for ax, v in zip(d.axes, a, strict=True):
+                ax.set_position(ax.pos + v)
+        elif code == Cmd.PA:
+            for ax, v in zip(d.axes, a, strict=True):
+                ax.set_position(float(v))
+        elif code == Cmd.VM:
+            for ax, v in zip(d.axes, a, strict=True):
+                ax.set_velocity(float(v))
+        elif code == Cmd.MV:
+            for i, ax in enumerate(d.axes):
+                self._mv(ax, MvMode(a[2 * i]) if a[2 * i] <= 6 else None, a[2 * i + 1])
+        elif code == Cmd.ST:
+            for ax in d.axes:
+                ax.stop()
+        elif code == Cmd.LP:
+            for ax in d.axes:
+                ax.limp()
+        elif code == Cmd.DP:
+            d.define_position(float(a[0]), float(a[1]))
+        elif code == Cmd.DA:
+            d.define_angles(float(a[0]), float(a[1]))
+        elif code == Cmd.ZR:
+            t_done = self.t + d.zero()
+            self.advance(t_done)
+        elif code == Cmd.WS:
+            self._wait_stopped(bool(a[0]), bool(a[1]), bool(a[2]), float(a[3]))
+        elif code == Cmd.CONF_SN:
+            self._conf_sn(a[0], a[1:])
+        elif code == Cmd.CONF_TM:
+            self.watchdog_s = a[0]
+        elif code == Cmd.GET_SN:
+            atts = tuple(self.sonar_att) if self.mask.sonar_pose_attachment else None
+            return encode_get_sn(tuple(self.sonar_raw), atts, self.clock_ms())
+        elif code == Cmd.GET_RC:
+            return encode_get_rc(
+                _clip16(d.x), _clip16(d.y), _angle10(d.steer.pos), _angle10(d.turret.pos)
+            )
+        elif code == Cmd.GET_RV:
+            return encode_get_rv(_clip16(d.trans.vel), _clip16(d.steer.vel), _clip16(d.turret.vel))
+        if code not in _STATE_REPLY:  # pragma: no cover - decode_command rejects others
+            raise PayloadError(f"unsupported command {code.name}")
+        return self.state_frame(int(code))
+
+    def _mv(self, ax: Any, mode: MvMode | None, v: int) -> None:
+        if mode is None:
+            raise ValueError(f"bad MV mode for value {v}")
+        if mode == MvMode.VM:
+            ax.set_velocity(float(v))
+        elif mode == MvMode.PR:
+            ax.set_position(ax.pos + v)
+        elif mode == MvMode.PA:
+            ax.set_position(float(v))
+        elif mode == MvMode.LP:
+            ax.limp()
+        elif mode == MvMode.AC:
+            ax.acc = min(float(abs(v)), ax.max_acc) or ax.acc
+        elif mode == MvMode.SP:
+            ax.speed = min(float(abs(v)), ax.max_speed)
+
+    def _conf_sn(self, rate: int, order: tuple[int, ...]) -> None:
+        ids: list[int] = []
+        for o in order:
+            if o == 255:
+                break
+            if not 0 <= o <= 15:
+                raise ValueError(f"sonar id {o} in firing order")
+            ids.append(o)
+        if rate < 1:
+            raise ValueError("sonar rate must be at least 1 (4 ms)")
+        self.order = ids
+        self.interval = rate * 0.004
+        self._fire_k = 0
+        self._prev_fire = None
+        self._next_fire = self.t + self.interval if ids else math.inf
+
+    def _wait_stopped(self, tr: bool, st: bool, tu: bool, timeout: float) -> None:
+        d = self.drive
+        end = self.t + timeout
+        sel = [ax for ax, f in zip(d.axes, (tr, st, tu), strict=True) if f]
+        while self.t < end and any(ax.moving for ax in sel):
+            self.advance(min(end, self.t + 0.02))
+        # the robot answers on the next 10 ms tick after the axes stopped
+        self.advance(min(end, math.ceil(self.t * 100.0) / 100.0))
+
+    # ------------------------------------------------------------ replies
+    def raw_state(self) -> RawState:
+        """The current state in robot units, laid out for the current mask."""
+        d = self.drive
+        m = self.mask
+        ids = sorted(m.sonars)
+        return RawState(
+            ir=(15,) * len(m.irs),
+            ir_att=((0,) * 9,) * len(m.irs) if m.ir_pose_attachment else (),
+            sonar=tuple(self.sonar_raw[i] for i in ids),
+            sonar_att=tuple(self.sonar_att[i] for i in ids) if m.sonar_pose_attachment else (),
+            pose=(_clip16(d.x), _clip16(d.y), _angle10(d.steer.pos), _angle10(d.turret.pos)),
+            vel=(_clip16(d.trans.vel), _clip16(d.steer.vel), _clip16(d.turret.vel)),
+            motor_status=d.motor_status(),
+            clock_ms=self.clock_ms(),
+            cpu_voltage=self.cpu_v,
+            motor_voltage=self.motor_v,
+        )
+
+    def state_frame(self, ptype: int = Cmd.GS) -> bytes:
+        """A state reply frame of type ``ptype`` for the current mask and state."""
+        return layout_for(self.mask).encode_frame(ptype, self.raw_state())
+
+
+def model_time_fn(model: NomadModel) -> Callable[[], float]:
+    """A callable giving the model's robot clock in seconds (for logs and tests)."""
+    return lambda: model.clock_ms() / 1000.0
