@@ -36,6 +36,8 @@ log = logging.getLogger(__name__)
 
 #: turn rate used when a step has none of its own (rad/s)
 DEFAULT_TURN = math.radians(30.0)
+#: systemd watchdog while ZR runs (the robot may take 120 s to zero)
+ZR_WATCHDOG_S = 130.0
 
 
 @dataclass
@@ -62,7 +64,14 @@ class ZeroRun(StepRun):
 
     def run(self, acq: Acquisition) -> None:
         if not self.started:
-            acq.command("zero", idempotent=False)
+            n = acq.notifier
+            if n.watchdog_period:  # ZR blocks up to 120 s: widen the systemd watchdog meanwhile
+                n.send(f"WATCHDOG_USEC={int(ZR_WATCHDOG_S * 1e6)}")
+            try:
+                acq.command("zero", idempotent=False)
+            finally:
+                if n.watchdog_period:
+                    n.send(f"WATCHDOG_USEC={int(n.watchdog_period * 2e6)}")
             self.started = True
         acq.poll()
 
