@@ -46,8 +46,10 @@ class EmulatorOptions:
             raise ValueError(f"unplug-at must be >= 0, got {self.unplug_at}")
 
 
-def load_world_echo(path: str | None) -> tuple[EchoFn | None, tuple[float, float, float]]:
-    """Load a sonarsim world file; return its echo function and start pose.
+def load_world_echo(
+    path: str | None,
+) -> tuple[EchoFn | None, tuple[float, float, float], float | None]:
+    """Load a sonarsim world file; return its echo function, start pose and start turret.
 
     Raises
     ------
@@ -55,7 +57,7 @@ def load_world_echo(path: str | None) -> tuple[EchoFn | None, tuple[float, float
         The file is missing or not a valid world (one-line message).
     """
     if path is None:
-        return None, (0.0, 0.0, 0.0)
+        return None, (0.0, 0.0, 0.0), None
     try:
         from sonarsim import load_world
 
@@ -66,7 +68,8 @@ def load_world_echo(path: str | None) -> tuple[EchoFn | None, tuple[float, float
         raise ValueError(f"cannot load world {path}: {type(err).__name__}: {err}") from err
     sp = getattr(world, "start_pose", None)
     start = (0.0, 0.0, 0.0) if sp is None else (float(sp[0]), float(sp[1]), float(sp[2]))
-    return echo_fn_for_world(world), start
+    tu = getattr(world, "start_turret", None)
+    return echo_fn_for_world(world), start, None if tu is None else float(tu)
 
 
 def build_link(
@@ -77,10 +80,10 @@ def build_link(
     The clock is virtual in fast mode and real otherwise unless ``clock`` is given.
     """
     opts.validate()
-    echo, start = load_world_echo(opts.world)
+    echo, start, turret = load_world_echo(opts.world)
     if clock is None:
         clock = VirtualClock() if opts.fast else MonotonicClock()
-    model = NomadModel(echo=echo, start_pose=start, clock=clock, trace=trace)
+    model = NomadModel(echo=echo, start_pose=start, start_turret=turret, clock=clock, trace=trace)
     faults = Faults(
         garble=opts.garble,
         drop=opts.drop,

@@ -69,6 +69,8 @@ class NomadModel:
         Sonar path function (see :mod:`nomad200.emulator.sonar`); ``None`` = no echoes.
     start_pose : tuple of float
         TRUE world pose (x m, y m, theta rad) at power-on.
+    start_turret : float, optional
+        TRUE world turret heading at power-on (default: theta).
     clock : callable, optional
         Seconds, monotonic; defaults to real time.
     trace : text file, optional
@@ -82,6 +84,7 @@ class NomadModel:
         *,
         echo: EchoFn | None = None,
         start_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        start_turret: float | None = None,
         clock: Clock | None = None,
         trace: IO[str] | None = None,
         cpu_voltage_raw: int = 230,
@@ -89,7 +92,7 @@ class NomadModel:
     ) -> None:
         self.clock: Clock = clock or MonotonicClock()
         self.echo = echo
-        self.drive = Drive(start=start_pose)
+        self.drive = Drive(start=start_pose, start_turret=start_turret)
         self.trace = trace
         self.t0 = self.clock()
         self.t = self.t0
@@ -135,7 +138,7 @@ class NomadModel:
                 for ax in self.drive.axes:
                     ax.stop()
                 self._watchdog_armed = False
-                self._emit({"type": "watchdog", "t": self.clock_ms() / 1000.0})
+                self.emit({"type": "watchdog", "t": self.clock_ms() / 1000.0})
             if nxt == self._next_fire and nxt <= t:
                 sid = self.order[self._fire_k % len(self.order)]
                 fires.append((nxt, sid, self.drive.world_pose(), self._odom_att(nxt)))
@@ -179,7 +182,7 @@ class NomadModel:
             self.sonar_att[s] = (*att[:8], done)
             if self.trace is not None:
                 tr = float(batch.true_range[k])
-                self._emit(
+                self.emit(
                     {
                         "type": "firing",
                         "t": self.clock_ms(tk) / 1000.0,
@@ -199,7 +202,8 @@ class NomadModel:
                     }
                 )
 
-    def _emit(self, rec: dict[str, Any]) -> None:
+    def emit(self, rec: dict[str, Any]) -> None:
+        """Write one trace record (no-op without a trace file)."""
         if self.trace is not None:
             import json
 
@@ -222,7 +226,7 @@ class NomadModel:
                 if isinstance(ev, ChecksumError | EndByteError):
                     self.naks += 1
                     out.append((self.t, _NAK))
-                    self._emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(ev)})
+                    self.emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(ev)})
                 continue
             out.append(self._handle(ev))
         if dec.pending:
@@ -235,7 +239,7 @@ class NomadModel:
             reply = self._execute(cmd)
         except (PayloadError, ValueError) as err:
             self.naks += 1
-            self._emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(err)})
+            self.emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(err)})
             return self.t, _NAK
         return self.t, reply
 
@@ -245,7 +249,7 @@ class NomadModel:
         self.commands += 1
         self.last_cmd_t = self.t
         self._watchdog_armed = True
-        self._emit(
+        self.emit(
             {"type": "command", "t": self.clock_ms() / 1000.0, "cmd": code.name, "args": list(a)}
         )
         if code == Cmd.CT:

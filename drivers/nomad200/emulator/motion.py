@@ -108,10 +108,14 @@ class Drive:
     ----------
     start : tuple of float
         World pose (x m, y m, theta rad) where the robot stands at power-on; odometry is zero
-        there and steering and turret point along theta.
+        there and steering points along theta.
+    start_turret : float, optional
+        World heading of the turret at power-on (rad); default theta. The turret encoder
+        then reads the angle from theta, as if the robot had been zeroed facing theta.
     """
 
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    start_turret: float | None = None
     trans: Axis = field(init=False)
     steer: Axis = field(init=False)
     turret: Axis = field(init=False)
@@ -122,6 +126,8 @@ class Drive:
         self.trans, self.steer, self.turret = _axes()
         self.ox, self.oy, self.oth = self.start  # world pose of the odometry origin
         self.oth_turret = self.start[2]
+        if self.start_turret is not None:
+            self.turret.pos = self.turret.target = (self.start_turret - self.start[2]) / DEG10
 
     @property
     def axes(self) -> tuple[Axis, Axis, Axis]:
