@@ -1,0 +1,189 @@
+"""The scenario YAML schema (validated with pydantic).
+
+A scenario names a world, a sensor array, a path of poses, which pairs listen,
+imperfections and a seed; :mod:`sonarsim.scenario` turns it into readings. Lengths in
+metres, times in seconds, angles in degrees (keys end in ``_deg``). See
+``configs/scenarios/*.yaml`` for complete examples.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+Point = tuple[float, float]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class SensorDefaults(_Model):
+    """Beam and range of every transducer (default: Polaroid 6500 on the Nomad)."""
+
+    half_beamwidth_deg: float = Field(default=12.5, gt=0, lt=90)
+    min_range: float = Field(default=0.15, ge=0, le=100)
+    max_range: float = Field(default=10.7, gt=0, le=100)
+
+    @model_validator(mode="after")
+    def _ranges(self) -> SensorDefaults:
+        if not self.max_range > self.min_range:
+            raise ValueError("max_range must be greater than min_range")
+        return self
+
+
+class LinearArray(_Model):
+    """``count`` sensors ``spacing`` apart from ``origin`` along ``direction_deg``."""
+
+    type: Literal["linear"]
+    count: int = Field(ge=1, le=10_000)
+    spacing: float = Field(gt=0)
+    origin: Point = (0.0, 0.0)
+    direction_deg: float = 0.0
+    heading_deg: float = 90.0
+
+
+class CircularArray(_Model):
+    """A ring; sensor ``i`` at ``i * step_deg`` CCW from the array heading, facing out."""
+
+    type: Literal["circular"]
+    count: int = Field(default=16, ge=1, le=360)
+    radius: float = Field(default=0.22, gt=0)
+    step_deg: float | None = None
+
+
+class RandomArray(_Model):
+    """Uniformly random positions and headings from a seeded generator."""
+
+    type: Literal["random"]
+    count: int = Field(ge=1, le=10_000)
+    x_range: Point
+    y_range: Point
+    heading_range_deg: Point = (0.0, 360.0)
+    seed: int | None = Field(default=None, ge=0)
+
+    @model_validator(mode="after")
+    def _order(self) -> RandomArray:
+        for name in ("x_range", "y_range", "heading_range_deg"):
+            lo, hi = getattr(self, name)
+            if not hi >= lo:
+                raise ValueError(f"{name} must be [low, high] with low <= high")
+        return self
+
+
+class SensorRow(_Model):
+    """One explicitly placed sensor."""
+
+    x: float
+    y: float
+    heading_deg: float
+    id: int | None = Field(default=None, ge=0, le=32767)
+
+
+class ExplicitArray(_Model):
+    """Sensors listed one by one."""
+
+    type: Literal["explicit"]
+    sensors: list[SensorRow] = Field(min_length=1)
+
+
+ArraySpec = Annotated[
+    LinearArray | CircularArray | RandomArray | ExplicitArray, Field(discriminator="type")
+]
+
+
+class SensorFile(_Model):
+    """A ``configs/sensors/*.yaml`` file: an array and its transducers' defaults."""
+
+    name: str = ""
+    description: str = ""
+    array: ArraySpec
+    sensor: SensorDefaults = Field(default_factory=SensorDefaults)
+
+
+class ArrayRef(_Model):
+    """Use the array of a sensors file (path relative to the scenario file)."""
+
+    file: str
+
+
+class Sweep(_Model):
+    """``start, start + step, ...`` up to ``stop`` inclusive (degrees)."""
+
+    start: float
+    stop: float
+    step: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _order(self) -> Sweep:
+        if not self.stop >= self.start:
+            raise ValueError("sweep needs stop >= start")
+        return self
+
+
+Angles = float | list[float] | Sweep
+
+
+class Line(_Model):
+    """Locations from ``start`` to ``end`` inclusive: ``count`` of them or ``step`` apart."""
+
+    start: Point
+    end: Point
+    count: int | None = Field(default=None, ge=1, le=100_000)
+    step: float | None = Field(default=None, gt=0)
+
+    @model_validator(mode="after")
+    def _one(self) -> Line:
+        if (self.count is None) == (self.step is None):
+            raise ValueError("give exactly one of count and step")
+        return self
+
+
+class PathSpec(_Model):
+    """Stops: every location x base heading x turret heading x sensor rotation."""
+
+    locations: Line | list[Point] = Field(default_factory=lambda: [(0.0, 0.0)])
+    theta_deg: Angles = 0.0
+    turret_deg: Angles | None = None
+    sensor_rotation_deg: Angles | None = None
+
+
+class TimingSpec(_Model):
+    """When sensors fire: one firing every ``firing_interval_s`` from ``start_time``."""
+
+    start_time: float = 0.0
+    firing_interval_s: float = Field(default=0.062, gt=0, le=60)
+
+
+class ImperfectionSpec(_Model):
+    """Sensor imperfections (all off by default)."""
+
+    range_noise_sigma: float = Field(default=0.0, ge=0, le=1)
+    quantise: bool = False
+    quantum: float = Field(default=0.0254, gt=0, le=1)
+    dropout_probability: float = Field(default=0.0, ge=0, le=1)
+    spurious_probability: float = Field(default=0.0, ge=0, le=1)
+    crosstalk: bool = False
+    flag_crosstalk: bool = False
+
+
+class ScenarioSpec(_Model):
+    """A complete simulation scenario."""
+
+    name: str = ""
+    description: str = ""
+    world: str | dict[str, Any]
+    sensor: SensorDefaults = Field(default_factory=SensorDefaults)
+    array: ArraySpec | ArrayRef
+    active: list[int] | None = None
+    path: PathSpec | None = None
+    pairs: Literal["own", "all"] = "own"
+    first_echo_only: bool = False
+    max_order: int = Field(default=1, ge=1, le=4)
+    speed_of_sound: float = Field(default=343.3, ge=300, le=400)
+    seed: int = Field(default=0, ge=0)
+    timing: TimingSpec = Field(default_factory=TimingSpec)
+    imperfections: ImperfectionSpec = Field(default_factory=ImperfectionSpec)
+    record_no_echo: bool = False
+    truth_spacing: float = Field(default=0.01, gt=0, le=0.01)
