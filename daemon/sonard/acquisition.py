@@ -41,6 +41,8 @@ log = logging.getLogger(__name__)
 
 #: no good reply for this long (s) means the link is lost
 LINK_LOST_S = 1.0
+#: commands that redefine the odometry frame
+FRAME_COMMANDS = frozenset({"zero", "define_position", "define_angles"})
 #: motor status bits: translating, steering, turret
 MOVING = 0b111
 
@@ -122,6 +124,12 @@ class Acquisition:
         self._next_poll = 0.0
         self._last_good = time.monotonic()
         self.n_faults = 0
+        #: readings and poses are logged only once the plan's frame is set (see run_plan)
+        self.recording = False
+        self._frame_clock = -float("inf")
+        #: True when the robot clock runs ahead of real time (emulator --fast): no pacing
+        self.virtual_time = False
+        self._fast_votes = 0
 
     # -- life cycle -------------------------------------------------------------------
     def start(self) -> None:
@@ -152,9 +160,17 @@ class Acquisition:
         """Tag a state reply, queue its readings and pose, and remember it."""
         if state is None:
             return None
+        offset = self.tagger.offset
         rows, pose = self.tagger.feed(state, time.time())
-        self.sink.readings(rows)
-        self.sink.poses(pose)
+        if self.tagger.offset != offset:
+            self.sink.event("clock", f"robot clock 0 is UNIX time {self.tagger.offset:.6f}")
+        if self.recording:
+            if len(rows):
+                rows = rows[rows["t"] - (self.tagger.offset or 0.0) >= self._frame_clock]
+            self.sink.readings(rows)
+            self.sink.poses(pose)
+        else:
+            rows = rows[:0]
         self.latest = rows
         self.state = state
         self._last_good = time.monotonic()
@@ -180,7 +196,11 @@ class Acquisition:
         tries = 3 if idempotent else 1
         for i in range(tries):
             try:
-                return self.feed(getattr(self.client, name)(*args))
+                st = self.feed(getattr(self.client, name)(*args))
+                if name in FRAME_COMMANDS:
+                    # readings fired before this reply were tagged in the old frame
+                    self._frame_clock = st.clock
+                return st
             except NomadDisconnected as exc:
                 self.recover(exc)
             except NomadError as exc:
@@ -195,12 +215,17 @@ class Acquisition:
         from nomad200 import NomadDisconnected, NomadError
 
         now = time.monotonic()
-        if self._next_poll > now and self.stop_event.wait(self._next_poll - now):
-            raise Stopped
+        if not self.virtual_time and self._next_poll > now:
+            if self.stop_event.wait(self._next_poll - now):
+                raise Stopped
         self.check_stop()
         self._next_poll = max(self._next_poll + self.poll_period, time.monotonic())
+        before = self.state.clock if self.state is not None else None
+        host = time.monotonic()
         try:
             self.feed(self.client.get_state())
+            if before is not None:
+                self._learn_clock_rate(self.state.clock - before, time.monotonic() - host)
         except NomadDisconnected as exc:
             self.recover(exc)
         except NomadError as exc:
@@ -209,11 +234,18 @@ class Acquisition:
                 self.recover(exc)
         return self.state
 
-    def sleep(self, seconds: float) -> None:
-        """Wait ``seconds`` of wall time, polling; raise :class:`Stopped` on a stop request."""
-        end = time.monotonic() + seconds
-        while time.monotonic() < end:
-            self.poll()
+    def _learn_clock_rate(self, d_robot: float, d_host: float) -> None:
+        """Detect a robot clock that runs ahead of real time (an emulator in fast mode).
+
+        Such a clock only moves with the bytes exchanged, so waiting between polls would
+        only slow the run down: polls then go back to back.
+        """
+        fast = d_robot > 0.005 and d_robot > 3.0 * d_host
+        self._fast_votes = min(5, self._fast_votes + 1) if fast else max(0, self._fast_votes - 1)
+        virtual = self._fast_votes >= 3
+        if virtual != self.virtual_time:
+            log.info("robot clock %s real time", "runs ahead of" if virtual else "follows")
+            self.virtual_time = virtual
 
     def wait_robot_time(self, seconds: float) -> None:
         """Poll until the robot clock advanced by ``seconds`` (fast emulators run it faster)."""

@@ -4,8 +4,9 @@ Every state reply holds the latest range of each masked sonar. :class:`Tagger` k
 it saw last and emits a reading only for a **new firing**, tagged with the robot pose and
 the time of that firing.
 
-With pose attachments (the default): each sonar's attachment carries the pose and the
-sensor-board clock at the moment it fired; a changed reading timestamp means a new firing,
+With pose attachments (the default when the link is fast enough): each sonar's attachment
+carries the pose, the pose's timestamp (the firing) and the reading's timestamp (the echo);
+a changed reading timestamp means a new firing, the reading's time is the pose timestamp,
 and the pose is exact to the protocol's resolution (0.1 in, 0.1 deg). A sonar that fired
 twice between two polls shows only its last firing: the plan refuses a baud rate whose
 poll takes longer than a firing cycle, so that does not happen.
@@ -49,6 +50,7 @@ class AttachmentLike(Protocol):
     y: float
     steer: float
     turret: float
+    pose_time: float
     reading_time: float
 
 
@@ -188,16 +190,23 @@ class Tagger:
 
     def _with_attachments(self, state: StateLike, ranges: np.ndarray) -> np.ndarray:
         atts = state.sonar_attachments
-        got = [(i, atts[int(s)]) for i, s in enumerate(self.sonars) if int(s) in atts]
+        got = [
+            (i, a)
+            for i, s in enumerate(self.sonars)
+            if (a := atts.get(int(s))) is not None and (a.reading_time > 0 or a.pose_time > 0)
+        ]  # an all-zero attachment: that sonar has not fired since power-on
         if not got:
             return np.zeros(0, READING_DTYPE)
         idx = np.array([i for i, _ in got])
-        stamp = np.array([a.reading_time for _, a in got], dtype=float)
-        poses = np.array([(a.x, a.y, a.steer, a.turret) for _, a in got], dtype=float)
+        vals = np.array(
+            [(a.reading_time, a.pose_time, a.x, a.y, a.steer, a.turret) for _, a in got],
+            dtype=float,
+        )
+        stamp = vals[:, 0]
         new = ~self._seen[idx] | (stamp != self._last_stamp[idx])
         self._seen[idx] = True
         self._last_stamp[idx] = stamp
-        return self._emit(idx[new], ranges, stamp[new], poses[new])
+        return self._emit(idx[new], ranges, vals[new, 1], vals[new, 2:])
 
     def _interpolated(self, cur: np.ndarray, ranges: np.ndarray) -> np.ndarray:
         clock = cur[0]

@@ -22,6 +22,10 @@ class Att:
     turret: float
     reading_time: float
 
+    @property
+    def pose_time(self) -> float:
+        return self.reading_time - 0.01
+
 
 @dataclass
 class St:
@@ -59,7 +63,7 @@ def test_attachments_emit_only_new_firings_with_their_pose() -> None:
     )
     rows, pose = tg.feed(s1, host_time=1000.0)
     assert rows["tx"].tolist() == [0, 2] and (rows["tx"] == rows["rx"]).all()
-    assert rows["t"].tolist() == pytest.approx([999.96, 999.92])
+    assert rows["t"].tolist() == pytest.approx([999.95, 999.91])  # the firing (pose) time
     assert (rows["x"][0], rows["y"][0], rows["theta"][0], rows["turret"][0]) == (0.1, 0.2, 0.3, 0.4)
     assert rows["flags"].tolist() == [0, FLAG_NO_ECHO]
     assert pose["t"][0] == pytest.approx(1000.0)
@@ -71,7 +75,7 @@ def test_attachments_emit_only_new_firings_with_their_pose() -> None:
     )
     rows, _ = tg.feed(s2, host_time=2000.0)  # host time ignored after the first state
     assert rows["tx"].tolist() == [2]
-    assert rows["t"][0] == pytest.approx(1000.0)
+    assert rows["t"][0] == pytest.approx(999.99)
     assert rows["x"][0] == 0.5
     assert rows["tof"][0] == pytest.approx(4.0 / 343.3)
 
