@@ -1,0 +1,117 @@
+"""Parameters of a ``sonarproc run``: one validated, immutable record."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from sonarproc.fit import FitKind
+
+__all__ = ["DEFAULT_ORDER", "RunParams", "parse_bbox", "parse_point"]
+
+#: Default fit order per fit kind: the paper's m = 9 (Table 1) for a polynomial; harmonics
+#: for a polar fit; the spline is always cubic.
+DEFAULT_ORDER: dict[str, int] = {"poly": 9, "spline": 3, "polar": 16}
+
+FIT_KINDS = ("poly", "spline", "polar")
+
+
+@dataclass(frozen=True)
+class RunParams:
+    """What ``sonarproc run`` does to a log.
+
+    Attributes
+    ----------
+    cell : float
+        Grid cell size (m).
+    bbox : (xmin, xmax, ymin, ymax) or None
+        Map extent (m); ``None`` covers every arc.
+    ops : str
+        Morphological operations, e.g. ``"closing,thinning:3"``.
+    fit : {"poly", "spline", "polar"}
+        Fit kind.
+    order : int or None
+        Polynomial order m, or polar harmonics; ``None`` uses :data:`DEFAULT_ORDER`.
+    smooth : float or None
+        Spline roughness penalty; ``None`` chooses it by cross-validation.
+    centre : (x, y) or None
+        Centre of a polar fit (m); ``None`` uses the mean robot position.
+    drop_crosstalk : bool
+        Skip readings flagged as suspected crosstalk (flag bit 1).
+    max_cells : int
+        Refuse maps larger than this many cells (a guard against a stray reading).
+    """
+
+    cell: float = 0.01
+    bbox: tuple[float, float, float, float] | None = None
+    ops: str = "thinning:3"
+    fit: FitKind = "poly"
+    order: int | None = None
+    smooth: float | None = None
+    centre: tuple[float, float] | None = None
+    drop_crosstalk: bool = False
+    max_cells: int = 400_000_000
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.cell) and self.cell > 0):
+            raise ValueError(f"cell size must be > 0 m, got {self.cell}")
+        if self.bbox is not None:
+            xmin, xmax, ymin, ymax = self.bbox
+            if not all(math.isfinite(v) for v in self.bbox) or xmax <= xmin or ymax <= ymin:
+                raise ValueError(
+                    f"bbox must be finite xmin,xmax,ymin,ymax with xmin < xmax and "
+                    f"ymin < ymax, got {','.join(f'{v:g}' for v in self.bbox)}"
+                )
+        if self.fit not in FIT_KINDS:
+            raise ValueError(f"fit must be one of {', '.join(FIT_KINDS)}, got {self.fit!r}")
+        if self.order is not None and not 0 <= self.order <= 60:
+            raise ValueError(f"order must be between 0 and 60, got {self.order}")
+        if self.smooth is not None and not (math.isfinite(self.smooth) and self.smooth >= 0):
+            raise ValueError(f"smoothing must be >= 0, got {self.smooth}")
+        if self.centre is not None and not all(math.isfinite(v) for v in self.centre):
+            raise ValueError("centre must be finite")
+
+    @property
+    def fit_order(self) -> int:
+        """The order actually used: :attr:`order` or the fit kind's default."""
+        if self.fit == "spline":
+            return 3
+        return self.order if self.order is not None else DEFAULT_ORDER[self.fit]
+
+    def to_json(self) -> dict[str, Any]:
+        """Return a JSON-ready mapping, with the effective fit order."""
+        d = asdict(self)
+        d["bbox"] = list(self.bbox) if self.bbox else None
+        d["centre"] = list(self.centre) if self.centre else None
+        d["order"] = self.fit_order
+        return d
+
+
+def _floats(text: str, count: int, what: str) -> tuple[float, ...]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != count:
+        raise ValueError(f"{what} must be {count} comma-separated numbers, got {text!r}")
+    return values
+
+
+def parse_bbox(text: str) -> tuple[float, float, float, float]:
+    """Parse ``"xmin,xmax,ymin,ymax"`` (m).
+
+    Examples
+    --------
+    >>> parse_bbox("-1, 2, 0, 3.5")
+    (-1.0, 2.0, 0.0, 3.5)
+    """
+    a, b, c, d = _floats(text, 4, "bbox")
+    return (a, b, c, d)
+
+
+def parse_point(text: str) -> tuple[float, float]:
+    """Parse ``"x,y"`` (m)."""
+    a, b = _floats(text, 2, "centre")
+    return (a, b)

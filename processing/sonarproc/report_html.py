@@ -1,0 +1,116 @@
+"""A self-contained ``report.html``: the three figures as data URIs, parameters, counts,
+fit and metrics tables. No scripts, no external resources; any browser or none (the
+tables read fine as text)."""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from collections.abc import Mapping
+from typing import Any
+
+__all__ = ["render_html"]
+
+_CSS = """
+body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
+h1{font-size:1.4em}h2{font-size:1.1em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.4em 0}
+td,th{border:1px solid #ccc;padding:.25em .7em;text-align:left;font-variant-numeric:tabular-nums}
+th{background:#f3f3f3}.fail{color:#b00;font-weight:bold}
+figure{display:inline-block;margin:.5em}figcaption{font-size:.9em;color:#555}
+img{max-width:100%;border:1px solid #ddd}code{font-size:.9em}
+"""
+
+_METRIC_LABELS = {
+    "e": "e (Eq. 1)",
+    "f_c": "f_c = N_k / N",
+    "E1_m": "E1 (Eq. 3), m",
+    "E2": "E2 (Eq. 4)",
+    "t_cpu_s": "t_CPU, s",
+    "N": "N (columns spanned)",
+    "N_k": "N_k (columns with points)",
+    "sigma_y_m": "sigma_y, m",
+}
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, (list, dict)):
+        return json.dumps(v)
+    return str(v)
+
+
+def _table(rows: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> str:
+    body = "".join(
+        f"<tr><th>{html.escape((labels or {}).get(k, k))}</th><td>{html.escape(_fmt(v))}</td></tr>"
+        for k, v in rows.items()
+    )
+    return f"<table>{body}</table>"
+
+
+def _figure(name: str, data: bytes, caption: str) -> str:
+    uri = "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+    return (
+        f'<figure><img src="{uri}" alt="{html.escape(name)}">'
+        f"<figcaption>{html.escape(caption)} (<code>{html.escape(name)}</code>)"
+        "</figcaption></figure>"
+    )
+
+
+def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
+    """Render the report dict and the PNGs into one HTML page.
+
+    Parameters
+    ----------
+    doc : mapping
+        :func:`sonarproc.report.report_dict` output.
+    images : mapping of str to bytes
+        ``arcmap.png``, ``processed.png``, ``fit.png`` contents.
+    """
+    fit = dict(doc["fit"])
+    fit_rows: dict[str, Any] = {"kind": fit.get("kind"), "order": fit.get("order")}
+    if fit.get("ok"):
+        for key in ("basis", "domain", "centre", "smoothing_lambda", "coefficients"):
+            if key in fit:
+                fit_rows[key] = fit[key]
+        fit_html = _table(fit_rows)
+    else:
+        fit_html = (
+            f'<p class="fail">Fit failed: {html.escape(str(fit.get("reason")))}</p>'
+            + _table(fit_rows)
+        )
+    captions = {
+        "arcmap.png": "Arc map: number of arcs through each cell",
+        "processed.png": "After the morphological operations",
+        "fit.png": "Fit (solid) and true surface (dashed)",
+    }
+    figures = "".join(_figure(n, images[n], captions.get(n, n)) for n in images)
+    title = f"sonarproc report: {doc['source']}"
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
+        f"<h1>{html.escape(title)}</h1>"
+        f"<p>{html.escape(str(doc['method']))}; sonarmorph "
+        f"{html.escape(str(doc['software']['sonarmorph']))}.</p>"
+        "<h2>Metrics</h2>"
+        + _table(doc["metrics"], _METRIC_LABELS)
+        + "<h2>Fit</h2>"
+        + fit_html
+        + "<h2>Figures</h2>"
+        + figures
+        + "<h2>Parameters</h2>"
+        + _table(doc["parameters"])
+        + "<h2>Counts</h2>"
+        + _table(doc["counts"])
+        + "<h2>Grid</h2>"
+        + _table(doc["grid"])
+        + "<h2>Timings (wall, s)</h2>"
+        + _table(doc["timings_s"])
+        + "</body></html>\n"
+    )
