@@ -22,6 +22,14 @@ def _round_index(v: float) -> int:
     return math.floor(v + 0.5)
 
 
+def _aligned_origin(vmin: float, cell: float) -> float:
+    """A multiple of cell whose cell holds vmin under the rounding of to_index."""
+    k = _round_index(vmin / cell)
+    if _round_index((vmin - k * cell) / cell) < 0:
+        k -= 1
+    return k * cell
+
+
 @dataclass(frozen=True)
 class Grid:
     """A grid of ``ny`` rows by ``nx`` columns of square cells of side ``cell`` (m).
@@ -96,10 +104,9 @@ class Grid:
         xmin, xmax, ymin, ymax = box
         if xmax < xmin or ymax < ymin:
             raise ValueError(f"empty box: x [{xmin}, {xmax}], y [{ymin}, {ymax}]")
-        kx0 = _round_index(xmin / cell)
-        ky0 = _round_index(ymin / cell)
-        x0 = kx0 * cell
-        y0 = ky0 * cell
+        x0 = _aligned_origin(xmin, cell)
+        y0 = _aligned_origin(ymin, cell)
+        # The same arithmetic as to_index, so the box corners map inside.
         nx = _round_index((xmax - x0) / cell) + 1
         ny = _round_index((ymax - y0) / cell) + 1
         return cls(x0=x0, y0=y0, cell=cell, nx=max(nx, 1), ny=max(ny, 1))
