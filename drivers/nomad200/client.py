@@ -303,7 +303,8 @@ class Client:
             ser.write(frame)
             deadline = time.monotonic() + timeout
             while True:
-                data = ser.read(dec.needed())
+                need = dec.needed()
+                data = ser.read(need)
                 if data:
                     for ev in dec.feed(data):
                         if isinstance(ev, FrameError):
@@ -316,6 +317,8 @@ class Client:
                             raise NomadNak(f"robot refused {code.name}")
                         else:
                             self.stale_packets += 1
+                if len(data) < need:
+                    break  # pyserial returns short reads only when its timeout expired
                 remaining = deadline - time.monotonic()
                 if remaining <= 0:
                     break
