@@ -215,9 +215,9 @@ class Acquisition:
         from nomad200 import NomadDisconnected, NomadError
 
         now = time.monotonic()
-        if not self.virtual_time and self._next_poll > now:
-            if self.stop_event.wait(self._next_poll - now):
-                raise Stopped
+        wait = self._next_poll - now
+        if not self.virtual_time and wait > 0 and self.stop_event.wait(wait):
+            raise Stopped
         self.check_stop()
         self._next_poll = max(self._next_poll + self.poll_period, time.monotonic())
         before = self.state.clock if self.state is not None else None
