@@ -182,29 +182,33 @@ def pair_echoes(
 def _broadcast(
     tx_xy: ArrayLike, tx_heading: ArrayLike, rx_xy: ArrayLike, rx_heading: ArrayLike,
     half_beamwidth: ArrayLike, min_range: ArrayLike, max_range: ArrayLike,
-) -> tuple[Sensors, int]:  # fmt: skip
+) -> tuple[Sensors, IntArray, IntArray, int]:  # fmt: skip
+    """One sensor table for N explicit firings, repeated sensors merged."""
     txy = np.atleast_2d(np.asarray(tx_xy, dtype=np.float64))
     rxy = np.atleast_2d(np.asarray(rx_xy, dtype=np.float64))
     if txy.shape[-1] != 2 or rxy.shape[-1] != 2 or txy.ndim != 2 or rxy.ndim != 2:
         raise ValueError("tx_xy and rx_xy must have shape (N, 2)")
-    n = int(np.broadcast_shapes((txy.shape[0],), (rxy.shape[0],),
-                                np.shape(np.atleast_1d(tx_heading)),
-                                np.shape(np.atleast_1d(rx_heading)))[0])  # fmt: skip
+    shapes = [(txy.shape[0],), (rxy.shape[0],)] + [
+        np.shape(np.atleast_1d(v))
+        for v in (tx_heading, rx_heading, half_beamwidth, min_range, max_range)
+    ]
+    n = int(np.broadcast_shapes(*shapes)[0])
 
     def vec(v: ArrayLike) -> FloatArray:
         a = np.asarray(v, dtype=np.float64)
         return np.broadcast_to(a.ravel() if a.ndim else a, (n,)).astype(np.float64)
 
-    xy = np.concatenate([np.broadcast_to(txy, (n, 2)), np.broadcast_to(rxy, (n, 2))])
-    hbw = vec(half_beamwidth)
-    sensors = Sensors(
-        xy,
-        np.concatenate([vec(tx_heading), vec(rx_heading)]),
-        np.concatenate([hbw, hbw]),
-        np.concatenate([vec(min_range), vec(min_range)]),
-        np.concatenate([vec(max_range), vec(max_range)]),
+    hbw, lo, hi = vec(half_beamwidth), vec(min_range), vec(max_range)
+    rows = np.concatenate(
+        [
+            np.column_stack([np.broadcast_to(txy, (n, 2)), vec(tx_heading), hbw, lo, hi]),
+            np.column_stack([np.broadcast_to(rxy, (n, 2)), vec(rx_heading), hbw, lo, hi]),
+        ]
     )
-    return sensors, n
+    uniq, inv = np.unique(rows, axis=0, return_inverse=True)
+    inv = inv.ravel().astype(np.intp)
+    sensors = Sensors(uniq[:, :2], uniq[:, 2], uniq[:, 3], uniq[:, 4], uniq[:, 5])
+    return sensors, inv[:n], inv[n:], n
 
 
 def echoes(
@@ -249,11 +253,10 @@ def echoes(
     >>> ev.firing.tolist(), ev.path.round(6).tolist()
     ([0], [4.0])
     """
-    sensors, n = _broadcast(
+    sensors, ti, ri, _ = _broadcast(
         tx_xy, tx_heading, rx_xy, rx_heading, half_beamwidth, min_range, max_range
     )
-    idx = np.arange(n, dtype=np.intp)
-    return pair_echoes(world, sensors, idx, idx + n, max_order=max_order)
+    return pair_echoes(world, sensors, ti, ri, max_order=max_order)
 
 
 def first_echo_path(
@@ -286,11 +289,10 @@ def first_echo_path(
     ...                 [[0.0, 0.0], [0.0, 0.0]], [np.pi / 2, 0.0]).round(6).tolist()
     [4.0, nan]
     """
-    sensors, n = _broadcast(
+    sensors, ti, ri, n = _broadcast(
         tx_xy, tx_heading, rx_xy, rx_heading, half_beamwidth, min_range, max_range
     )
-    idx = np.arange(n, dtype=np.intp)
-    ev = pair_echoes(world, sensors, idx, idx + n, max_order=max_order).first()
+    ev = pair_echoes(world, sensors, ti, ri, max_order=max_order).first()
     out = np.full(n, np.nan)
     out[ev.firing] = ev.path
     return out

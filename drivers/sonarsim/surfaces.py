@@ -363,6 +363,8 @@ class Circle:
     radius: float
     name: str = ""
     truth: bool = True
+    phase: float = 0.0
+    """Angle of the first sample (rad); rotating the circle rotates its samples too."""
 
     def __post_init__(self) -> None:
         if not self.radius > 0.0:
@@ -371,7 +373,7 @@ class Circle:
     def smooth(self, resolution: float = DEFAULT_RESOLUTION) -> SmoothPolyline:
         """Samples with exact tangents (counter-clockwise)."""
         n = max(8, int(np.ceil(2.0 * np.pi * self.radius / (0.999 * resolution))))
-        phi = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+        phi = self.phase + np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
         c = np.asarray(self.center, dtype=np.float64)
         pts = c + self.radius * np.stack([np.cos(phi), np.sin(phi)], axis=1)
         tan = np.stack([-np.sin(phi), np.cos(phi)], axis=1)
@@ -391,7 +393,9 @@ class Circle:
     ) -> Circle:
         """Rigidly moved copy."""
         c = rotate(np.asarray(self.center, dtype=np.float64), angle) + np.asarray(offset)
-        return Circle((float(c[0]), float(c[1])), self.radius, self.name, self.truth)
+        return Circle(
+            (float(c[0]), float(c[1])), self.radius, self.name, self.truth, self.phase + angle
+        )
 
 
 def wall(start: ArrayLike, end: ArrayLike, *, name: str = "", truth: bool = True) -> Polyline:
