@@ -56,9 +56,14 @@ PAPER: dict[str, PaperRow] = {
     "fig12": PaperRow("Fig. 12c/d", "thinning:6", 10, 0.245, 0.777, 2.88, 0.283, 0.51),
     "fig13": PaperRow("Fig. 13", "thinning:3", 6, None, None, 3.28, 0.322, note="m not given; 6"),
     "fig16": PaperRow(
-        "Fig. 17", "erosion,pruning", 10, None, None, 3.59, 0.263, 0.27,
+        "Fig. 17",
+        "erosion,pruning",
+        10,
+        E1_cm=3.59,
+        E2=0.263,
+        t_cpu_s=0.27,
         note="paper's truth: structured light",
-    ),  # fmt: skip
+    ),
 }
 
 #: Table 1 of the paper (Fig. 2 map, m = 9): operations and e, f_c, E1 (cm), E2, t_CPU.
@@ -177,9 +182,7 @@ def render_markdown(
     return "\n".join(lines) + "\n"
 
 
-def reproduce(
-    scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = None
-) -> str:
+def reproduce(scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = None) -> str:
     """Simulate and run every scenario; return the markdown."""
     import yaml
 

@@ -1,0 +1,157 @@
+"""Benchmark: a whole ``sonarproc run`` on a 1-hour, 16-sonar log (issue 3, section 7).
+
+Input: 25 firings/s for an hour (90 000 readings) from a Nomad-like ring wandering in a
+20 m x 20 m room, mapped at 1 cm (2000 x 2000 cells). Every firing returns the range to
+the wall along its beam axis (a diffusely reflecting room: every reading makes an arc,
+the worst case for the rasteriser). Targets: under 5 s wall and 1 GiB peak memory.
+
+Each run is a fresh ``python`` subprocess, timed from the outside (wall, including
+interpreter start and imports) with its own peak RSS from ``os.wait4``. The floor is a
+subprocess that imports sonarproc, reads the same log and does one numpy scatter of the
+run's arc cells into a map of the same size: the least any implementation must do.
+A 4-point table shows cost against readings (x1, x2) and map cells (x1, x2).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+ROOM = 20.0
+RATE = 25.0
+C = 343.3
+TARGET_S = 5.0
+TARGET_B = 1 << 30
+
+RUN = "import sys; from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
+FLOOR = """
+import sys, numpy as np
+from sonarlog import read_log
+lg = read_log(sys.argv[1]); n, cells = int(sys.argv[2]), int(sys.argv[3])
+rng = np.random.default_rng(0)
+idx = rng.integers(0, cells, n)
+m = np.bincount(idx, minlength=cells).astype(np.uint16)
+print(int(m.sum()), lg.readings.size)
+"""
+
+
+def write_room_log(path: Path, hours: float, seed: int = 0) -> int:
+    """Simulate ``hours`` of 16-sonar firings in the room; return the number of readings."""
+    from sonarlog import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE, LogWriter
+
+    n = round(hours * 3600 * RATE)
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / RATE
+    # a slow Lissajous wander over [1.5, 18.5]^2 and a turret turning 10 deg/s
+    x = ROOM / 2 + 8.5 * np.sin(2 * np.pi * t / 1370.0)
+    y = ROOM / 2 + 8.5 * np.sin(2 * np.pi * t / 910.0 + 0.7)
+    turret = np.deg2rad(10.0) * t
+    ring = np.arange(16) * np.pi / 8
+    sens = np.zeros(16, SENSOR_DTYPE)
+    sens["id"] = np.arange(16)
+    sens["x"], sens["y"], sens["heading"] = 0.22 * np.cos(ring), 0.22 * np.sin(ring), ring
+    sens["half_beamwidth"] = np.deg2rad(12.5)
+    sens["min_range"], sens["max_range"] = 0.15, 10.7
+    k = np.arange(n) % 16
+    h = turret + ring[k]
+    px, py = x + 0.22 * np.cos(h), y + 0.22 * np.sin(h)
+    c, s = np.cos(h), np.sin(h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.where(c > 0, (ROOM - px) / c, np.where(c < 0, -px / c, np.inf))
+        ty = np.where(s > 0, (ROOM - py) / s, np.where(s < 0, -py / s, np.inf))
+    rng_m = np.minimum(tx, ty) + rng.normal(0.0, 0.01, n)
+    r = np.zeros(n, READING_DTYPE)
+    r["t"], r["x"], r["y"], r["theta"], r["turret"] = t, x, y, 0.0, turret
+    r["tx"] = r["rx"] = k
+    far = rng_m > 10.7
+    r["tof"] = np.where(far, np.nan, 2 * rng_m / C)
+    r["flags"] = np.where(far, FLAG_NO_ECHO, 0)
+    corners = np.array([[0, 0], [ROOM, 0], [ROOM, ROOM], [0, ROOM], [0, 0]], dtype=float)
+    with LogWriter(path, sens, speed_of_sound=C, robot="bench", truth=corners) as w:
+        w.append(r)
+    return n
+
+
+def _child(args: list[str], tmp: Path) -> tuple[float, int, str]:
+    """Run ``python args``; return wall seconds, the child's own peak RSS (bytes), stdout."""
+    t0 = time.perf_counter()
+    with (tmp / "stderr.txt").open("w+b") as err:
+        proc = subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE, stderr=err)
+        try:
+            assert proc.stdout is not None
+            out = proc.stdout.read()
+            _, status, usage = os.wait4(proc.pid, 0)  # this child's rusage, not the maximum
+            proc.returncode = os.waitstatus_to_exitcode(status)
+        finally:
+            if proc.returncode is None:
+                proc.kill()
+                proc.wait()
+            if proc.stdout is not None:
+                proc.stdout.close()
+        wall = time.perf_counter() - t0
+        err.seek(0)
+        assert proc.returncode == 0, err.read().decode()
+    return wall, usage.ru_maxrss * 1024, out.decode()
+
+
+def _run(log: Path, out: Path, cell: float) -> tuple[float, int, dict[str, Any]]:
+    args = ["-c", RUN, "run", str(log), "--out", str(out), "--cell", f"{cell:.6g}",
+            "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", "polar", "--json"]  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    wall, peak, stdout = _child(args, out)
+    return wall, peak, json.loads(stdout)
+
+
+@pytest.mark.benchmark
+def test_bench_whole_run(tmp_path: Path) -> None:
+    log1 = tmp_path / "hour.h5"
+    log2 = tmp_path / "two-hours.h5"
+    n1 = write_room_log(log1, 1.0)
+    n2 = write_room_log(log2, 2.0, seed=1)
+    cell1 = 0.01
+    cell2 = 0.01 / np.sqrt(2.0)  # twice the cells over the same room
+
+    wall, peak, doc = _run(log1, tmp_path / "r1", cell1)
+    counts = doc["counts"]
+    grid = doc["grid"]
+    cells = int(grid["nx"]) * int(grid["ny"])
+    fwall, _, _ = _child(["-c", FLOOR, str(log1), str(counts["arc_cells"]), str(cells)], tmp_path)
+    t_cpu = doc["metrics"]["t_cpu_s"]
+    print(
+        f"\nwhole run: {n1} readings ({counts['readings_used']} arcs, "
+        f"{counts['arc_cells'] / 1e6:.1f} M arc cells), {grid['nx']} x {grid['ny']} cells"
+    )
+    print(
+        f"  wall {wall:.2f} s (target {TARGET_S:.0f} s: ratio {wall / TARGET_S:.2f}); "
+        f"t_cpu {t_cpu:.2f} s; peak RSS {peak / 2**20:.0f} MiB "
+        f"(target 1024 MiB: ratio {peak / TARGET_B:.2f})"
+    )
+    print(
+        f"  floor (start, import, read log, one scatter of the arc cells): {fwall:.2f} s; "
+        f"run / floor = {wall / fwall:.2f}"
+    )
+    print("  stages (s): " + ", ".join(f"{k} {v:.3f}" for k, v in doc["timings_s"].items()))
+
+    rows = [("x1 readings, x1 cells", n1, wall, peak, t_cpu, cells)]
+    for label, log, n, cell in [
+        ("x2 readings, x1 cells", log2, n2, cell1),
+        ("x1 readings, x2 cells", log1, n1, cell2),
+        ("x2 readings, x2 cells", log2, n2, cell2),
+    ]:
+        w, p, d = _run(log, tmp_path / label.replace(" ", "").replace(",", "_"), cell)
+        g = d["grid"]
+        rows.append((label, n, w, p, d["metrics"]["t_cpu_s"], int(g["nx"]) * int(g["ny"])))
+    print("  scaling:                 readings      cells   wall s  t_cpu s  t_cpu ratio  peak MiB")
+    base = rows[0][4]
+    for label, n, w, p, tc, cl in rows:
+        print(
+            f"  {label:22s} {n:9d} {cl:10d} {w:8.2f} {tc:8.2f} {tc / base:12.2f} {p / 2**20:9.0f}"
+        )
