@@ -297,14 +297,25 @@ class Client:
         try:
             ser.reset_input_buffer()
             dec.reset()
-            if self._io_timeout != timeout:
-                ser.timeout = timeout
-                self._io_timeout = timeout
             ser.write(frame)
             deadline = time.monotonic() + timeout
+            received = 0
             while True:
                 need = dec.needed()
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    break
+                if received:
+                    # a reply that has begun arrives at line speed: a lost byte must not
+                    # cost the whole command timeout
+                    io = min(self._rest_timeout(need), remaining)
+                else:
+                    io = timeout if remaining > 0.5 * timeout else remaining
+                if io != self._io_timeout:
+                    ser.timeout = io
+                    self._io_timeout = io
                 data = ser.read(need)
+                received += len(data)
                 if data:
                     for ev in dec.feed(data):
                         if isinstance(ev, FrameError):
@@ -319,12 +330,8 @@ class Client:
                             self.stale_packets += 1
                 if len(data) < need:
                     break  # pyserial returns short reads only when its timeout expired
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                if remaining < self._io_timeout:
-                    ser.timeout = remaining
-                    self._io_timeout = remaining
+                if last_err is not None and not dec.pending and received >= reply_len + 4:
+                    break  # the whole reply came, damaged: do not wait for the timeout
         except NomadError:
             raise
         except serial.SerialTimeoutException as err:
@@ -342,6 +349,10 @@ class Client:
             raise NomadProtocolError(f"{code.name}: damaged reply ({last_err})") from last_err
         self.timeouts += 1
         raise NomadTimeout(f"{self.port}: no reply to {code.name} within {timeout:g} s")
+
+    def _rest_timeout(self, need: int) -> float:
+        """Time allowed for the rest of a reply that has started (10 bits per byte, x2)."""
+        return math.ceil((0.05 + 20.0 * need / self.baud) * 100.0) / 100.0
 
     def _state_cmd(
         self, code: Cmd, args: tuple[int, ...] = (), timeout: float | None = None

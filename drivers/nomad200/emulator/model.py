@@ -108,6 +108,7 @@ class NomadModel:
         self._prev_fire: tuple[float, int, np.ndarray, float] | None = None
         self.sonar_raw = [NO_ECHO] * 16
         self.sonar_att: list[_Att] = [(0,) * 9] * 16
+        self._pending_readings: list[tuple[int, int, int, _Att]] = []
         self._decoder = StreamDecoder()
         self._partial_since = self.t0
         self.naks = 0
@@ -148,6 +149,16 @@ class NomadModel:
                 break
         if fires:
             self._process_fires(fires)
+        if self._pending_readings:
+            now_ms = self.clock_ms()
+            keep = []
+            for rec in self._pending_readings:
+                if rec[0] <= now_ms:
+                    self.sonar_raw[rec[1]] = rec[2]
+                    self.sonar_att[rec[1]] = rec[3]
+                else:
+                    keep.append(rec)
+            self._pending_readings = keep
 
     def _odom_att(self, t: float) -> _Att:
         d = self.drive
@@ -178,8 +189,8 @@ class NomadModel:
             raw = int(batch.raw[k])
             tau = float(batch.tau[k])
             done = self.clock_ms(tk + (tau if math.isfinite(tau) else self.interval))
-            self.sonar_raw[s] = raw
-            self.sonar_att[s] = (*att[:8], done)
+            # the reading exists once its echo is in (or its window closed)
+            self._pending_readings.append((done, s, raw, (*att[:8], done)))
             if self.trace is not None:
                 tr = float(batch.true_range[k])
                 self.emit(

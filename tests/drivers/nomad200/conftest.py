@@ -102,10 +102,19 @@ def make_port(request: pytest.FixtureRequest, tmp_path: Path) -> PortFactory:
     subprocess) and over the in-process ``nomad://`` URL scheme.
     """
 
+    mine: list[subprocess.Popen[str]] = []
+
     def make(**opts: Any) -> str:
         opts.setdefault("baud", 38400)
         if request.param == "pty":
-            return start_emulator(tmp_path, **opts)[0]
+            link, proc = start_emulator(tmp_path, **opts)
+            mine.append(proc)
+            return link
         return nomad_url(**opts)
 
+    def stop_all() -> None:
+        for p in mine:
+            _kill(p)
+
+    request.addfinalizer(stop_all)
     return make
