@@ -98,7 +98,7 @@ def test_bad_world_names_file_and_field(patch: dict[str, object], field: str) ->
 def test_load_world_file_errors(tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("surfaces: [unclosed\n")
-    with pytest.raises(WorldError, match="bad.yaml: not valid YAML"):
+    with pytest.raises(WorldError, match=r"bad\.yaml: not valid YAML"):
         load_world(bad)
     bad.write_text("- 1\n- 2\n")
     with pytest.raises(WorldError, match="mapping"):
