@@ -20,7 +20,7 @@ from nomad200 import (
 )
 from nomad200.state import DEG10, IN10, INCH
 
-from .conftest import PortFactory
+from .conftest import PortFactory, _kill, start_emulator
 
 FULL = StateMask(sonars=frozenset(range(16)), pose=True, velocities=True)
 RES_XY = IN10 + 1e-9  # protocol resolution 0.1 in
@@ -233,3 +233,16 @@ def test_timeout_when_nothing_answers(make_port: PortFactory, box_world: Path) -
         with pytest.raises(NomadTimeout):
             c.get_state()
         assert c.timeouts == 1
+
+
+def test_spy_url_traces_the_traffic(
+    tmp_path: Path, box_world: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    link, proc = start_emulator(tmp_path, world=box_world, fast=True, baud=38400)
+    try:
+        with Client(f"spy://{link}", baud=38400) as c:  # spy writes its hex dump to stderr
+            c.get_state()
+        text = capsys.readouterr().err.lower()
+        assert "01 02 00 07 0a 5c" in text  # the GS request, byte for byte
+    finally:
+        _kill(proc)
