@@ -10,6 +10,7 @@ import pytest
 from nomad200 import (
     Client,
     Cmd,
+    MvMode,
     NomadDisconnected,
     NomadError,
     NomadNak,
@@ -246,3 +247,23 @@ def test_spy_url_traces_the_traffic(
         assert "01 02 00 07 0a 5c" in text  # the GS request, byte for byte
     finally:
         _kill(proc)
+
+
+def test_mv_pa_limp_and_get_sn(make_port: PortFactory, box_world: Path) -> None:
+    with Client(make_port(world=box_world, fast=True), baud=38400) as c:
+        c.configure_mask(StateMask(pose=True, sonar_pose_attachment=True))
+        c.configure_sonars([0], 0.02)
+        c.move(trans=(MvMode.PR, 0.1), turret=(MvMode.PA, math.radians(20)))
+        st = c.wait_stopped(10)
+        assert st.x == pytest.approx(0.1, abs=RES_XY)
+        assert st.turret == pytest.approx(math.radians(20), abs=RES_ANG)
+        c.move_absolute(0.0, math.radians(5), 0.0)  # translation odometer back to 0
+        st = c.wait_stopped(10)
+        assert st.x == pytest.approx(0.0, abs=RES_XY)
+        assert st.steer == pytest.approx(math.radians(5), abs=RES_ANG)
+        c.move_velocity(0.1, 0.0, 0.0)
+        st = c.limp()
+        assert c.get_velocities() == (0.0, 0.0, 0.0) and c.get_state().motor_status == 0
+        scan = c.get_sonars()
+        assert set(scan.sonar) == set(range(16)) and scan.sonar_raw[1] == 255
+        assert scan.sonar_attachments[0].pose_time > 0  # sonar 0 fired; 1 never did
