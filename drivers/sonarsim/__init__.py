@@ -1,6 +1,7 @@
 """The acoustic world: surfaces, specular sonar echoes and sensor arrays.
 
 >>> from sonarsim import World, load_world, first_echo_path, echoes
+>>> from sonarsim import load_scenario, simulate
 """
 
 from sonarsim.echoes import (
@@ -12,6 +13,8 @@ from sonarsim.echoes import (
     first_echo_path,
     pair_echoes,
 )
+from sonarsim.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
+from sonarsim.simulation import SimResult, simulate
 from sonarsim.specular import Sensors
 from sonarsim.surfaces import (
     Circle,
@@ -36,19 +39,25 @@ __all__ = [
     "Curve",
     "Echoes",
     "Polyline",
+    "Scenario",
+    "ScenarioError",
     "Segments",
     "Sensors",
+    "SimResult",
     "SmoothPolyline",
     "Surface",
     "World",
     "WorldError",
     "echoes",
     "first_echo_path",
+    "load_scenario",
     "load_world",
     "pair_echoes",
     "polynomial",
     "profile",
     "room",
+    "scenario_from_dict",
+    "simulate",
     "sinusoid",
     "wall",
     "world_from_dict",

@@ -23,7 +23,7 @@ def dropouts(n: int, probability: float, rng: np.random.Generator) -> NDArray[np
     Examples
     --------
     >>> keep = dropouts(10_000, 0.25, np.random.default_rng(0))
-    >>> 0.73 < keep.mean() < 0.77
+    >>> bool(0.73 < keep.mean() < 0.77)
     True
     """
     if not 0.0 <= probability <= 1.0:
@@ -81,7 +81,7 @@ def quantise(path: FloatArray, step: float = INCH) -> FloatArray:
 
     Examples
     --------
-    >>> quantise(np.array([2 * 0.0130, 2 * 0.0380]), 0.0254).round(4).tolist()
+    >>> quantise(np.array([2 * 0.0130, 2 * 0.0400]), 0.0254).round(4).tolist()
     [0.0508, 0.1016]
     """
     if step <= 0.0:

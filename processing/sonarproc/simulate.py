@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sonarlog import POSE_DTYPE, LogWriter
-from sonarsim.scenario import SimResult, load_scenario, simulate
+from sonarsim import SimResult, load_scenario, simulate
 
 __all__ = ["SimulationSummary", "simulate_to_log", "write_result"]
 
@@ -49,7 +49,7 @@ def _poses(result: SimResult) -> np.ndarray:
 
 
 def write_result(result: SimResult, out: str | Path, *, robot: str = "sonarsim") -> None:
-    """Write a :class:`~sonarsim.scenario.SimResult` as sonarlog v1 (with truth)."""
+    """Write a :class:`~sonarsim.simulation.SimResult` as sonarlog v1 (with truth)."""
     attrs = dict(result.attrs)
     with LogWriter(
         out,

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sonarsim.scenario import load_scenario, simulate
+from sonarsim import load_scenario, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sonarsim import imperfections as imp
+from sonarsim import scenario_from_dict, simulate
 from sonarsim.records import FLAG_CROSSTALK
-from sonarsim.scenario import scenario_from_dict, simulate
 
 C = 343.3
 WALL_WORLD = {"surfaces": [{"type": "wall", "start": [-50, 3.0], "end": [50, 3.0]}]}

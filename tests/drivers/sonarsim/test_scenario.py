@@ -8,14 +8,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from sonarsim import ScenarioError, SimResult, load_scenario, scenario_from_dict, simulate
 from sonarsim.records import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE
-from sonarsim.scenario import (
-    ScenarioError,
-    SimResult,
-    load_scenario,
-    scenario_from_dict,
-    simulate,
-)
 
 ROOT = Path(__file__).resolve().parents[3]
 SCENARIOS = sorted((ROOT / "configs/scenarios").glob("*.yaml"))

@@ -9,7 +9,7 @@ import pytest
 
 from sonarlog import FLAG_NO_ECHO, read_log
 from sonarproc.cli import main
-from sonarsim.scenario import load_scenario, simulate
+from sonarsim import load_scenario, simulate
 
 ROOT = Path(__file__).resolve().parents[3]
 FIG16 = ROOT / "configs/scenarios/fig16.yaml"
