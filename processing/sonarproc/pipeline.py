@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,7 +37,7 @@ from sonarproc.metrics import (
 from sonarproc.morphology import apply_ops, parse_ops
 from sonarproc.params import RunParams
 
-__all__ = ["METHOD", "STAGES", "RunResult", "process", "run_file", "select_readings"]
+__all__ = ["METHOD", "STAGES", "RunResult", "load_log", "process", "run_file", "select_readings"]
 
 log = logging.getLogger(__name__)
 
@@ -314,11 +314,7 @@ def load_log(
 
         return read_csv_log(p, sensors, truth=truth_xy)
     lg = read_log(p)
-    if truth_xy is not None:
-        from dataclasses import replace
-
-        lg = replace(lg, truth=truth_xy)
-    return lg
+    return lg if truth_xy is None else replace(lg, truth=truth_xy)
 
 
 def run_file(
@@ -339,20 +335,3 @@ def run_file(
     result = process(lg, params, progress=progress, cpu_start=cpu0)
     result.timings_s = {"read": read_s, **result.timings_s}
     return result
-
-
-def summary(result: RunResult) -> dict[str, Any]:
-    """A flat mapping of the headline numbers (for terminals and tables)."""
-    m = result.metrics
-    return {
-        "readings_used": result.counts["readings_used"],
-        "skipped_out_of_range": result.counts["skipped_out_of_range"],
-        "map": f"{result.grid.nx} x {result.grid.ny} @ {result.grid.cell:g} m",
-        "processed_cells": result.counts["processed_cells"],
-        "fit": result.fit.kind if result.fit.ok else f"{result.fit.kind} (failed)",
-        "e": m.e,
-        "f_c": m.f_c,
-        "E1_m": m.E1_m,
-        "E2": m.E2,
-        "t_cpu_s": result.t_cpu_s,
-    }
