@@ -22,13 +22,16 @@ to 2 s) until ``fault_timeout_s`` has passed; then it records ``reconnect`` and 
 from __future__ import annotations
 
 import logging
+import termios
 import threading
 import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
+from serial import SerialException
 
+from nomad200 import NomadDisconnected
 from sonard.link import poll_seconds
 from sonard.notify import Notifier
 from sonard.plan import Plan
@@ -41,6 +44,10 @@ log = logging.getLogger(__name__)
 
 #: no good reply for this long (s) means the link is lost
 LINK_LOST_S = 1.0
+#: errors that mean the port went away (the driver may let a raw termios/OS error through)
+LINK_ERRORS = (NomadDisconnected, OSError, termios.error, SerialException)
+#: attempts for a configuration command on a noisy line
+CONFIG_TRIES = 20
 #: commands that redefine the odometry frame
 FRAME_COMMANDS = frozenset({"zero", "define_position", "define_angles"})
 #: motor status bits: translating, steering, turret
@@ -124,6 +131,7 @@ class Acquisition:
         self._next_poll = 0.0
         self._last_good = time.monotonic()
         self.n_faults = 0
+        self.n_rejected = 0
         #: readings and poses are logged only once the plan's frame is set (see run_plan)
         self.recording = False
         self._frame_clock = -float("inf")
@@ -140,10 +148,29 @@ class Acquisition:
 
     def _configure(self) -> None:
         p = self.plan
-        self.feed(self.client.configure_mask(self._mask_factory(list(p.sonars), p.use_attachments)))
-        self.feed(self.client.configure_sonars(order=list(p.sonars), interval_s=p.interval))
-        self.feed(self.client.configure_watchdog(seconds=p.watchdog))
+        mask = self._mask_factory(list(p.sonars), p.use_attachments)
+        self.feed(self._retry(self.client.configure_mask, mask))
+        self.feed(
+            self._retry(self.client.configure_sonars, order=list(p.sonars), interval_s=p.interval)
+        )
+        self.feed(self._retry(self.client.configure_watchdog, seconds=p.watchdog))
         self._last_good = time.monotonic()
+
+    def _retry(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """Call an idempotent client method, retrying damaged or missing replies."""
+        from nomad200 import NomadError
+
+        for i in range(CONFIG_TRIES):
+            try:
+                return fn(*args, **kwargs)
+            except LINK_ERRORS:
+                raise
+            except NomadError as exc:
+                if i == CONFIG_TRIES - 1:
+                    raise
+                log.debug("%s failed (%d/%d): %s", fn.__name__, i + 1, CONFIG_TRIES, exc)
+                self.check_stop()
+        raise AssertionError("unreachable")
 
     def stop_robot(self) -> bool:
         """Send ST (best effort); return whether the robot acknowledged it."""
@@ -159,6 +186,10 @@ class Acquisition:
     def feed(self, state: Any) -> Any:
         """Tag a state reply, queue its readings and pose, and remember it."""
         if state is None:
+            return None
+        if not self.tagger.plausible(state):
+            self.n_rejected += 1
+            log.debug("implausible reply dropped (clock %.3f)", state.clock)
             return None
         offset = self.tagger.offset
         rows, pose = self.tagger.feed(state, time.time())
@@ -190,18 +221,22 @@ class Acquisition:
         returns None (the caller's closed loop checks the outcome on the next poll). A
         lost link goes through :meth:`recover`.
         """
-        from nomad200 import NomadDisconnected, NomadError
+        from nomad200 import NomadError
 
         self.check_stop()
         tries = 3 if idempotent else 1
         for i in range(tries):
             try:
-                st = self.feed(getattr(self.client, name)(*args))
-                if name in FRAME_COMMANDS:
-                    # readings fired before this reply were tagged in the old frame
-                    self._frame_clock = st.clock
+                reply = getattr(self.client, name)(*args)
+                if name in FRAME_COMMANDS and reply is not None:
+                    # a new odometry frame: readings fired before this reply are in the old
+                    # one and are dropped; from here on everything is logged
+                    self.tagger.forget_pose()
+                    self._frame_clock = reply.clock
+                    self.recording = True
+                st = self.feed(reply)
                 return st
-            except NomadDisconnected as exc:
+            except LINK_ERRORS as exc:
                 self.recover(exc)
             except NomadError as exc:
                 log.debug("%s failed (%d/%d): %s", name, i + 1, tries, exc)
@@ -212,7 +247,7 @@ class Acquisition:
 
     def poll(self) -> Any:
         """Wait for the next poll slot, then GS; returns the newest state (maybe an older one)."""
-        from nomad200 import NomadDisconnected, NomadError
+        from nomad200 import NomadError
 
         now = time.monotonic()
         wait = self._next_poll - now
@@ -223,10 +258,9 @@ class Acquisition:
         before = self.state.clock if self.state is not None else None
         host = time.monotonic()
         try:
-            self.feed(self.client.get_state())
-            if before is not None:
+            if self.feed(self.client.get_state()) is not None and before is not None:
                 self._learn_clock_rate(self.state.clock - before, time.monotonic() - host)
-        except NomadDisconnected as exc:
+        except LINK_ERRORS as exc:
             self.recover(exc)
         except NomadError as exc:
             log.debug("poll failed: %s", exc)
@@ -269,7 +303,7 @@ class Acquisition:
         log.warning("link fault: %s", detail)
         self.sink.event("fault", detail)
         self.notifier.status(f"link fault: {detail}")
-        if not isinstance(exc, ConnectionError) and self.stop_robot() and self._reconfigure():
+        if not isinstance(exc, LINK_ERRORS) and self.stop_robot() and self._reconfigure():
             self._resumed("noisy link")  # the robot answers again: the line was only noisy
         deadline = time.monotonic() + self.fault_timeout_s
         delay = 0.1
@@ -306,6 +340,7 @@ class Acquisition:
         return True
 
     def _resumed(self, why: str) -> None:
+        self.tagger.forget_pose()
         log.info("link back (%s); resuming", why)
         self.sink.event("reconnect", why)
         self.notifier.status("running")

@@ -31,6 +31,8 @@ __all__ = ["RunResult", "run"]
 
 log = logging.getLogger(__name__)
 
+#: how often the log writer flushes and fsyncs (s): bounds what SIGKILL or power loss loses
+FLUSH_INTERVAL_S = 0.25
 #: serial reply timeout (s): short, so a stop request is never stuck behind a dead line
 REPLY_TIMEOUT = 0.5
 
@@ -116,7 +118,12 @@ def run(
         "acquired_by": "sonard",
     }
     writer = LogWriter(
-        out, ring_sensors(), speed_of_sound=plan.speed_of_sound, robot="nomad200", attrs=attrs
+        out,
+        ring_sensors(),
+        speed_of_sound=plan.speed_of_sound,
+        robot="nomad200",
+        attrs=attrs,
+        flush_interval=FLUSH_INTERVAL_S,
     )
     sink = LogSink(writer)
     client = _client(port, baud)

@@ -243,8 +243,7 @@ def run_plan(acq: Acquisition, plan: Plan) -> None:
     for i, step in enumerate(plan.steps):
         run = make_run(step, plan)
         if not isinstance(step, Zero | DefinePose) and not acq.recording:
-            acq.recording = True  # the frame is set: from here on readings are logged
-            acq.sink.event("recording", "frame defined")
+            acq.recording = True  # no frame step first: the robot's own frame it is
         acq.sink.event("step", f"{i} {step.type}")
         log.info("step %d: %s", i, step.type)
         while True:

@@ -32,6 +32,7 @@ the robot clock ever runs backwards, i.e. the robot was reset).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
@@ -41,6 +42,14 @@ from sonard.ring import MIN_RANGE
 from sonarlog import FLAG_NO_ECHO, POSE_DTYPE, READING_DTYPE
 
 __all__ = ["StateLike", "Tagger", "to_tof"]
+
+#: faster than the robot can move (m/s), for the plausibility check
+MAX_SPEED = 1.0
+POSE_SLACK_M = 0.01
+#: largest believable gap between two replies' clocks (s)
+MAX_CLOCK_LEAP_S = 120.0
+#: after this many refused replies in a row the next one is believed
+MAX_REJECTS_IN_ROW = 10
 
 
 class AttachmentLike(Protocol):
@@ -137,6 +146,47 @@ class Tagger:
         self._last_stamp = np.full(n, np.nan)  # attachment reading time or accept clock
         self._last_range = np.full(n, np.nan)
         self._seen = np.zeros(n, dtype=bool)
+        self._rejects = 0
+
+    def plausible(self, state: StateLike) -> bool:
+        """Whether ``state`` fits the last accepted one (a guard against corrupt replies).
+
+        The protocol's checksum is a byte sum: two damaged bytes can cancel out. A reply is
+        refused when its clock runs backwards by less than a reset would (or leaps more than
+        ``MAX_CLOCK_LEAP_S``), when the pose moved faster than the robot can, or when a pose
+        attachment lies outside the last firing cycle before the reply.
+        """
+        ok = self._plausible(state)
+        self._rejects = 0 if ok else self._rejects + 1
+        if self._rejects > MAX_REJECTS_IN_ROW:  # the robot really changed: follow it
+            self.forget_pose()
+            ok, self._rejects = True, 0
+        return ok
+
+    def forget_pose(self) -> None:
+        """Drop the reference for :meth:`plausible` (after DP, DA, ZR or a reconnect)."""
+        self._prev_pose = None
+
+    def _plausible(self, state: StateLike) -> bool:
+        clock = float(state.clock)
+        last = self._prev_pose
+        if last is None or state.x is None or state.y is None:
+            return True
+        dt = clock - last[0]
+        if dt < 0 or dt > MAX_CLOCK_LEAP_S:
+            return False
+        reach = MAX_SPEED * dt + POSE_SLACK_M
+        if math.hypot(state.x - last[1], state.y - last[2]) > reach:
+            return False
+        for a in state.sonar_attachments.values():
+            if a.pose_time == 0 and a.reading_time == 0:
+                continue
+            age = clock - a.pose_time
+            if not -0.001 <= age <= self.cycle + MAX_CLOCK_LEAP_S:
+                return False
+            if math.hypot(a.x - state.x, a.y - state.y) > MAX_SPEED * age + POSE_SLACK_M:
+                return False
+        return True
 
     def time_of(self, clock: float) -> float:
         """UNIX time of a robot clock value (after the first state)."""

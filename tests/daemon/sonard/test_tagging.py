@@ -105,3 +105,23 @@ def test_state_without_pose_yields_nothing() -> None:
     tg = Tagger([0], speed_of_sound=343.3, interval=0.04, attachments=False)
     rows, pose = tg.feed(St(clock=0.0, x=None, sonar={0: 1.0}), host_time=0.0)
     assert len(rows) == 0 and len(pose) == 0
+
+
+def test_plausibility_refuses_impossible_jumps() -> None:
+    tg = Tagger([0], speed_of_sound=343.3, interval=0.04, attachments=True)
+    a0 = Att(0.0, 0.0, 0.0, 0.0, 0.95)
+    tg.feed(St(clock=1.0, sonar={0: 1.0}, sonar_attachments={0: a0}), host_time=0.0)
+    assert tg.plausible(St(clock=1.05, x=0.02, sonar={0: 1.0}, sonar_attachments={0: a0}))
+    assert not tg.plausible(St(clock=1.05, x=5.0))  # 100 m/s
+    assert not tg.plausible(St(clock=0.5))  # clock ran backwards
+    far = Att(3.0, 0.0, 0.0, 0.0, 1.04)
+    assert not tg.plausible(St(clock=1.05, sonar={0: 1.0}, sonar_attachments={0: far}))
+    tg.forget_pose()
+    assert tg.plausible(St(clock=1.05, x=5.0))  # after DP anything goes
+
+
+def test_persistent_change_is_followed() -> None:
+    tg = Tagger([0], speed_of_sound=343.3, interval=0.04, attachments=False)
+    tg.feed(St(clock=100.0, sonar={0: 1.0}), host_time=0.0)
+    verdicts = [tg.plausible(St(clock=1.0 + k)) for k in range(12)]  # robot was reset
+    assert not any(verdicts[:10]) and verdicts[10]
