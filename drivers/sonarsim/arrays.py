@@ -134,7 +134,10 @@ def make_array(
     )
     n = xx.size
     idv = np.arange(n) if ids is None else np.asarray(ids)
-    return SensorArray(idv, xx, yy, hh, half_beamwidth, min_range, max_range)  # type: ignore[arg-type]
+    return SensorArray(
+        idv.astype(np.int16), xx, yy, hh, np.full(n, half_beamwidth), np.full(n, min_range),
+        np.full(n, max_range),
+    )  # fmt: skip
 
 
 def linear_array(

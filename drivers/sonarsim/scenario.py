@@ -185,7 +185,9 @@ def scenario_from_dict(
             raise ScenarioError(f"{source}: array.file: no such file {err.filename}") from err
         except ValidationError as err:
             raise ScenarioError(format_validation_error(str(path), err)) from err
-        array_spec, defaults = sf.array, sf.sensor
+        array_spec = sf.array
+        # The file's transducer defaults apply unless the scenario sets its own.
+        defaults = spec.sensor if "sensor" in spec.model_fields_set else sf.sensor
     try:
         array = _build_array(array_spec, defaults, the_seed)
         if spec.active is not None:

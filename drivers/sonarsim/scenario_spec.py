@@ -169,7 +169,20 @@ class ImperfectionSpec(_Model):
 
 
 class ScenarioSpec(_Model):
-    """A complete simulation scenario."""
+    """A complete simulation scenario.
+
+    Fields: ``world`` (a world YAML path relative to the scenario file, or an inline world
+    mapping); ``array`` (``linear``, ``circular``, ``random``, ``explicit``, or
+    ``{file: ../sensors/X.yaml}``); ``active`` (ids of the transducers that fire, in
+    firing order); ``sensor`` (beam and range of every transducer; for an array file it
+    overrides the file's own ``sensor`` block only when given); ``path`` (stops; absent =
+    one stop at pose (0, 0, 0, 0)); ``pairs`` (``own``: each transmitter hears itself,
+    ``all``: every active transducer at the same stop listens); ``first_echo_only``;
+    ``max_order`` (bounces, >1 via mirror images of flat surfaces); ``speed_of_sound``
+    (m/s); ``seed`` (every random draw); ``timing``; ``imperfections``;
+    ``record_no_echo`` (a flagged row for each channel that heard nothing);
+    ``truth_spacing`` (m, <= 0.01).
+    """
 
     name: str = ""
     description: str = ""

@@ -36,7 +36,7 @@ def world_poses(res: SimResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def test_shipped_scenarios_are_the_papers() -> None:
     names = {p.stem for p in SCENARIOS}
     assert names >= {"fig02", "fig06a", "fig06b", "fig08a", "fig08b", "fig10b", "fig10c",
-                     "fig12", "fig13", "fig16"}  # fmt: skip
+                     "fig12", "fig13", "fig16", "fig18"}  # fmt: skip
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.stem)
@@ -117,6 +117,16 @@ def test_moving_array_poses_are_stored_per_reading() -> None:
     np.testing.assert_allclose(r["y"], 2.0)
     turrets = np.unique(np.round(np.rad2deg(r["turret"]), 9))
     assert set(turrets) <= set(range(45, 136, 15))
+
+
+def test_scenario_sensor_block_overrides_sensor_file() -> None:
+    data = _minimal(array={"file": str(ROOT / "configs/sensors/nomad200-ring.yaml")})
+    ring = scenario_from_dict(data).array
+    assert len(ring) == 16 and ring.max_range[0] == 10.7
+    data["sensor"] = {"half_beamwidth_deg": 15.0, "max_range": 5.0}
+    ring = scenario_from_dict(data).array
+    assert ring.max_range[0] == 5.0
+    assert ring.half_beamwidth[0] == pytest.approx(np.deg2rad(15.0))
 
 
 def test_seed_override_redraws_random_sensors() -> None:
