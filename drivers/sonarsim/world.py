@@ -36,6 +36,7 @@ from sonarsim.geometry import FloatArray
 from sonarsim.surfaces import (
     DEFAULT_RESOLUTION,
     Circle,
+    Curve,
     Polyline,
     Segments,
     Surface,
@@ -133,8 +134,6 @@ class World:
         if not idx:
             return np.zeros((0, 2))
         pts = np.concatenate([self.surfaces[i].sample(spacing) for i in idx])
-        from sonarsim.surfaces import Curve
-
         if all(isinstance(self.surfaces[i], Curve) for i in idx):
             pts = pts[np.argsort(pts[:, 0], kind="stable")]
         return pts

@@ -99,7 +99,12 @@ def simulate_to_log(
         An invalid scenario or world (a ``ValueError``; the message names file and field).
     FileNotFoundError
         The scenario, or a file it names, does not exist.
+    ValueError
+        The output directory does not exist.
     """
+    parent = Path(out).resolve().parent
+    if not parent.is_dir():
+        raise ValueError(f"{out}: output directory {parent} does not exist")
     scn = load_scenario(scenario, seed=seed)
     log.info("simulating %s (seed %d)", scn.name, scn.seed)
     result = simulate(scn)

@@ -95,4 +95,7 @@ def test_missing_scenario_and_missing_out(
     assert main(["simulate", str(tmp_path / "none.yaml"), "--out", str(tmp_path / "x.h5")]) == 2
     assert "no such file" in capsys.readouterr().err
     assert main(["simulate", str(FIG16)]) == 2  # --out is required
+    capsys.readouterr()
+    assert main(["simulate", str(FIG16), "--out", str(tmp_path / "no" / "x.h5")]) == 2
+    assert "does not exist" in capsys.readouterr().err
     assert main(["simulate", str(FIG16), "--out", str(tmp_path / "x.h5"), "--seed", "-1"]) == 2
