@@ -238,7 +238,8 @@ def process(
     arc_map = counts_map > 0
     counts["map_cells_set"] = int(np.count_nonzero(arc_map))
     if counts["map_cells_set"] == 0:
-        raise ValueError(f"{source}: no arc touches the map; check --bbox")
+        where = "the bbox " + ",".join(f"{v:g}" for v in params.bbox) if params.bbox else "the map"
+        raise ValueError(f"{source}: no arc touches {where}")
     counts["arc_cells"] = int(counts_map.sum(dtype=np.int64))
     stage("morphology")
     processed = apply_ops(arc_map, ops)
