@@ -4,7 +4,8 @@
 >>> from sonarsim import load_scenario, simulate
 """
 
-from sonarsim.echoes import (
+from sonarsim.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
+from sonarsim.search import (
     HALF_BEAMWIDTH,
     MAX_RANGE,
     MIN_RANGE,
@@ -13,7 +14,6 @@ from sonarsim.echoes import (
     first_echo_path,
     pair_echoes,
 )
-from sonarsim.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
 from sonarsim.simulation import SimResult, simulate
 from sonarsim.specular import Sensors
 from sonarsim.surfaces import (

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sonarsim.echoes import HALF_BEAMWIDTH, MAX_RANGE, MIN_RANGE
 from sonarsim.geometry import FloatArray, rotate, wrap_angle
 from sonarsim.records import SENSOR_DTYPE
+from sonarsim.search import HALF_BEAMWIDTH, MAX_RANGE, MIN_RANGE
 from sonarsim.specular import Sensors
 
 NOMAD_RING_COUNT = 16

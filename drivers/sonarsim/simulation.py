@@ -27,10 +27,10 @@ from numpy.typing import NDArray
 
 from sonarsim import imperfections as imp
 from sonarsim.arrays import SensorArray
-from sonarsim.echoes import pair_echoes
 from sonarsim.geometry import FloatArray
 from sonarsim.records import FLAG_CROSSTALK, FLAG_NO_ECHO, READING_DTYPE
 from sonarsim.scenario import Scenario
+from sonarsim.search import pair_echoes
 from sonarsim.specular import Sensors
 
 IntArray = NDArray[np.intp]

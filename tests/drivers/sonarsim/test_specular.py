@@ -229,3 +229,23 @@ def test_input_validation() -> None:
         echoes(w, [0, 0], UP, [0, 0], UP, max_order=0)
     with pytest.raises(ValueError, match=r"\(N, 2\)"):
         echoes(w, [0, 0, 0], UP, [0, 0], UP)
+
+
+def test_chunked_search_matches_single_pass(monkeypatch: pytest.MonkeyPatch) -> None:
+    from sonarsim import search
+
+    w = World([sinusoid(0.15, 1.25, (-1.0, 3.0), offset=2.0), room(-2, 4, -1, 3)])
+    rng = np.random.default_rng(3)
+    n = 60
+    xy = np.c_[rng.uniform(-0.5, 2.5, n), rng.uniform(0, 1.5, n)]
+    h = rng.uniform(0.5, 2.6, n)
+    ti, ri = (g.ravel() for g in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
+    args = (w, xy[ti], h[ti], xy[ri], h[ri])
+    whole = echoes(*args, max_order=2)
+    monkeypatch.setattr(search, "_TABLE_ELEMENTS", 10)
+    monkeypatch.setattr(search, "_CHUNK_ELEMENTS", 50_000)
+    parts = echoes(*args, max_order=2)
+    assert len(whole) > 50
+    np.testing.assert_array_equal(parts.firing, whole.firing)
+    np.testing.assert_allclose(parts.path, whole.path, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(parts.order, whole.order)
