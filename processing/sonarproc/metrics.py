@@ -93,8 +93,8 @@ def bin_stats(
     if not presorted and idx.size:
         # one float sort on "bin + fraction of the value range" orders by (bin, value)
         # about twice as fast as np.lexsort; the value enters only within its bin
-        lo, span = float(val.min()), float(np.ptp(val))
-        key = idx + (0.5 * (val - lo) / span if span > 0 else 0.0)
+        vmin, span = float(val.min()), float(np.ptp(val))
+        key = idx + (0.5 * (val - vmin) / span if span > 0 else 0.0)
         order = np.argsort(key)
         idx, val = idx[order], val[order]
     k = cen.size
