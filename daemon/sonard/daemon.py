@@ -162,8 +162,8 @@ def run(
             sink.close()
         except Exception as exc:
             code, reason = 1, f"log write failed: {exc}"
-        for sig, h in old_handlers.items():
-            signal.signal(sig, h)
+        for signum, handler in old_handlers.items():
+            signal.signal(signum, handler)
         notifier.close()
     log.info(
         "%s: %d readings, %d faults, %.1f s",
