@@ -62,6 +62,7 @@ class Notifier:
         self.watchdog_period = wd / 2e6
         self._last_ping = -float("inf")
         self._sock: socket.socket | None = None
+        self._ready = False
 
     @property
     def enabled(self) -> bool:
@@ -86,6 +87,7 @@ class Notifier:
 
     def ready(self, status: str = "") -> bool:
         """Tell systemd start-up finished (``READY=1``)."""
+        self._ready = True
         return self.send("READY=1", *((f"STATUS={status}",) if status else ()))
 
     def status(self, text: str) -> bool:
@@ -93,8 +95,11 @@ class Notifier:
         return self.send(f"STATUS={text}")
 
     def watchdog(self, *, force: bool = False) -> bool:
-        """Ping the watchdog (``WATCHDOG=1``) at most every half ``WatchdogSec``."""
-        if self.watchdog_period <= 0 and not force:
+        """Ping the watchdog (``WATCHDOG=1``) at most every half ``WatchdogSec``.
+
+        Nothing is sent before :meth:`ready` (start-up is bounded by TimeoutStartSec).
+        """
+        if (self.watchdog_period <= 0 or not self._ready) and not force:
             return False
         now = self._clock()
         if not force and now - self._last_ping < self.watchdog_period:

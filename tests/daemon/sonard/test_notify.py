@@ -32,6 +32,7 @@ def test_ready_watchdog_stopping_on_path_socket(path_socket: tuple[socket.socket
     t = [100.0]
     n = Notifier(env={"NOTIFY_SOCKET": addr, "WATCHDOG_USEC": "4000000"}, clock=lambda: t[0])
     assert n.enabled and n.watchdog_period == 2.0
+    assert not n.watchdog()  # not before READY
     assert n.ready("running plan x")
     assert _recv(s) == "READY=1\nSTATUS=running plan x"
     assert n.watchdog()
