@@ -6,7 +6,8 @@ the wall along its beam axis (a diffusely reflecting room: every reading makes a
 the worst case for the rasteriser). Targets: under 5 s wall and 1 GiB peak memory.
 
 Each run is a fresh ``python`` subprocess, timed from the outside (wall, including
-interpreter start and imports) with its own peak RSS from ``os.wait4``. The floor is a
+interpreter start and imports) with its own peak RSS from ``os.wait4``; each figure is
+the best of three runs (the machine is shared). The floor is a
 subprocess that imports sonarproc, reads the same log and does one numpy scatter of the
 run's arc cells into a map of the same size: the least any implementation must do.
 A 4-point table shows cost against readings (x1, x2) and map cells (x1, x2).
@@ -110,6 +111,15 @@ def _run(log: Path, out: Path, cell: float) -> tuple[float, int, dict[str, Any]]
     return wall, peak, json.loads(stdout)
 
 
+def _best(log: Path, out: Path, cell: float, repeat: int = 3) -> tuple[float, int, dict[str, Any]]:
+    """Best (least) wall and t_cpu of ``repeat`` runs, and their largest peak RSS."""
+    runs = [_run(log, out, cell) for _ in range(repeat)]
+    wall = min(r[0] for r in runs)
+    peak = max(r[1] for r in runs)
+    doc = min((r[2] for r in runs), key=lambda d: d["metrics"]["t_cpu_s"])
+    return wall, peak, doc
+
+
 @pytest.mark.benchmark
 def test_bench_whole_run(tmp_path: Path) -> None:
     log1 = tmp_path / "hour.h5"
@@ -119,7 +129,7 @@ def test_bench_whole_run(tmp_path: Path) -> None:
     cell1 = 0.01
     cell2 = 0.01 / np.sqrt(2.0)  # twice the cells over the same room
 
-    wall, peak, doc = _run(log1, tmp_path / "r1", cell1)
+    wall, peak, doc = _best(log1, tmp_path / "r1", cell1)
     counts = doc["counts"]
     grid = doc["grid"]
     cells = int(grid["nx"]) * int(grid["ny"])
@@ -146,7 +156,7 @@ def test_bench_whole_run(tmp_path: Path) -> None:
         ("x1 readings, x2 cells", log1, n1, cell2),
         ("x2 readings, x2 cells", log2, n2, cell2),
     ]:
-        w, p, d = _run(log, tmp_path / label.replace(" ", "").replace(",", "_"), cell)
+        w, p, d = _best(log, tmp_path / label.replace(" ", "").replace(",", "_"), cell)
         g = d["grid"]
         rows.append((label, n, w, p, d["metrics"]["t_cpu_s"], int(g["nx"]) * int(g["ny"])))
     print("  scaling:                 readings      cells   wall s  t_cpu s  t_cpu ratio  peak MiB")
