@@ -22,10 +22,10 @@ vectorised over all arcs at once:
 
 from __future__ import annotations
 
+import itertools
 import logging
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -34,8 +34,8 @@ from sonarproc.arcs_geometry import (
     TWO_PI,
     ArcGeometry,
     arc_geometry,
+    mod_2pi,
     point_at,
-    tangent_at,
 )
 from sonarproc.grid import Grid
 
@@ -43,98 +43,56 @@ __all__ = ["arc_bounds", "arc_cells", "arc_geometry", "rasterize_arcs"]
 
 log = logging.getLogger(__name__)
 
-#: Arcs whose tangent turns more than this (rad) get the exact duplicate check.
+#: Arcs whose tangent may turn more than this (rad) get the exact (sorting) repeat check.
 _SIMPLE_TURNING = np.pi / 4
-#: How far back along an arc a repeated cell can be for a simple arc (samples).
-_LAG = 6
-#: Samples per chunk: bounds the working memory (about 20 arrays of this many float64).
-_CHUNK = 1 << 18
-#: Flat keys buffered before one bincount.
-_BUFFER = 1 << 23
+#: Cells of a simple arc repeat at most this many places apart in its boundary sequence.
+_LAG = 8
+#: Interior samples at each end of a piece that may repeat a cell of the arc.
+_EDGE = 3
+#: Samples per generation block: the dozen float64 temporaries stay in L2 cache.
+_CHUNK = 1 << 16
+#: Samples per batch of whole arcs: bounds the key buffer (8 bytes per sample).
+_BATCH = 1 << 23
+#: Row widths of the generation blocks (pieces are padded up to the next width).
+_WIDTHS = np.unique(np.round(1.15 ** np.arange(0, 120)).astype(np.intp))
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
-
-
-@dataclass(frozen=True)
-class _Pieces:
-    """Arc pieces along which one grid axis drives the chain, in order along each arc."""
-
-    arc: IntArray  # reading index
-    row: IntArray  # geometry row
-    first_of_interval: NDArray[np.bool_]
-    last_of_arc: NDArray[np.bool_]
-    x_driven: NDArray[np.bool_]
-    e_start: FloatArray
-    e_end: FloatArray
-    complex_arc: NDArray[np.bool_]
-
-
-def _pieces(geom: ArcGeometry) -> _Pieces:
-    """Split each interval at the 45-degree tangent points (vectorised)."""
-    k = len(geom)
-    lo = geom.lo.reshape(-1)
-    length = geom.length.reshape(-1)
-    row = np.repeat(np.arange(k, dtype=np.intp), 2)
-    keep = np.isfinite(length)
-    lo, length, row = lo[keep], length[keep], row[keep]
-    a, b, alpha = geom.a[row], geom.b[row], geom.alpha[row]
-    targets = np.array([0.25, 0.75, 1.25, 1.75]) * np.pi
-    gamma = targets[None, :] - alpha[:, None]
-    bp = np.arctan2(-b[:, None] * np.cos(gamma), a[:, None] * np.sin(gamma))
-    rel = np.mod(bp - lo[:, None], TWO_PI)
-    rel = np.where((rel > 0.0) & (rel < length[:, None]), rel, length[:, None])
-    bounds = np.sort(
-        np.concatenate([np.zeros((rel.shape[0], 1)), rel, length[:, None]], axis=1), axis=1
-    )
-    starts = bounds[:, :-1]
-    ends = bounds[:, 1:]
-    npc = starts.shape[1]
-    keep2 = (ends > starts) | (np.arange(npc) == 0)[None, :]
-    prow = np.repeat(row, npc).reshape(-1, npc)[keep2]
-    e_start = (lo[:, None] + starts)[keep2]
-    e_end = (lo[:, None] + ends)[keep2]
-    first = np.broadcast_to(np.arange(npc) == 0, keep2.shape)[keep2]
-    last = np.ones(prow.shape[0], dtype=bool)
-    last[:-1] = prow[1:] != prow[:-1]
-    mid = 0.5 * (e_start + e_end)
-    tx, ty = tangent_at(mid, geom.a[prow], geom.b[prow], geom.alpha[prow])
-    turning = np.where(np.isfinite(geom.turning), geom.turning, 0.0)
-    two = np.isfinite(geom.length).all(axis=1)
-    complex_row = (turning.max(axis=1) > _SIMPLE_TURNING) | two
-    return _Pieces(
-        arc=geom.arc[prow],
-        row=prow,
-        first_of_interval=first,
-        last_of_arc=last,
-        x_driven=np.abs(tx) >= np.abs(ty),
-        e_start=e_start,
-        e_end=e_end,
-        complex_arc=complex_row[prow],
-    )
+BoolArray = NDArray[np.bool_]
 
 
 @dataclass(frozen=True)
 class _Plan:
-    """Per-piece sample layout and conic parameters, in grid units."""
+    """Per-piece sample layout and conic parameters in grid units, in order along arcs.
 
-    pieces: _Pieces
-    slots: IntArray  # samples per piece (start? + interior + end + sentinels?)
-    pre: IntArray  # 1 when the piece starts with its interval's start point
-    n_interior: IntArray
-    first: FloatArray  # driver index of the first interior sample
+    A piece is a part of an arc between 45-degree tangent points (or beam limits) on which
+    one grid axis, the driver, advances by one cell per sample; the other (computed)
+    coordinate is ``centre + alpha u + sign sqrt(beta u^2 + gamma)``, u being the driver
+    coordinate relative to the ellipse centre.
+    """
+
+    arc: IntArray  # reading index
+    pre: IntArray  # 1 when the piece begins its interval (its start point is a sample)
+    n: IntArray  # interior samples
+    last: BoolArray  # last piece of its arc
+    complex_arc: BoolArray
+    u0: FloatArray  # driver coordinate of the first interior sample minus the centre's
     step: FloatArray  # +1 or -1
-    d_centre: FloatArray  # driver-axis coordinate of the ellipse centre
-    c_centre: FloatArray  # computed-axis coordinate of the centre
+    beta: FloatArray
+    gamma: FloatArray
     c_alpha: FloatArray
-    c_beta: FloatArray
-    c_gamma: FloatArray
     sign: FloatArray
-    c_max: FloatArray  # padded size of the computed axis - 1
-    d_mult: IntArray  # flat-key multiplier of the (padded) driver index
-    c_mult: IntArray
-    start_key: IntArray  # padded flat key of the start point (if pre)
+    c_offset: FloatArray  # centre's computed coordinate + 1.5 (padding, round half up)
+    c_max: FloatArray  # last padded index of the computed axis
+    d_key0: IntArray  # flat-key part of the first interior sample's driver index
+    d_key_step: IntArray  # flat-key change of the driver per sample
+    c_mult: IntArray  # flat-key multiplier of the computed index
+    variant: IntArray  # bit 0: may leave the grid (clip), bit 1: not a circle
+    start_key: IntArray
     end_key: IntArray
+
+    def __len__(self) -> int:
+        return int(self.n.shape[0])
 
 
 def _padded_key(gx: FloatArray, gy: FloatArray, grid: Grid) -> IntArray:
@@ -145,152 +103,178 @@ def _padded_key(gx: FloatArray, gy: FloatArray, grid: Grid) -> IntArray:
     return iy * w + ix
 
 
+def _unit(e: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """cos e, sin e: float32 trigonometry renormalised to an exact float64 unit vector.
+
+    Used for arc ends only, where an angle error of 1e-7 rad does not matter; the point
+    stays exactly on its ellipse. (float64 sin/cos cost ten times more.)
+    """
+    e32 = e.astype(np.float32)
+    c = np.cos(e32).astype(np.float64)
+    s = np.sin(e32).astype(np.float64)
+    r = np.sqrt(c * c + s * s)
+    return c / r, s / r
+
+
+def _breakpoints(geom: ArcGeometry) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """The four points where the tangent is at 45 degrees, in order of increasing E.
+
+    Returns ``e0`` (K,), the E of the first, and ``off, cos, sin`` (K, 4): offsets
+    ``E_k - e0`` (0 <= off < 2 pi, increasing, since the tangent turns monotonically) and
+    the cosine and sine of each ``E_k``.
+    """
+    es, cs, ss = [], [], []
+    for beta in (0.25 * np.pi, 0.75 * np.pi):
+        cb, sb = np.cos(beta), np.sin(beta)
+        cg = cb * geom.ca + sb * geom.sa  # cos(beta - axis)
+        sg = sb * geom.ca - cb * geom.sa
+        y = -geom.b * cg
+        x = geom.a * sg
+        r = np.sqrt(x * x + y * y)
+        es.append(np.arctan2(y, x))
+        cs.append(x / r)
+        ss.append(y / r)
+    k = es[0].shape[0]
+    d1 = mod_2pi(es[1] - es[0])
+    off = np.empty((k, 4))
+    off[:, 0] = 0.0
+    off[:, 1] = d1
+    off[:, 2] = np.pi
+    off[:, 3] = d1 + np.pi
+    c = np.empty((k, 4))
+    s = np.empty((k, 4))
+    c[:, 0], c[:, 1], c[:, 2], c[:, 3] = cs[0], cs[1], -cs[0], -cs[1]
+    s[:, 0], s[:, 1], s[:, 2], s[:, 3] = ss[0], ss[1], -ss[0], -ss[1]
+    return es[0], off, c, s
+
+
 def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
-    pcs = _pieces(geom)
-    r = pcs.row
+    """Cut every arc into pieces and set up their sampling (vectorised, no loop per arc)."""
+    k = len(geom)
+    # Intervals, in order along arcs.
+    two = np.isfinite(geom.length[:, 1])
+    if two.any():
+        lo_all = geom.lo.reshape(-1)
+        len_all = geom.length.reshape(-1)
+        iv_row = np.repeat(np.arange(k, dtype=np.intp), 2)
+        keep = np.isfinite(len_all)
+        lo, length, iv_row = lo_all[keep], len_all[keep], iv_row[keep]
+    else:
+        lo, length = geom.lo[:, 0], geom.length[:, 0]
+        iv_row = np.arange(k, dtype=np.intp)
+    m = iv_row.shape[0]
+    e0, off, bp_c, bp_s = _breakpoints(geom)
+    # Breakpoints in order from lo: k = j0, j0 + 1, ... (k >= 4 wraps once round).
+    t = mod_2pi(lo - e0[iv_row])
+    offr = off[iv_row]
+    j0 = (offr[:, 0] < t).astype(np.intp) + (offr[:, 1] < t) + (offr[:, 2] < t) + (offr[:, 3] < t)
+    idx = j0[:, None] + np.arange(4)[None, :]
+    wrap = idx >= 4
+    src = (4 * iv_row)[:, None] + np.where(wrap, idx - 4, idx)
+    rel = off.ravel()[src] + np.where(wrap, TWO_PI, 0.0) - t[:, None]
+    ln = length[:, None]
+    inside = rel < ln
+    c_lo, s_lo = _unit(lo)
+    c_hi, s_hi = _unit(lo + length)
+    b_rel = np.empty((m, 6))
+    b_cos = np.empty((m, 6))
+    b_sin = np.empty((m, 6))
+    b_rel[:, 0] = 0.0
+    b_rel[:, 1:5] = np.where(inside, rel, ln)
+    b_rel[:, 5] = length
+    b_cos[:, 0] = c_lo
+    b_cos[:, 1:5] = np.where(inside, bp_c.ravel()[src], c_hi[:, None])
+    b_cos[:, 5] = c_hi
+    b_sin[:, 0] = s_lo
+    b_sin[:, 1:5] = np.where(inside, bp_s.ravel()[src], s_hi[:, None])
+    b_sin[:, 5] = s_hi
+    pk = b_rel[:, 1:] > b_rel[:, :-1]
+    pk[:, 0] = True
+    nz = np.flatnonzero(pk)
+    piv = nz // 5
+    kk = nz - 5 * piv
+    row = iv_row[piv]
+    pre = (kk == 0).astype(np.intp)
+    at = 6 * piv + kk
+    cs, ss = b_cos.ravel()[at], b_sin.ravel()[at]
+    ce, se = b_cos.ravel()[at + 1], b_sin.ravel()[at + 1]
+    last = np.ones(row.shape[0], dtype=bool)
+    last[:-1] = row[1:] != row[:-1]
+    complex_row = (geom.turning[:, 0] > _SIMPLE_TURNING) | two
+
+    # Geometry in grid units.
     cell = grid.cell
-    a = geom.a[r] / cell
-    b = geom.b[r] / cell
-    alpha = geom.alpha[r]
-    gcx = (geom.cx[r] - grid.x0) / cell
-    gcy = (geom.cy[r] - grid.y0) / cell
-    ca, sa = np.cos(alpha), np.sin(alpha)
+    a = geom.a[row] / cell
+    b = geom.b[row] / cell
+    ca, sa = geom.ca[row], geom.sa[row]
+    gcx = (geom.cx[row] - grid.x0) / cell
+    gcy = (geom.cy[row] - grid.y0) / cell
+    sx = gcx + a * cs * ca - b * ss * sa
+    sy = gcy + a * cs * sa + b * ss * ca
+    ex = gcx + a * ce * ca - b * se * sa
+    ey = gcy + a * ce * sa + b * se * ca
+    xd = np.abs(ex - sx) >= np.abs(ey - sy)  # flat piece: x drives
     ia2 = 1.0 / (a * a)
     ib2 = 1.0 / (b * b)
-    qa = ca * ca * ia2 + sa * sa * ib2
-    qc = sa * sa * ia2 + ca * ca * ib2
-    qb = 2.0 * ca * sa * (ia2 - ib2)
-    inv_ab2 = ia2 * ib2
-    xd = pcs.x_driven
-    q_d = np.where(xd, qc, qa)  # coefficient of the computed coordinate squared
-    c_alpha = -qb / (2.0 * q_d)
-    c_beta = -inv_ab2 / (q_d * q_d)
-    c_gamma = 1.0 / q_d
+    q_x2 = ca * ca * ia2 + sa * sa * ib2
+    q_y2 = sa * sa * ia2 + ca * ca * ib2
+    q_xy = 2.0 * ca * sa * (ia2 - ib2)
+    q_c = np.where(xd, q_y2, q_x2)  # coefficient of the computed coordinate squared
+    c_alpha = -q_xy / (2.0 * q_c)
+    beta = -(ia2 * ib2) / (q_c * q_c)
+    gamma = 1.0 / q_c
     d_centre = np.where(xd, gcx, gcy)
     c_centre = np.where(xd, gcy, gcx)
-    # End points in grid coordinates.
-    sx, sy = point_at(pcs.e_start, geom.cx[r], geom.cy[r], geom.a[r], geom.b[r], alpha)
-    ex, ey = point_at(pcs.e_end, geom.cx[r], geom.cy[r], geom.a[r], geom.b[r], alpha)
-    sx, sy = (sx - grid.x0) / cell, (sy - grid.y0) / cell
-    ex, ey = (ex - grid.x0) / cell, (ey - grid.y0) / cell
-    mx, my = point_at(
-        0.5 * (pcs.e_start + pcs.e_end), geom.cx[r], geom.cy[r], geom.a[r], geom.b[r], alpha
-    )
-    mx, my = (mx - grid.x0) / cell, (my - grid.y0) / cell
-    du = np.where(xd, mx - gcx, my - gcy)
-    dv = np.where(xd, my - gcy, mx - gcx)
-    sign = np.where(dv - c_alpha * du >= 0.0, 1.0, -1.0)
     ds = np.where(xd, sx, sy)
     de = np.where(xd, ex, ey)
+    rs = np.where(xd, sy, sx) - c_centre - c_alpha * (ds - d_centre)
+    re = np.where(xd, ey, ex) - c_centre - c_alpha * (de - d_centre)
+    sign = np.where(rs + re >= 0.0, 1.0, -1.0)
     n_d = np.where(xd, grid.nx, grid.ny).astype(np.float64)
     up = de >= ds
     step = np.where(up, 1.0, -1.0)
     first = np.where(up, np.ceil(ds), np.floor(ds))
-    last = np.where(up, np.floor(de), np.ceil(de))
+    lastd = np.where(up, np.floor(de), np.ceil(de))
     first = np.where(up, np.maximum(first, 0.0), np.minimum(first, n_d - 1.0))
-    last = np.where(up, np.minimum(last, n_d - 1.0), np.maximum(last, 0.0))
-    n_interior = np.maximum((last - first) * step + 1.0, 0.0).astype(np.intp)
-    pre = pcs.first_of_interval.astype(np.intp)
-    slots = pre + n_interior + 1 + np.where(pcs.last_of_arc, _LAG, 0)
+    lastd = np.where(up, np.minimum(lastd, n_d - 1.0), np.maximum(lastd, 0.0))
+    n = np.maximum((lastd - first) * step + 1.0, 0.0).astype(np.intp)
     w = grid.nx + 2
+    d_mult = np.where(xd, 1, w).astype(np.intp)
+    # Range of the computed coordinate over the piece: its end values and, if the piece
+    # holds it, the extreme of its branch (centre + sign * half extent of the ellipse).
+    c_half = np.sqrt(
+        np.where(xd, a * a * sa * sa + b * b * ca * ca, a * a * ca * ca + b * b * sa * sa)
+    )
+    c_s = np.where(xd, sy, sx)
+    c_e = np.where(xd, ey, ex)
+    c_ext = c_centre + sign * c_half
+    c_lo = np.minimum(np.minimum(c_s, c_e), c_ext)
+    c_hi = np.maximum(np.maximum(c_s, c_e), c_ext)
+    n_c = np.where(xd, grid.ny, grid.nx)
+    clip = (c_lo < -0.49) | (c_hi > n_c - 0.51)
+    ellipse = (c_alpha != 0.0) | (beta != -1.0)
+    variant = clip.astype(np.intp) + 2 * ellipse.astype(np.intp)
     return _Plan(
-        pieces=pcs,
-        slots=slots,
+        arc=geom.arc[row],
         pre=pre,
-        n_interior=n_interior,
-        first=first,
+        n=n,
+        last=last,
+        complex_arc=complex_row[row],
+        u0=first - d_centre,
         step=step,
-        d_centre=d_centre,
-        c_centre=c_centre,
+        beta=beta,
+        gamma=gamma,
         c_alpha=c_alpha,
-        c_beta=c_beta,
-        c_gamma=c_gamma,
         sign=sign,
+        c_offset=c_centre + 1.5,
         c_max=np.where(xd, grid.ny + 1, grid.nx + 1).astype(np.float64),
-        d_mult=np.where(xd, 1, w).astype(np.intp),
+        d_key0=(first.astype(np.intp) + 1) * d_mult,
+        d_key_step=step.astype(np.intp) * d_mult,
         c_mult=np.where(xd, w, 1).astype(np.intp),
+        variant=variant,
         start_key=_padded_key(sx, sy, grid),
         end_key=_padded_key(ex, ey, grid),
     )
-
-
-def _chunks(plan: _Plan) -> Iterator[tuple[int, int]]:
-    """Piece ranges ``[p0, p1)`` holding whole arcs and about ``_CHUNK`` samples."""
-    arc_end = np.flatnonzero(plan.pieces.last_of_arc) + 1  # piece index after each arc
-    if arc_end.shape[0] == 0:
-        return
-    cum_at_end = np.cumsum(plan.slots)[arc_end - 1]
-    i = 0
-    while i < arc_end.shape[0]:
-        base = int(cum_at_end[i - 1]) if i > 0 else 0
-        k = max(int(np.searchsorted(cum_at_end, base + _CHUNK, side="right")), i + 1)
-        yield (int(arc_end[i - 1]) if i > 0 else 0), int(arc_end[k - 1])
-        i = k
-
-
-def _chunk_keys(plan: _Plan, p0: int, p1: int, trash: int) -> tuple[IntArray, IntArray]:
-    """Padded flat keys of all samples of pieces ``[p0, p1)``, repeats sent to ``trash``.
-
-    Returns the keys and the per-piece slot offsets (length ``p1 - p0 + 1``).
-    """
-    sl = slice(p0, p1)
-    slots = plan.slots[sl]
-    offs = np.zeros(slots.shape[0] + 1, dtype=np.intp)
-    np.cumsum(slots, out=offs[1:])
-    total = int(offs[-1])
-    pre = plan.pre[sl]
-    step = plan.step[sl]
-    # Driver index of slot j: first + step * (j - offs - pre).
-    k0 = plan.first[sl] - step * (offs[:-1] + pre)
-    j = np.arange(total, dtype=np.float64)
-
-    def rep(v: NDArray[Any]) -> NDArray[Any]:
-        return np.repeat(v, slots)
-
-    d = rep(step) * j
-    d += rep(k0)
-    u = d - rep(plan.d_centre[sl])
-    q = u * u
-    q *= rep(plan.c_beta[sl])
-    q += rep(plan.c_gamma[sl])
-    np.maximum(q, 0.0, out=q)
-    np.sqrt(q, out=q)
-    q *= rep(plan.sign[sl])
-    u *= rep(plan.c_alpha[sl])
-    q += u
-    q += rep(plan.c_centre[sl] + 1.5)
-    np.clip(q, 0.0, rep(plan.c_max[sl]), out=q)
-    ci = q.astype(np.intp)
-    di = d.astype(np.intp)
-    di += 1
-    keys = di * rep(plan.d_mult[sl])
-    ci *= rep(plan.c_mult[sl])
-    keys += ci
-    # End points and sentinels.
-    has_pre = pre.astype(bool)
-    keys[offs[:-1][has_pre]] = plan.start_key[sl][has_pre]
-    end_pos = offs[:-1] + pre + plan.n_interior[sl]
-    keys[end_pos] = plan.end_key[sl]
-    last = plan.pieces.last_of_arc[sl]
-    sent0 = end_pos[last] + 1
-    for i in range(_LAG):
-        keys[sent0 + i] = trash + i
-    # Repeats within a short lag along an arc (the sentinels keep arcs apart).
-    dup = np.zeros(total, dtype=bool)
-    for lag in range(1, _LAG + 1):
-        dup[lag:] |= keys[lag:] == keys[:-lag]
-    # Exact check for complex arcs.
-    cx = plan.pieces.complex_arc[sl]
-    if cx.any():
-        idx = _ranges(offs[:-1][cx], slots[cx])
-        owner = np.repeat(plan.pieces.arc[sl][cx], slots[cx])
-        comb = owner.astype(np.int64) * np.int64(trash + _LAG + 1) + keys[idx]
-        _, first_idx = np.unique(comb, return_index=True)
-        rep_mask = np.ones(idx.shape[0], dtype=bool)
-        rep_mask[first_idx] = False
-        dup[idx[rep_mask]] = True
-    keys[dup] = trash
-    return keys, offs
 
 
 def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
@@ -298,6 +282,164 @@ def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
     before = np.cumsum(lengths) - lengths
     total = int(lengths.sum())
     return np.arange(total, dtype=np.intp) + np.repeat(starts - before, lengths)
+
+
+def _fill_block(
+    plan: _Plan, rows: IntArray, width: int, variant: int, trash: int, out: IntArray
+) -> None:
+    """Flat keys of the interior samples of pieces ``rows`` into ``out`` (rows, width).
+
+    All rows share ``variant``: circles skip the cross term, pieces that stay inside the
+    grid skip the clip.
+    """
+    kf = np.arange(width, dtype=np.float64)
+    ki = np.arange(width, dtype=np.intp)
+    col = (slice(None), None)
+    u = np.multiply(plan.step[rows][col], kf)
+    u += plan.u0[rows][col]
+    q = u * u
+    if variant & 2:
+        q *= plan.beta[rows][col]
+        q += plan.gamma[rows][col]
+    else:  # circle: beta = -1
+        np.subtract(plan.gamma[rows][col], q, out=q)
+    np.maximum(q, 0.0, out=q)
+    np.sqrt(q, out=q)
+    q *= plan.sign[rows][col]
+    if variant & 2:
+        u *= plan.c_alpha[rows][col]
+        q += u
+    q += plan.c_offset[rows][col]
+    if variant & 1:
+        np.maximum(q, 0.0, out=q)
+        np.minimum(q, plan.c_max[rows][col], out=q)
+    np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
+    out *= plan.c_mult[rows][col]
+    d = np.multiply(plan.d_key_step[rows][col], ki)
+    d += plan.d_key0[rows][col]
+    out += d
+    np.putmask(out, ki[None, :] >= plan.n[rows][col], trash)
+
+
+@dataclass(frozen=True)
+class _BatchKeys:
+    keys: IntArray  # buffer of padded flat keys (repeats and padding hold the trash key)
+    row_base: IntArray  # buffer position of each piece's first interior sample
+    start_pos: IntArray  # buffer position of each piece's start point (-1 if none)
+    end_pos: IntArray
+
+
+def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
+    """Keys of all samples of pieces ``[p0, p1)`` (whole arcs), each arc's repeats trashed."""
+    n = plan.n[p0:p1]
+    pre = plan.pre[p0:p1]
+    npc = p1 - p0
+    live = np.flatnonzero(n > 0)
+    wi_live = np.searchsorted(_WIDTHS, n[live])
+    group = wi_live * 4 + plan.variant[p0:p1][live]
+    perm = np.argsort(group, kind="stable")
+    order = live[perm]
+    group = group[perm]
+    widths = _WIDTHS[group // 4]
+    n_interior = int(widths.sum())
+    n_pre = int(pre.sum())
+    keys = np.empty(n_interior + n_pre + npc, dtype=np.intp)
+    row_base = np.full(npc, -1, dtype=np.intp)
+    pos = 0
+    cuts = np.concatenate([[0], np.flatnonzero(np.diff(group)) + 1, [order.shape[0]]])
+    if order.shape[0] == 0:
+        cuts = cuts[:1]
+    for g0, g1 in itertools.pairwise(cuts.tolist()):
+        width = int(widths[g0])
+        variant = int(group[g0] % 4)
+        per = max(1, _CHUNK // width)
+        for b0 in range(int(g0), int(g1), per):
+            b1 = min(b0 + per, int(g1))
+            rows_local = order[b0:b1]
+            nr = b1 - b0
+            block = keys[pos : pos + nr * width].reshape(nr, width)
+            _fill_block(plan, rows_local + p0, width, variant, trash, block)
+            row_base[rows_local] = pos + width * np.arange(nr, dtype=np.intp)
+            pos += nr * width
+    start_pos = np.full(npc, -1, dtype=np.intp)
+    has_pre = pre.astype(bool)
+    start_pos[has_pre] = pos + np.arange(n_pre, dtype=np.intp)
+    keys[pos : pos + n_pre] = plan.start_key[p0:p1][has_pre]
+    pos += n_pre
+    end_pos = pos + np.arange(npc, dtype=np.intp)
+    keys[pos : pos + npc] = plan.end_key[p0:p1]
+    _trash_repeats(plan, p0, p1, keys, row_base, start_pos, end_pos, trash)
+    return _BatchKeys(keys=keys, row_base=row_base, start_pos=start_pos, end_pos=end_pos)
+
+
+def _trash_repeats(
+    plan: _Plan,
+    p0: int,
+    p1: int,
+    keys: IntArray,
+    row_base: IntArray,
+    start_pos: IntArray,
+    end_pos: IntArray,
+    trash: int,
+) -> None:
+    """Send every repeat of a cell within one arc to ``trash`` (in place).
+
+    Interior samples of a piece have distinct driver indices, and on an arc whose tangent
+    turns by at most 45 degrees two samples in one cell lie within about 1.5 cells of arc
+    of each other. So only each piece's end points and ``_EDGE`` interior samples at each
+    end can repeat, and only within ``_LAG`` places in that boundary sequence; the other
+    arcs are checked exactly by sorting.
+    """
+    n = plan.n[p0:p1]
+    pre = plan.pre[p0:p1]
+    head = np.minimum(n, _EDGE)
+    tail = np.minimum(n - head, _EDGE)
+    cnt = pre + head + tail + 1
+    off = np.cumsum(cnt) - cnt
+    seq = np.empty(int(cnt.sum()), dtype=np.intp)
+    has_pre = pre.astype(bool)
+    seq[off[has_pre]] = start_pos[has_pre]
+    seq[_ranges(off + pre, head)] = _ranges(row_base, head)
+    seq[_ranges(off + pre + head, tail)] = _ranges(row_base + n - tail, tail)
+    seq[off + pre + head + tail] = end_pos
+    # Key and arc in one int64, so that equal values are repeats within one arc.
+    skeys = np.repeat(plan.arc[p0:p1].astype(np.int64) * np.int64(trash + 1), cnt)
+    skeys += keys[seq]
+    dup = np.zeros(skeys.shape[0], dtype=bool)
+    for lag in range(1, _LAG + 1):
+        dup[lag:] |= skeys[lag:] == skeys[:-lag]
+    keys[seq[dup]] = trash
+    cx = np.flatnonzero(plan.complex_arc[p0:p1])
+    if cx.size:
+        idx = np.concatenate(
+            [_ranges(row_base[cx], n[cx]), start_pos[cx][pre[cx] > 0], end_pos[cx]]
+        )
+        owner = np.concatenate(
+            [
+                np.repeat(plan.arc[p0:p1][cx], n[cx]),
+                plan.arc[p0:p1][cx][pre[cx] > 0],
+                plan.arc[p0:p1][cx],
+            ]
+        )
+        comb = owner.astype(np.int64) * np.int64(trash + _LAG + 2) + keys[idx]
+        _, first = np.unique(comb, return_index=True)
+        rep = np.ones(idx.shape[0], dtype=bool)
+        rep[first] = False
+        keys[idx[rep]] = trash
+
+
+def _batches(plan: _Plan) -> Iterator[tuple[int, int]]:
+    """Piece ranges ``[p0, p1)`` holding whole arcs and about ``_BATCH`` samples."""
+    arc_end = np.flatnonzero(plan.last) + 1  # piece index after each arc
+    if arc_end.shape[0] == 0:
+        return
+    cum_at_end = np.cumsum(plan.n + plan.pre + 1)[arc_end - 1]
+    i = 0
+    while i < arc_end.shape[0]:
+        base = int(cum_at_end[i - 1]) if i > 0 else 0
+        k = max(int(np.searchsorted(cum_at_end, base + _BATCH, side="right")), i + 1)
+        yield (int(arc_end[i - 1]) if i > 0 else 0), int(arc_end[k - 1])
+        i = k
 
 
 def arc_bounds(
@@ -353,8 +495,8 @@ def arc_bounds(
     lo = geom.lo
     length = geom.length
     # Candidate E: interval ends and the four axis extremes of each ellipse inside them.
-    ca = np.cos(geom.alpha)[:, None]
-    sa = np.sin(geom.alpha)[:, None]
+    ca = geom.ca[:, None]
+    sa = geom.sa[:, None]
     aa = geom.a[:, None]
     bb = geom.b[:, None]
     ex = np.arctan2(-bb * sa, aa * ca)  # dx/dE = 0
@@ -362,10 +504,10 @@ def arc_bounds(
     extremes = np.concatenate([ex, ex + np.pi, ey, ey + np.pi], axis=1)  # (K, 4)
     cands = [lo, lo + length]
     for i in range(extremes.shape[1]):
-        rel = np.mod(extremes[:, i : i + 1] - lo, TWO_PI)
+        rel = mod_2pi(extremes[:, i : i + 1] - lo)
         cands.append(np.where(rel <= length, lo + rel, lo))
     e = np.concatenate(cands, axis=1)
-    x, y = point_at(e, geom.cx[:, None], geom.cy[:, None], aa, bb, geom.alpha[:, None])
+    x, y = point_at(e, geom.cx[:, None], geom.cy[:, None], aa, bb, ca, sa)
     return (
         float(np.nanmin(x)),
         float(np.nanmax(x)),
@@ -447,22 +589,18 @@ def rasterize_arcs(
     )
     npad = (grid.ny + 2) * (grid.nx + 2)
     trash = npad
-    counts = np.zeros(npad + _LAG + 1, dtype=np.uint32)
-    buffer: list[IntArray] = []
-    buffered = 0
-    for p0, p1 in _chunks(plan):
-        keys, _ = _chunk_keys(plan, p0, p1, trash)
-        buffer.append(keys)
-        buffered += keys.shape[0]
-        if buffered >= _BUFFER:
-            counts += np.bincount(np.concatenate(buffer), minlength=counts.shape[0]).astype(
-                np.uint32
-            )
-            buffer.clear()
-            buffered = 0
-    if buffer:
-        counts += np.bincount(np.concatenate(buffer), minlength=counts.shape[0]).astype(np.uint32)
-    return counts[:npad].reshape(grid.ny + 2, grid.nx + 2)[1:-1, 1:-1].copy()
+    total: NDArray[np.intp] | None = None
+    for p0, p1 in _batches(plan):
+        batch = _batch_keys(plan, p0, p1, trash)
+        part = np.bincount(batch.keys, minlength=npad + 1)
+        if total is None:
+            total = part
+        else:
+            total += part
+    if total is None:
+        return np.zeros(grid.shape, dtype=np.uint32)
+    inner = total[:npad].reshape(grid.ny + 2, grid.nx + 2)[1:-1, 1:-1]
+    return inner.astype(np.uint32)
 
 
 def arc_cells(
@@ -501,9 +639,20 @@ def arc_cells(
     npad = (grid.ny + 2) * w
     out_arc: list[IntArray] = []
     out_key: list[IntArray] = []
-    for p0, p1 in _chunks(plan):
-        keys, offs = _chunk_keys(plan, p0, p1, npad)
-        owner = np.repeat(plan.pieces.arc[p0:p1], np.diff(offs))
+    for p0, p1 in _batches(plan):
+        bk = _batch_keys(plan, p0, p1, npad)
+        n = plan.n[p0:p1]
+        pre = plan.pre[p0:p1]
+        # Buffer positions in order along each arc: start point, interior, end point.
+        cnt = pre + n + 1
+        off = np.cumsum(cnt) - cnt
+        src = np.empty(int(cnt.sum()), dtype=np.intp)
+        has_pre = pre.astype(bool)
+        src[off[has_pre]] = bk.start_pos[has_pre]
+        src[_ranges(off + pre, n)] = _ranges(bk.row_base, n)
+        src[off + pre + n] = bk.end_pos
+        keys = bk.keys[src]
+        owner = np.repeat(plan.arc[p0:p1], cnt)
         iy, ix = np.divmod(keys, w)
         ok = (keys < npad) & (iy >= 1) & (iy <= grid.ny) & (ix >= 1) & (ix <= grid.nx)
         out_arc.append(owner[ok])

@@ -303,8 +303,8 @@ def test_chunking_and_exact_path_do_not_change_the_map(monkeypatch: pytest.Monke
     grid = Grid.covering(-1.5, 1.5, -1.5, 1.5, cell=0.01)
     ref = counts(r, grid)
     ref_cells = cells(r, grid)
-    monkeypatch.setattr(arcs, "_CHUNK", 500)
-    monkeypatch.setattr(arcs, "_BUFFER", 3000)
+    monkeypatch.setattr(arcs, "_CHUNK", 50)
+    monkeypatch.setattr(arcs, "_BATCH", 3000)
     np.testing.assert_array_equal(counts(r, grid), ref)
     monkeypatch.setattr(arcs, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
     np.testing.assert_array_equal(counts(r, grid), ref)
