@@ -61,6 +61,7 @@ class _DelayedProgress:
     def close(self) -> None:
         if self._timer is not None:
             self._timer.cancel()
+            self._timer.join(timeout=1.0)
         with self._lock:
             if self._started:
                 self._progress.stop()

@@ -210,3 +210,29 @@ def test_unwritable_out_dir_is_a_runtime_failure(
     blocker.write_text("")
     assert main(["run", str(log_h5), "--out", str(blocker / "sub"), "--cell", "0.02"]) == 1
     one_error_line(capsys.readouterr().err)
+
+
+def test_delayed_progress_starts_late_and_stops_cleanly() -> None:
+    import threading
+    import time
+
+    from sonarproc.cli_run import _DelayedProgress
+
+    off = _DelayedProgress(enabled=False)
+    off("read")
+    off.close()
+    bar = _DelayedProgress(enabled=True, delay=0.0)
+    deadline = time.monotonic() + 2.0
+    while not bar._started and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert bar._started
+    for stage in ("read", "rasterise", "report", "not-a-stage"):
+        bar(stage)
+    bar.close()
+    assert bar._progress is None
+    late = _DelayedProgress(enabled=True, delay=30.0)
+    late.close()  # closed before the delay: never shown, timer cancelled
+    assert not late._started
+    assert all(
+        not isinstance(t, threading.Timer) or not t.is_alive() for t in threading.enumerate()
+    )
