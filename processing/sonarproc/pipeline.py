@@ -4,9 +4,9 @@
 adds the one piece of I/O, reading the log, so that ``t_cpu_s`` covers the whole run from
 raw TOF as the paper measures it (process CPU time, ``time.process_time``).
 
-Memory: the maps are ``uint16`` counts and ``bool`` masks; the processed map's cells are
-listed once (``np.nonzero`` on its transpose, which yields them sorted by column and row)
-and every later step works on those index arrays.
+Memory: the maps are unsigned-integer counts (from the rasteriser) and ``bool`` masks;
+the processed map's cells are listed once (``np.nonzero`` on its transpose, which yields
+them sorted by column and row) and every later step works on those index arrays.
 """
 
 from __future__ import annotations
@@ -88,8 +88,8 @@ def select_readings(log_: SonarLog, *, drop_crosstalk: bool) -> tuple[np.ndarray
     total = len(r)
     if total == 0:
         raise ValueError(f"{name}: the log holds no readings")
-    log_.sensor_rows(r["tx"])
-    log_.sensor_rows(r["rx"])
+    log_.sensor_rows(r["tx"])  # raises on an unknown transducer id
+    rows = log_.sensor_rows(r["rx"])
     flagged = (r["flags"] & FLAG_NO_ECHO) != 0
     crosstalk = (r["flags"] & FLAG_CROSSTALK) != 0
     keep = ~flagged
@@ -105,7 +105,6 @@ def select_readings(log_: SonarLog, *, drop_crosstalk: bool) -> tuple[np.ndarray
         )
     rng = np.zeros(total)
     rng[keep] = 0.5 * log_.path_lengths(r[keep])
-    rows = log_.sensor_rows(r["rx"])
     lo, hi = log_.sensors["min_range"][rows], log_.sensors["max_range"][rows]
     outside = keep & ((rng < lo) | (rng > hi))
     keep &= ~outside
