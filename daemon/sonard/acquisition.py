@@ -173,14 +173,13 @@ class Acquisition:
         raise AssertionError("unreachable")
 
     def stop_robot(self) -> bool:
-        """Send ST (best effort); return whether the robot acknowledged it."""
-        for _ in range(2):
-            try:
-                self.feed(self.client.stop())
-                return True
-            except Exception as exc:
-                log.debug("ST failed: %s", exc)
-        return False
+        """Send ST (best effort: the client retries once); return whether it was answered."""
+        try:
+            self.feed(self.client.stop())
+        except Exception as exc:
+            log.debug("ST failed: %s", exc)
+            return False
+        return True
 
     # -- feeding ----------------------------------------------------------------------
     def feed(self, state: Any) -> Any:
