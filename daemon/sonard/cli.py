@@ -2,7 +2,8 @@
 
 Usage::
 
-    sonard --port PORT --plan PLAN.yaml [--out LOG.h5] [--baud N] [--fault-timeout S] [-v]
+    sonard --port PORT --plan PLAN.yaml [--out LOG.h5] [--baud N] [--fault-timeout S]
+           [--truth WORLD.yaml] [-v]
 
 Exit codes: 0 the plan completed (or a stop was requested), 1 runtime failure, 2 usage or
 configuration error. Messages go to stderr through :mod:`logging`; under systemd
@@ -60,6 +61,13 @@ def _parser() -> argparse.ArgumentParser:
         metavar="S",
         help="abort when the link stays down this long (overrides fault_timeout_s)",
     )
+    p.add_argument(
+        "--truth",
+        type=Path,
+        metavar="WORLD.yaml",
+        help="store this sonarsim world's truth profile in the log (emulator runs: lets "
+        "sonarproc report E1/E2)",
+    )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv debug)")
     return p
 
@@ -112,6 +120,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"sonard: --out: directory {out.parent} does not exist", file=sys.stderr)
         return 2
 
+    truth = None
+    if args.truth is not None:
+        try:
+            from sonarsim import load_world
+
+            truth = load_world(args.truth).truth_profile()
+        except Exception as exc:
+            print(f"sonard: --truth: {exc}", file=sys.stderr)
+            return 2
+
     from sonard.daemon import run  # imports h5py and the driver: keep --help fast
 
     try:
@@ -122,6 +140,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             plan_text=args.plan.read_text(encoding="utf-8"),
             baud=args.baud,
             fault_timeout_s=args.fault_timeout,
+            truth=truth,
         )
     except OSError as exc:  # the log file could not be created
         print(f"sonard: cannot create {out}: {exc.strerror or exc}", file=sys.stderr)

@@ -18,6 +18,8 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+import numpy as np
+
 from sonard.acquisition import Acquisition, FaultAbort, Stopped
 from sonard.motion import MotionError
 from sonard.notify import Notifier
@@ -64,6 +66,7 @@ def run(
     stop: threading.Event | None = None,
     notifier: Notifier | None = None,
     install_signals: bool = True,
+    truth: np.ndarray | None = None,
 ) -> RunResult:
     """Run ``plan`` on the robot at ``port`` and log to ``out``.
 
@@ -87,6 +90,8 @@ def run(
         Defaults to one reading ``$NOTIFY_SOCKET``.
     install_signals : bool
         Install SIGTERM/SIGINT handlers (main thread only).
+    truth : ndarray, optional
+        (N, 2) true surface profile to store (simulated runs).
 
     Returns
     -------
@@ -124,6 +129,7 @@ def run(
         robot="nomad200",
         attrs=attrs,
         flush_interval=FLUSH_INTERVAL_S,
+        truth=truth,
     )
     sink = LogSink(writer)
     client = _client(port, baud)

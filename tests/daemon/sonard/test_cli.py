@@ -46,7 +46,8 @@ def test_run_in_process_with_notify(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     plan = _plan(tmp_path, [{"translate": {"distance": 0.1, "step": 0.05, "speed": 0.2}}])
     out = tmp_path / "a.h5"
     try:
-        assert main(["--port", _url("cli-a"), "--plan", str(plan), "--out", str(out)]) == 0
+        argv = ["--port", _url("cli-a"), "--plan", str(plan), "--out", str(out)]
+        assert main([*argv, "--truth", str(WORLD)]) == 0
         msgs = []
         while True:
             try:
@@ -62,6 +63,7 @@ def test_run_in_process_with_notify(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert len(log.readings) > 20
     assert log.attrs["baud"] == 38400 and "translate" in log.attrs["plan"]
     assert np.isclose(log.readings["x"].max(), -0.65, atol=0.003)
+    assert log.truth is not None and log.truth.shape[1] == 2 and len(log.truth) > 100
 
 
 def test_usage_and_config_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -75,6 +77,8 @@ def test_usage_and_config_errors(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert "refusing to overwrite" in capsys.readouterr().err
     assert main(["--port", "x", "--plan", str(plan), "--out", str(tmp_path / "no/dir.h5")]) == 2
     assert main(["--port", "x", "--plan", str(plan), "--baud", "1234"]) == 2
+    assert main(["--port", "x", "--plan", str(plan), "--truth", str(tmp_path / "w.yaml")]) == 2
+    assert "--truth" in capsys.readouterr().err
 
 
 def test_unreachable_port_is_a_runtime_failure(
