@@ -1,0 +1,93 @@
+"""Open an HDF5 file that may come from a killed writer, a live writer or a cut copy.
+
+The three cases and what we do:
+
+* **killed or live SWMR writer**: the superblock still says "open for write", which plain
+  readers refuse; SWMR-read mode ignores that flag and sees every row the writer flushed.
+* **cut file** (a copy that stopped early, a full disk): HDF5 refuses a file shorter than the
+  end-of-file address its superblock records. We copy it to a temporary file padded with
+  zeros to that length; whatever was lost reads as zeros, which the row checks reject, so the
+  caller recovers the intact prefix or gets a one-line error.
+* anything else that is not HDF5 becomes a one-line :class:`InvalidLogError`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+import h5py
+
+from sonarlog.errors import InvalidLogError
+
+_STORED_EOF = re.compile(r"stored_eof\s*=\s*(\d+)")
+
+
+def _first_line(err: BaseException) -> str:
+    text = str(err).strip().splitlines()
+    return text[0] if text else type(err).__name__
+
+
+@contextlib.contextmanager
+def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
+    """Open ``path`` read-only for :func:`sonarlog.read_log`, recovering what can be.
+
+    Raises
+    ------
+    InvalidLogError
+        If the file is missing, is not HDF5, or cannot be opened; the message names the file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InvalidLogError(f"{p}: no such file")
+    try:
+        is_hdf5 = h5py.is_hdf5(str(p))
+    except OSError as err:
+        raise InvalidLogError(f"{p}: cannot read ({_first_line(err)})") from err
+    if not is_hdf5:
+        raise InvalidLogError(f"{p}: not an HDF5 file")
+    try:
+        handle = _open_tolerant(p)
+    except OSError as err:
+        match = _STORED_EOF.search(str(err))
+        if match is None:
+            raise InvalidLogError(f"{p}: cannot open as HDF5 ({_first_line(err)})") from err
+        with _padded_copy(p, int(match.group(1))) as padded:
+            try:
+                handle = _open_tolerant(padded)
+            except OSError as err2:
+                raise InvalidLogError(
+                    f"{p}: file is cut short and its metadata is lost ({_first_line(err2)})"
+                ) from err2
+            with handle:
+                yield handle
+        return
+    with handle:
+        yield handle
+
+
+def _open_tolerant(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except OSError as err:
+        text = str(err)
+        if "already open for write" in text or "lock" in text.lower():
+            return h5py.File(path, "r", swmr=True, locking=False)
+        raise
+
+
+@contextlib.contextmanager
+def _padded_copy(path: Path, length: int) -> Iterator[Path]:
+    size = path.stat().st_size
+    with tempfile.TemporaryDirectory(prefix="sonarlog-") as tmp:
+        copy = Path(tmp) / path.name
+        shutil.copyfile(path, copy)
+        if length > size:
+            with open(copy, "r+b") as fh:
+                fh.truncate(length)
+        yield copy

@@ -1,0 +1,87 @@
+"""Write a clean copy of a damaged or crashed sonarlog."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from sonarlog.reader import read_log
+from sonarlog.writer import LogWriter
+
+_WRITER_OWNED = {"format", "format_version", "speed_of_sound", "robot"}
+
+
+@dataclass(frozen=True)
+class RecoveryReport:
+    """What :func:`recover_log` kept and dropped."""
+
+    source: Path
+    destination: Path
+    readings: int
+    dropped_rows: int
+    poses: int
+    events: int
+
+
+def default_recovered_path(source: str | os.PathLike[str]) -> Path:
+    """``LOG.h5`` -> ``LOG.recovered.h5`` beside it."""
+    src = Path(source)
+    return src.with_name(f"{src.stem}.recovered{src.suffix or '.h5'}")
+
+
+def recover_log(
+    source: str | os.PathLike[str], destination: str | os.PathLike[str] | None = None
+) -> RecoveryReport:
+    """Copy the intact part of ``source`` into a new, cleanly closed sonarlog v1 file.
+
+    Parameters
+    ----------
+    source : path-like
+        A sonarlog that may have been cut, or left open by a killed writer.
+    destination : path-like, optional
+        Where to write; default ``<stem>.recovered.h5`` beside ``source``.
+
+    Returns
+    -------
+    RecoveryReport
+
+    Raises
+    ------
+    InvalidLogError
+        If nothing of ``source`` can be read as a sonarlog.
+    ValueError
+        If ``destination`` is the same file as ``source``.
+    """
+    src = Path(source)
+    dst = Path(destination) if destination is not None else default_recovered_path(src)
+    if dst.exists() and dst.resolve() == src.resolve():
+        raise ValueError(f"{dst}: the recovered copy must not overwrite the source log")
+    log = read_log(src)
+    extra = {k: v for k, v in log.attrs.items() if k not in _WRITER_OWNED}
+    extra["recovered_from"] = str(src)
+    extra["recovered_dropped_rows"] = int(log.dropped_rows)
+    tmp = dst.with_name(dst.name + ".partial")
+    with LogWriter(
+        tmp,
+        log.sensors,
+        speed_of_sound=log.speed_of_sound,
+        robot=str(log.attrs.get("robot", "")),
+        attrs=extra,
+        truth=log.truth,
+        flush_interval=0,
+    ) as writer:
+        writer.append(log.readings)
+        if log.poses is not None:
+            writer.append_poses(log.poses)
+        if log.events is not None:
+            writer.append_events(log.events)
+    os.replace(tmp, dst)
+    return RecoveryReport(
+        source=src,
+        destination=dst,
+        readings=len(log.readings),
+        dropped_rows=log.dropped_rows,
+        poses=0 if log.poses is None else len(log.poses),
+        events=0 if log.events is None else len(log.events),
+    )

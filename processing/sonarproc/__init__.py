@@ -1,0 +1,1 @@
+"""sonarproc: sonar arc maps, morphological processing and surface-profile fitting."""

@@ -1,0 +1,31 @@
+"""Builders of sonarlog tables shared by the tests (on sys.path via pytest's ``pythonpath``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sonarlog import READING_DTYPE, SENSOR_DTYPE
+
+
+def ring_sensors(n: int = 16, radius: float = 0.22) -> np.ndarray:
+    """The Nomad ring: sensor i at i * 22.5 deg."""
+    s = np.zeros(n, dtype=SENSOR_DTYPE)
+    s["id"] = np.arange(n)
+    ang = np.arange(n) * 2 * np.pi / n
+    s["x"], s["y"], s["heading"] = radius * np.cos(ang), radius * np.sin(ang), ang
+    s["half_beamwidth"] = np.deg2rad(12.5)
+    s["min_range"], s["max_range"] = 0.15, 10.7
+    return s
+
+
+def random_readings(rng: np.random.Generator, n: int, n_sensors: int = 16) -> np.ndarray:
+    r = np.zeros(n, dtype=READING_DTYPE)
+    r["t"] = 1.7e9 + np.cumsum(rng.uniform(0.01, 0.05, n))
+    r["tx"] = rng.integers(0, n_sensors, n)
+    r["rx"] = np.where(rng.random(n) < 0.5, r["tx"], rng.integers(0, n_sensors, n))
+    r["echo"] = rng.integers(0, 3, n)
+    r["tof"] = rng.uniform(0.001, 0.06, n)
+    r["x"], r["y"] = rng.uniform(-5, 5, n), rng.uniform(-5, 5, n)
+    r["theta"], r["turret"] = rng.uniform(-np.pi, np.pi, n), rng.uniform(-np.pi, np.pi, n)
+    r["flags"] = rng.integers(0, 4, n)
+    return r
