@@ -26,6 +26,7 @@ import itertools
 import logging
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -49,12 +50,12 @@ _SIMPLE_TURNING = np.pi / 4
 _LAG = 8
 #: Interior samples at each end of a piece that may repeat a cell of the arc.
 _EDGE = 3
-#: Samples per generation block: the dozen float64 temporaries stay in L2 cache.
-_CHUNK = 1 << 16
+#: Samples per generation block (a few float64 temporaries of this size).
+_CHUNK = 1 << 17
 #: Samples per batch of whole arcs: bounds the key buffer (8 bytes per sample).
 _BATCH = 1 << 23
 #: Row widths of the generation blocks (pieces are padded up to the next width).
-_WIDTHS = np.unique(np.round(1.15 ** np.arange(0, 120)).astype(np.intp))
+_WIDTHS = np.unique(np.round(1.25 ** np.arange(0, 80)).astype(np.intp))
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -87,7 +88,8 @@ class _Plan:
     d_key0: IntArray  # flat-key part of the first interior sample's driver index
     d_key_step: IntArray  # flat-key change of the driver per sample
     c_mult: IntArray  # flat-key multiplier of the computed index
-    variant: IntArray  # bit 0: may leave the grid (clip), bit 1: not a circle
+    kind: IntArray  # block kind bits (_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS)
+    width: int  # padded grid width
     start_key: IntArray
     end_key: IntArray
 
@@ -253,7 +255,13 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
     n_c = np.where(xd, grid.ny, grid.nx)
     clip = (c_lo < -0.49) | (c_hi > n_c - 0.51)
     ellipse = (c_alpha != 0.0) | (beta != -1.0)
-    variant = clip.astype(np.intp) + 2 * ellipse.astype(np.intp)
+    kind = (
+        _CLIP * clip.astype(np.intp)
+        + _ELLIPSE * ellipse
+        + _X_DRIVEN * xd
+        + _UP * up
+        + _PLUS * (sign > 0)
+    )
     return _Plan(
         arc=geom.arc[row],
         pre=pre,
@@ -271,7 +279,8 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         d_key0=(first.astype(np.intp) + 1) * d_mult,
         d_key_step=step.astype(np.intp) * d_mult,
         c_mult=np.where(xd, w, 1).astype(np.intp),
-        variant=variant,
+        kind=kind,
+        width=w,
         start_key=_padded_key(sx, sy, grid),
         end_key=_padded_key(ex, ey, grid),
     )
@@ -284,41 +293,80 @@ def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
     return np.arange(total, dtype=np.intp) + np.repeat(starts - before, lengths)
 
 
-def _fill_block(
-    plan: _Plan, rows: IntArray, width: int, variant: int, trash: int, out: IntArray
-) -> None:
-    """Flat keys of the interior samples of pieces ``rows`` into ``out`` (rows, width).
+_BLOCK_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_offset", "c_max", "d_key0", "n")
 
-    All rows share ``variant``: circles skip the cross term, pieces that stay inside the
-    grid skip the clip.
+# Bits of a block's kind: all its pieces share them, so they become scalars.
+_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS = 1, 2, 4, 8, 16
+_KINDS = 32
+
+
+def _fill_block(
+    par: dict[str, NDArray[Any]],
+    width: int,
+    kind: int,
+    w: int,
+    trash: int,
+    out: IntArray,
+    scratch: tuple[FloatArray, FloatArray],
+) -> None:
+    """Flat keys of the interior samples of a block of pieces into ``out`` (rows, width).
+
+    ``par`` holds the per-piece parameters of the block's rows, which are sorted by
+    sample count ``n``. All rows share ``kind`` (bits: may need clipping, ellipse rather
+    than circle, x drives, driver increases, + branch of the root), so those cost no
+    per-sample work. Slots past a row's ``n`` get ``trash``. ``scratch`` is reused memory
+    of at least ``out.size`` elements (fresh temporaries cost a page fault per 4 KiB).
     """
+
+    def col(name: str) -> NDArray[Any]:
+        return par[name][:, None]
+
+    shape = out.shape
+    size = out.size
+    u = scratch[0][:size].reshape(shape)
+    q = scratch[1][:size].reshape(shape)
     kf = np.arange(width, dtype=np.float64)
     ki = np.arange(width, dtype=np.intp)
-    col = (slice(None), None)
-    u = np.multiply(plan.step[rows][col], kf)
-    u += plan.u0[rows][col]
-    q = u * u
-    if variant & 2:
-        q *= plan.beta[rows][col]
-        q += plan.gamma[rows][col]
+    if kind & _UP:
+        np.add(col("u0"), kf, out=u)
+    else:
+        np.subtract(col("u0"), kf, out=u)
+    np.multiply(u, u, out=q)
+    if kind & _ELLIPSE:
+        q *= col("beta")
+        q += col("gamma")
     else:  # circle: beta = -1
-        np.subtract(plan.gamma[rows][col], q, out=q)
-    np.maximum(q, 0.0, out=q)
-    np.sqrt(q, out=q)
-    q *= plan.sign[rows][col]
-    if variant & 2:
-        u *= plan.c_alpha[rows][col]
-        q += u
-    q += plan.c_offset[rows][col]
-    if variant & 1:
-        np.maximum(q, 0.0, out=q)
-        np.minimum(q, plan.c_max[rows][col], out=q)
-    np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
-    out *= plan.c_mult[rows][col]
-    d = np.multiply(plan.d_key_step[rows][col], ki)
-    d += plan.d_key0[rows][col]
-    out += d
-    np.putmask(out, ki[None, :] >= plan.n[rows][col], trash)
+        np.subtract(col("gamma"), q, out=q)
+    # q > 0 on every piece (it stays clear of the vertical tangents); only the padding
+    # slots past n may give NaN, and they are overwritten below.
+    with np.errstate(invalid="ignore"):
+        np.sqrt(q, out=q)
+        if kind & _ELLIPSE:
+            u *= col("c_alpha")
+            if kind & _PLUS:  # off + alpha u + sqrt
+                q += u
+            else:  # off - (sqrt - alpha u)
+                q -= u
+        if kind & _PLUS:
+            q += col("c_offset")
+        else:
+            np.subtract(col("c_offset"), q, out=q)
+        if kind & _CLIP:
+            np.maximum(q, 0.0, out=q)
+            np.minimum(q, col("c_max"), out=q)
+        np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
+    d_mult = 1
+    if kind & _X_DRIVEN:
+        out *= w
+    else:
+        d_mult = w
+    out += col("d_key0")
+    out += ki * (d_mult if kind & _UP else -d_mult)
+    n = par["n"]
+    n_min = int(n[0])
+    if n_min < width:
+        tail = out[:, n_min:]
+        np.putmask(tail, ki[None, n_min:] >= n[:, None], trash)
 
 
 @dataclass(frozen=True)
@@ -334,13 +382,15 @@ def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
     n = plan.n[p0:p1]
     pre = plan.pre[p0:p1]
     npc = p1 - p0
+    w = int(plan.width)
     live = np.flatnonzero(n > 0)
     wi_live = np.searchsorted(_WIDTHS, n[live])
-    group = wi_live * 4 + plan.variant[p0:p1][live]
-    perm = np.argsort(group, kind="stable")
+    group = wi_live * _KINDS + plan.kind[p0:p1][live]
+    perm = np.lexsort((n[live], group))
     order = live[perm]
     group = group[perm]
-    widths = _WIDTHS[group // 4]
+    gathered = {name: getattr(plan, name)[order + p0] for name in _BLOCK_FIELDS}
+    widths = _WIDTHS[group // _KINDS]
     n_interior = int(widths.sum())
     n_pre = int(pre.sum())
     keys = np.empty(n_interior + n_pre + npc, dtype=np.intp)
@@ -349,16 +399,19 @@ def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
     cuts = np.concatenate([[0], np.flatnonzero(np.diff(group)) + 1, [order.shape[0]]])
     if order.shape[0] == 0:
         cuts = cuts[:1]
+    biggest = max(_CHUNK, int(widths.max()) if widths.size else 0)
+    scratch = (np.empty(biggest), np.empty(biggest))
     for g0, g1 in itertools.pairwise(cuts.tolist()):
         width = int(widths[g0])
-        variant = int(group[g0] % 4)
+        kind = int(group[g0] % _KINDS)
         per = max(1, _CHUNK // width)
         for b0 in range(int(g0), int(g1), per):
             b1 = min(b0 + per, int(g1))
             rows_local = order[b0:b1]
             nr = b1 - b0
             block = keys[pos : pos + nr * width].reshape(nr, width)
-            _fill_block(plan, rows_local + p0, width, variant, trash, block)
+            par = {name: v[b0:b1] for name, v in gathered.items()}
+            _fill_block(par, width, kind, w, trash, block, scratch)
             row_base[rows_local] = pos + width * np.arange(nr, dtype=np.intp)
             pos += nr * width
     start_pos = np.full(npc, -1, dtype=np.intp)
