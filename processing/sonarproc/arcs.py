@@ -2,22 +2,26 @@
 
 Each reading's arc (see :mod:`sonarproc.arcs_geometry`) is drawn as a minimal
 8-connected chain of cells, the way a midpoint circle algorithm draws one, but
-vectorised over all arcs at once:
+vectorised over all arcs at once (no Python loop per arc, per piece or per sample):
 
 1. Each arc is cut into pieces at the points where its tangent is at 45 degrees. On a
    "flat" piece (``|dy/dx| <= 1``) the chain takes one cell per grid column, on a "steep"
    piece one cell per row; the other coordinate comes from the closed-form conic
-   ``v = alpha u +- sqrt(beta u^2 + gamma)``. The exact end points of every piece (beam
-   limits and the 45 degree points) are cells of the chain too, which closes the joints.
-2. All pieces' samples are laid out in one flat array in order along each arc
-   (``np.repeat`` of per-piece parameters; no Python loop per arc or per sample), in
-   chunks that bound memory.
-3. A cell can repeat only near joints and ends; repeats are found by comparing each cell
-   with the few before it along the same arc (a bounded lag that holds for any arc whose
-   tangent turns by at most 45 degrees; other arcs get an exact sort-based check) and are
-   sent to a trash bin.
+   ``v = alpha u +- sqrt(beta u^2 + gamma)`` (float64: a rounding slip near a 45-degree
+   point would open a gap). The exact end points of every piece (beam limits and the
+   45 degree points) are cells of the chain too, which closes the joints.
+2. Pieces are sorted into blocks of equal padded length and equal kind (circle or
+   ellipse, axis, direction, branch, needs clipping), so each block is a handful of
+   broadcast numpy operations on a 2-D array in reused memory.
+3. Within a piece the cells are distinct (one per column or row). A cell can repeat
+   only next to a piece's ends, and on an arc whose tangent turns by at most 45 degrees
+   two samples in one cell lie within about 1.5 cells of arc; so the repeats are found
+   by comparing each end sample with the few before it along the arc. Other arcs (wide
+   beams, thin ellipses, two-piece joint regions) get an exact sort-based check. Repeats
+   and padding go to a trash bin.
 4. One ``np.bincount`` over flat cell indices of a grid padded by one cell makes the count
-   map; cells outside the grid fall into the padding ring and are cut off.
+   map; cells outside the grid fall into the padding ring and are cut off. Arcs are
+   processed in batches of about ``_BATCH`` samples to bound memory.
 """
 
 from __future__ import annotations
@@ -53,9 +57,9 @@ _EDGE = 3
 #: Samples per generation block (a few float64 temporaries of this size).
 _CHUNK = 1 << 17
 #: Samples per batch of whole arcs: bounds the key buffer (8 bytes per sample).
-_BATCH = 1 << 23
+_BATCH = 1 << 25
 #: Row widths of the generation blocks (pieces are padded up to the next width).
-_WIDTHS = np.unique(np.round(1.25 ** np.arange(0, 80)).astype(np.intp))
+_WIDTHS = np.unique(np.round(1.25 ** np.arange(0, 100)).astype(np.intp))
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -78,16 +82,12 @@ class _Plan:
     last: BoolArray  # last piece of its arc
     complex_arc: BoolArray
     u0: FloatArray  # driver coordinate of the first interior sample minus the centre's
-    step: FloatArray  # +1 or -1
     beta: FloatArray
     gamma: FloatArray
     c_alpha: FloatArray
-    sign: FloatArray
     c_offset: FloatArray  # centre's computed coordinate + 1.5 (padding, round half up)
     c_max: FloatArray  # last padded index of the computed axis
     d_key0: IntArray  # flat-key part of the first interior sample's driver index
-    d_key_step: IntArray  # flat-key change of the driver per sample
-    c_mult: IntArray  # flat-key multiplier of the computed index
     kind: IntArray  # block kind bits (_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS)
     width: int  # padded grid width
     start_key: IntArray
@@ -269,16 +269,12 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         last=last,
         complex_arc=complex_row[row],
         u0=first - d_centre,
-        step=step,
         beta=beta,
         gamma=gamma,
         c_alpha=c_alpha,
-        sign=sign,
         c_offset=c_centre + 1.5,
         c_max=np.where(xd, grid.ny + 1, grid.nx + 1).astype(np.float64),
         d_key0=(first.astype(np.intp) + 1) * d_mult,
-        d_key_step=step.astype(np.intp) * d_mult,
-        c_mult=np.where(xd, w, 1).astype(np.intp),
         kind=kind,
         width=w,
         start_key=_padded_key(sx, sy, grid),
