@@ -7,7 +7,9 @@ The three cases and what we do:
 * **cut file** (a copy that stopped early, a full disk): HDF5 refuses a file shorter than the
   end-of-file address its superblock records. We copy it to a temporary file padded with
   zeros to that length; whatever was lost reads as zeros, which the row checks reject, so the
-  caller recovers the intact prefix or gets a one-line error.
+  caller recovers the intact prefix or gets a one-line error. HDF5 can loop forever on
+  metadata that reads as zeros, so the padded copy is salvaged by
+  :func:`sonarlog.recover_log` in a child process with a time limit, and we open its output.
 * anything else that is not HDF5 becomes a one-line :class:`InvalidLogError`.
 """
 
@@ -15,8 +17,9 @@ from __future__ import annotations
 
 import contextlib
 import os
-import re
 import shutil
+import subprocess
+import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -24,9 +27,6 @@ from pathlib import Path
 import h5py
 
 from sonarlog.errors import InvalidLogError
-
-_STORED_EOF = re.compile(r"stored_eof\s*=\s*(\d+)")
-
 
 def _first_line(err: BaseException) -> str:
     text = str(err).strip().splitlines()
@@ -51,24 +51,37 @@ def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
         raise InvalidLogError(f"{p}: cannot read ({_first_line(err)})") from err
     if not is_hdf5:
         raise InvalidLogError(f"{p}: not an HDF5 file")
+    stored_eof = _stored_eof(p)
+    if stored_eof is not None and stored_eof > p.stat().st_size:
+        with _padded_copy(p, stored_eof) as padded:
+            salvaged = _salvage(p, padded)
+            with _open_tolerant(salvaged) as handle:
+                yield handle
+        return
     try:
         handle = _open_tolerant(p)
     except OSError as err:
-        match = _STORED_EOF.search(str(err))
-        if match is None:
-            raise InvalidLogError(f"{p}: cannot open as HDF5 ({_first_line(err)})") from err
-        with _padded_copy(p, int(match.group(1))) as padded:
-            try:
-                handle = _open_tolerant(padded)
-            except OSError as err2:
-                raise InvalidLogError(
-                    f"{p}: file is cut short and its metadata is lost ({_first_line(err2)})"
-                ) from err2
-            with handle:
-                yield handle
-        return
+        raise InvalidLogError(f"{p}: cannot open as HDF5 ({_first_line(err)})") from err
     with handle:
         yield handle
+
+
+def _stored_eof(path: Path) -> int | None:
+    """The end-of-file address a version 2/3 superblock records, or None if unknown.
+
+    Layout (HDF5 file format spec, superblock v2/v3): signature (8), version (1), size of
+    offsets (1), size of lengths (1), flags (1), base address, extension address, EOF address.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(12)
+        if len(head) < 12 or head[:8] != b"\x89HDF\r\n\x1a\n" or head[8] not in (2, 3):
+            return None
+        size = head[9]
+        if size not in (2, 4, 8):
+            return None
+        fh.seek(12 + 2 * size)
+        raw = fh.read(size)
+    return int.from_bytes(raw, "little") if len(raw) == size else None
 
 
 def _open_tolerant(path: Path) -> h5py.File:
@@ -79,6 +92,26 @@ def _open_tolerant(path: Path) -> h5py.File:
         if "already open for write" in text or "lock" in text.lower():
             return h5py.File(path, "r", swmr=True, locking=False)
         raise
+
+
+SALVAGE_TIMEOUT_S = 10.0
+
+
+def _salvage(original: Path, padded: Path) -> Path:
+    clean = padded.with_name("salvaged.h5")
+    code = "import sys; from sonarlog import recover_log; recover_log(sys.argv[1], sys.argv[2])"
+    try:
+        result = subprocess.run(
+            [sys.executable, "-c", code, str(padded), str(clean)],
+            capture_output=True,
+            timeout=SALVAGE_TIMEOUT_S,
+            check=False,
+        )
+    except subprocess.TimeoutExpired as err:
+        raise InvalidLogError(f"{original}: file is cut short and its metadata is lost") from err
+    if result.returncode != 0 or not clean.is_file():
+        raise InvalidLogError(f"{original}: file is cut short and its metadata is lost")
+    return clean
 
 
 @contextlib.contextmanager
