@@ -28,6 +28,7 @@ import h5py
 
 from sonarlog.errors import InvalidLogError
 
+
 def _first_line(err: BaseException) -> str:
     text = str(err).strip().splitlines()
     return text[0] if text else type(err).__name__

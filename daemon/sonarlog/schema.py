@@ -51,7 +51,7 @@ READING_DTYPE = np.dtype(
 )
 
 #: What this writer stores on disk: the contract's fields plus the integrity fields.
-STORED_READING_DTYPE = np.dtype(READING_DTYPE.descr + [("seq", "<u4"), ("check", "<u4")])
+STORED_READING_DTYPE = np.dtype([*READING_DTYPE.descr, ("seq", "<u4"), ("check", "<u4")])
 
 POSE_DTYPE = np.dtype(
     [("t", "<f8"), ("x", "<f8"), ("y", "<f8"), ("theta", "<f8"), ("turret", "<f8")]

@@ -15,7 +15,9 @@ def recover(
     log: Annotated[Path, typer.Argument(metavar="LOG", help="The damaged sonarlog (.h5).")],
     out: Annotated[
         Path | None,
-        typer.Option("--out", "-o", help="Where to write the clean copy [default: LOG.recovered.h5]."),
+        typer.Option(
+            "--out", "-o", help="Where to write the clean copy [default: LOG.recovered.h5]."
+        ),
     ] = None,
 ) -> None:
     """Copy every intact reading of LOG into a new, cleanly closed sonarlog."""

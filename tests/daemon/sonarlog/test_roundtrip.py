@@ -86,12 +86,14 @@ def test_transducer_poses_match_the_contract_formula() -> None:
     sensors = ring_sensors()
     from sonarlog import SonarLog
 
-    log = SonarLog(path=Path("mem.h5"), attrs={"speed_of_sound": 343.3}, sensors=sensors,
-                   readings=readings)
+    log = SonarLog(
+        path=Path("mem.h5"), attrs={"speed_of_sound": 343.3}, sensors=sensors, readings=readings
+    )
     tp = log.transducer_poses()
     for k in rng.choice(len(readings), 25, replace=False):
         r = readings[k]
-        for which, xy, heading in (("tx", tp.tx_xy, tp.tx_heading), ("rx", tp.rx_xy, tp.rx_heading)):
+        ends = (("tx", tp.tx_xy, tp.tx_heading), ("rx", tp.rx_xy, tp.rx_heading))
+        for which, xy, heading in ends:
             s = sensors[sensors["id"] == r[which]][0]
             c, si = np.cos(r["turret"]), np.sin(r["turret"])
             expect = (r["x"] + c * s["x"] - si * s["y"], r["y"] + si * s["x"] + c * s["y"])
@@ -116,7 +118,10 @@ def test_minimal_file_with_only_required_fields_is_accepted(tmp_path: Path) -> N
     readings = random_readings(np.random.default_rng(5), 20)
     with h5py.File(path, "w") as f:
         f.attrs.update(
-            format="sonarlog", format_version=1, speed_of_sound=343.3, robot="other",
+            format="sonarlog",
+            format_version=1,
+            speed_of_sound=343.3,
+            robot="other",
             created="2024-01-01T00:00:00Z",
         )
         f["sensors"] = ring_sensors()
@@ -175,7 +180,9 @@ def test_bad_input_is_one_line_naming_the_file_and_exit_2(
     assert "Traceback" not in err
 
 
-def test_recover_cli_writes_a_clean_copy(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_recover_cli_writes_a_clean_copy(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     path = tmp_path / "run.h5"
     readings = random_readings(np.random.default_rng(7), 1000)
     _write(path, readings, truth=np.ones((4, 2)))
