@@ -12,7 +12,12 @@ fi
 want="$(sha256sum "$ROOT/pyproject.toml" | cut -d' ' -f1)${EXTRAS:-test}"
 if [ ! -f "$STAMP" ] || [ "$(cat "$STAMP")" != "$want" ]; then
     echo "==> installing sonarmorph[${EXTRAS:-test}] into $VENV" >&2
-    "$VENV/bin/python" -m pip install --quiet -e "$ROOT[${EXTRAS:-test}]" >&2
+    install_log="$VENV/.install.log"
+    if ! "$VENV/bin/python" -m pip install --quiet -e "$ROOT[${EXTRAS:-test}]" >"$install_log" 2>&1; then
+        cat "$install_log" >&2
+        echo "==> installing sonarmorph failed (log: $install_log)" >&2
+        exit 1
+    fi
     echo "$want" > "$STAMP"
 fi
 export PATH="$VENV/bin:$PATH"
