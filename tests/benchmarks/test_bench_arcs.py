@@ -87,9 +87,16 @@ def test_bench_arc_rasterisation() -> None:
 
     counts = rasterize_arcs(**geo, **beams, grid=grid)
     ncells = int(counts.sum())
-    _, iy, ix = arc_cells(**geo, **beams, grid=grid)
-    assert iy.size == ncells
-    flat = (iy * grid.nx + ix).astype(np.intp)
+    # The same cells as flat indices, in arc order (built in slices of readings to keep
+    # this process's peak memory low for the benchmarks that run after this one).
+    parts = []
+    for i in range(0, len(r["path"]), 10_000):
+        sl = slice(i, i + 10_000)
+        _, iy, ix = arc_cells(**{k: v[sl] for k, v in r.items()}, grid=grid)  # type: ignore[arg-type]
+        parts.append(iy * grid.nx + ix)
+    flat = np.concatenate(parts).astype(np.intp)
+    del parts
+    assert flat.size == ncells
     size = grid.nx * grid.ny
     # Floors: one scatter of the same cells (bincount; fancy assignment for reference).
     t_bincount = best_of(lambda: np.bincount(flat, minlength=size))
@@ -117,15 +124,25 @@ def test_bench_arc_rasterisation() -> None:
     )
 
 
-@pytest.mark.parametrize("n", [22_500, 45_000, 90_000])
-def test_bench_arc_scaling_with_readings(n: int) -> None:
-    r = ring_readings(n, room=20.0)
-    grid = covering_grid(r)
-    t = best_of(lambda: rasterize_arcs(**r, grid=grid), repeat=3)  # type: ignore[arg-type]
-    print(
-        f"\nrasterise {n} readings on {grid.ny}x{grid.nx}: {t * 1e3:.1f} ms "
-        f"({t / n * 1e6:.2f} us/reading)"
-    )
+def test_bench_arc_scaling() -> None:
+    """Cost against readings (at 1 cm) and against map area (90 000 readings)."""
+    lines = ["\nrasterisation scaling (best of 3):", "  readings   grid         ms    ns/cell"]
+    for n in (11_250, 22_500, 45_000, 90_000):
+        r = ring_readings(n, room=20.0)
+        grid = covering_grid(r)
+        cells = int(rasterize_arcs(**r, grid=grid).sum())  # type: ignore[arg-type]
+        t = best_of(lambda r=r, grid=grid: rasterize_arcs(**r, grid=grid), repeat=3)  # type: ignore[misc]
+        lines.append(f"  {n:8d}   {grid.ny}x{grid.nx}  {t * 1e3:7.1f}  {t / cells * 1e9:6.2f}")
+    r = ring_readings(90_000, room=20.0)
+    for cell in (0.04, 0.02, 0.01):
+        grid = covering_grid(r, cell)
+        cells = int(rasterize_arcs(**r, grid=grid).sum())  # type: ignore[arg-type]
+        t = best_of(lambda grid=grid: rasterize_arcs(**r, grid=grid), repeat=3)  # type: ignore[misc]
+        lines.append(
+            f"  {90_000:8d}   {grid.ny}x{grid.nx}  {t * 1e3:7.1f}  {t / cells * 1e9:6.2f}"
+            f"   (cell {cell * 100:g} cm)"
+        )
+    print("\n".join(lines))
 
 
 def test_bench_arc_bounds() -> None:
