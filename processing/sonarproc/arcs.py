@@ -40,7 +40,6 @@ from sonarproc.arcs_geometry import (
     ArcGeometry,
     arc_geometry,
     mod_2pi,
-    point_at,
 )
 from sonarproc.grid import Grid
 
@@ -543,26 +542,40 @@ def arc_bounds(
         raise ValueError("no reading makes an arc (paths too short or outside the beams)")
     lo = geom.lo
     length = geom.length
-    # Candidate E: interval ends and the four axis extremes of each ellipse inside them.
+    # The arc ends, and each ellipse's axis extremes (cx +- hx, cy +- hy) where an
+    # interval holds them.
+    ends = np.concatenate([lo, lo + length], axis=1)
+    c, s = _unit(ends)
     ca = geom.ca[:, None]
     sa = geom.sa[:, None]
     aa = geom.a[:, None]
     bb = geom.b[:, None]
-    ex = np.arctan2(-bb * sa, aa * ca)  # dx/dE = 0
-    ey = np.arctan2(bb * ca, aa * sa)  # dy/dE = 0
-    extremes = np.concatenate([ex, ex + np.pi, ey, ey + np.pi], axis=1)  # (K, 4)
-    cands = [lo, lo + length]
-    for i in range(extremes.shape[1]):
-        rel = mod_2pi(extremes[:, i : i + 1] - lo)
-        cands.append(np.where(rel <= length, lo + rel, lo))
-    e = np.concatenate(cands, axis=1)
-    x, y = point_at(e, geom.cx[:, None], geom.cy[:, None], aa, bb, ca, sa)
-    return (
-        float(np.nanmin(x)),
-        float(np.nanmax(x)),
-        float(np.nanmin(y)),
-        float(np.nanmax(y)),
-    )
+    x = geom.cx[:, None] + aa * c * ca - bb * s * sa
+    y = geom.cy[:, None] + aa * c * sa + bb * s * ca
+    xmin, xmax = np.nanmin(x), np.nanmax(x)
+    ymin, ymax = np.nanmin(y), np.nanmax(y)
+    a, b = geom.a, geom.b
+    cas, sas = geom.ca, geom.sa
+    hx = np.sqrt((a * cas) ** 2 + (b * sas) ** 2)
+    hy = np.sqrt((a * sas) ** 2 + (b * cas) ** 2)
+    e_xmax = np.arctan2(-b * sas, a * cas)
+    e_ymax = np.arctan2(b * cas, a * sas)
+    for e, centre, half, is_x in (
+        (e_xmax, geom.cx, hx, True),
+        (e_ymax, geom.cy, hy, False),
+    ):
+        for flip in (0.0, np.pi):  # the max, then the min
+            held = np.zeros(len(geom), dtype=bool)
+            for k in range(2):
+                with np.errstate(invalid="ignore"):
+                    held |= mod_2pi(e + flip - lo[:, k]) <= length[:, k]
+            if held.any():
+                v = centre[held] + (half[held] if flip == 0.0 else -half[held])
+                if is_x:
+                    xmin, xmax = min(xmin, v.min()), max(xmax, v.max())
+                else:
+                    ymin, ymax = min(ymin, v.min()), max(ymax, v.max())
+    return float(xmin), float(xmax), float(ymin), float(ymax)
 
 
 def _plan_for(
