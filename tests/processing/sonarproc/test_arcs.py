@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from sonarproc import arcs
+from sonarproc import arcs_raster
 from sonarproc.arcs import arc_bounds, arc_cells, rasterize_arcs
 from sonarproc.grid import Grid
 
@@ -303,10 +303,10 @@ def test_chunking_and_exact_path_do_not_change_the_map(monkeypatch: pytest.Monke
     grid = Grid.covering(-1.5, 1.5, -1.5, 1.5, cell=0.01)
     ref = counts(r, grid)
     ref_cells = cells(r, grid)
-    monkeypatch.setattr(arcs, "_CHUNK", 50)
-    monkeypatch.setattr(arcs, "_BATCH", 3000)
+    monkeypatch.setattr(arcs_raster, "_CHUNK", 50)
+    monkeypatch.setattr(arcs_raster, "_BATCH", 3000)
     np.testing.assert_array_equal(counts(r, grid), ref)
-    monkeypatch.setattr(arcs, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
+    monkeypatch.setattr(arcs_raster, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
     np.testing.assert_array_equal(counts(r, grid), ref)
     for got, want in zip(cells(r, grid), ref_cells, strict=True):
         np.testing.assert_array_equal(got, want)
