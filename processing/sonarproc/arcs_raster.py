@@ -42,7 +42,7 @@ _SIMPLE_TURNING = np.pi / 4
 #: Cells of a simple arc repeat at most this many places apart in its boundary sequence.
 _LAG = 8
 #: Interior samples at each end of a piece that may repeat a cell of the arc.
-_EDGE = 3
+_EDGE = 2
 #: Samples per generation block (a few float64 temporaries of this size).
 _CHUNK = 1 << 17
 #: Samples per batch of whole arcs: bounds the key buffer (8 bytes per sample).

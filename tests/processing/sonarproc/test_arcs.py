@@ -226,7 +226,8 @@ def test_full_circle_cell_count_matches_arc_length() -> None:
 @settings(max_examples=40, deadline=None)
 @given(r=monostatic())
 def test_arc_cell_count_is_arc_length_over_cell(r: Reading) -> None:
-    # One cell per column (or row): between length / (sqrt(2) cell) and length / cell.
+    # One cell per column (or row): between length / (sqrt(2) cell) and length / cell,
+    # give or take the end and joint cells (beam limits and 45-degree points).
     cell = 0.01
     xt, yt = true_arc(r)
     if xt.size < 2:
@@ -234,7 +235,7 @@ def test_arc_cell_count_is_arc_length_over_cell(r: Reading) -> None:
     seg = np.hypot(np.diff(xt), np.diff(yt))
     length = seg[seg < 0.1].sum()
     arc, _, _ = cells(r, grid_for(r, cell))
-    assert length / cell / np.sqrt(2) - 2 <= arc.size <= length / cell + 3
+    assert length / cell / np.sqrt(2) - 2 <= arc.size <= length / cell + 6
 
 
 def test_counts_are_distinct_arcs_per_cell() -> None:
