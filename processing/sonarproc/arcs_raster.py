@@ -332,21 +332,28 @@ def _fill_block(
                 q += u
             else:  # off - (sqrt - alpha u)
                 q -= u
+        # A row-driven piece inside the grid: key = floor(q) + driver key, an integer
+        # added before the floor, so the whole key is made in float (one fewer pass).
+        fold = not kind & (_X_DRIVEN | _CLIP)
+        off = par["c_offset"] + par["d_key0"] if fold else par["c_offset"]
         if kind & _PLUS:
-            q += col("c_offset")
+            q += off[:, None]
         else:
-            np.subtract(col("c_offset"), q, out=q)
+            np.subtract(off[:, None], q, out=q)
         if kind & _CLIP:
             np.maximum(q, 0.0, out=q)
             np.minimum(q, col("c_max"), out=q)
+        if fold:
+            q += kf * (w if kind & _UP else -w)
         np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
-    d_mult = 1
-    if kind & _X_DRIVEN:
-        out *= w
-    else:
-        d_mult = w
-    out += col("d_key0")
-    out += ki * (d_mult if kind & _UP else -d_mult)
+    if not fold:
+        d_mult = 1
+        if kind & _X_DRIVEN:
+            out *= w
+        else:
+            d_mult = w
+        out += col("d_key0")
+        out += ki * (d_mult if kind & _UP else -d_mult)
     n = par["n"]
     n_min = int(n[0])
     if n_min < width:
