@@ -29,6 +29,11 @@ from typing import Any, Final
 
 import serial
 
+try:  # a hung-up pty makes termios calls (tcflush) fail with termios.error
+    from termios import error as _TermiosError
+except ImportError:  # pragma: no cover - not POSIX
+    _TermiosError = OSError  # type: ignore[assignment,misc]
+
 from nomad200.codec import Cmd, MvMode, Packet, encode_command
 from nomad200.errors import (
     FrameError,
@@ -337,7 +342,7 @@ class Client:
         except serial.SerialTimeoutException as err:
             self.timeouts += 1
             raise NomadTimeout(f"{self.port}: write of {code.name} timed out") from err
-        except (serial.SerialException, OSError, TypeError, AttributeError) as err:
+        except (serial.SerialException, OSError, _TermiosError, TypeError, AttributeError) as err:
             # pyserial raises TypeError/AttributeError when the fd vanished under it
             self._drop_port()
             raise NomadDisconnected(f"{self.port}: {err}") from err
