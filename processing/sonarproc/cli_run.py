@@ -95,6 +95,13 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     Console().print(table)
 
 
+def _parse_order(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise ValueError(f"--order must be an integer or 'auto', got {text!r}") from None
+
+
 @app.command("run")
 def run_command(
     log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
@@ -110,7 +117,11 @@ def run_command(
     ] = "thinning:3",
     fit: Annotated[str, typer.Option(help="Fit: poly, spline or polar.")] = "poly",
     order: Annotated[
-        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
+        str | None,
+        typer.Option(
+            help="Polynomial order m (default 9) or polar harmonics (16); 'auto': choose m "
+            "by cross-validation on the points (poly)."
+        ),
     ] = None,
     smooth: Annotated[
         float | None, typer.Option(help="Spline smoothing; default: cross-validation.")
@@ -127,6 +138,20 @@ def run_command(
     drop_crosstalk: Annotated[
         bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
     ] = False,
+    robust: Annotated[
+        str,
+        typer.Option(
+            help="Polynomial fit: 'none' (the paper's least squares) or 'huber' (robust, "
+            "over the points, weighted by their arc counts)."
+        ),
+    ] = "none",
+    span: Annotated[
+        str,
+        typer.Option(
+            help="Metric columns: 'truth' (all the truth spans in the map, the paper) or "
+            "'points' (only between the first and last column with points)."
+        ),
+    ] = "truth",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
@@ -138,15 +163,19 @@ def run_command(
     from sonarproc.report import default_out_dir, write_report
 
     with guarded():
+        auto_order = order is not None and order.strip().lower() == "auto"
         params = RunParams(
             cell=cell,
             bbox=parse_bbox(bbox) if bbox is not None else None,
             ops=ops,
             fit=fit,  # type: ignore[arg-type]  # validated by RunParams
-            order=order,
+            order=None if order is None or auto_order else _parse_order(order),
             smooth=smooth,
             centre=parse_point(centre) if centre is not None else None,
             drop_crosstalk=drop_crosstalk,
+            auto_order=auto_order,
+            robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
+            span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         )
         out_dir = out if out is not None else default_out_dir(log)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)

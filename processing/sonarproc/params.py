@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal
 
 from sonarproc.fit import FitKind
 
@@ -15,6 +15,10 @@ __all__ = ["DEFAULT_ORDER", "RunParams", "parse_bbox", "parse_point"]
 DEFAULT_ORDER: dict[str, int] = {"poly": 9, "spline": 3, "polar": 16}
 
 FIT_KINDS = ("poly", "spline", "polar")
+ROBUST_KINDS = ("none", "huber")
+SPANS = ("truth", "points")
+#: Highest order ``--order auto`` tries.
+MAX_AUTO_ORDER = 15
 
 
 @dataclass(frozen=True)
@@ -39,6 +43,15 @@ class RunParams:
         Centre of a polar fit (m); ``None`` uses the mean robot position.
     drop_crosstalk : bool
         Skip readings flagged as suspected crosstalk (flag bit 1).
+    auto_order : bool
+        Choose the polynomial order by cross-validation on the points (``--order auto``;
+        beyond the paper); :attr:`order` is then ignored.
+    robust : {"none", "huber"}
+        ``huber``: Huber-IRLS polynomial over the points, each weighted by the number of
+        arcs crossing its cell (beyond the paper); ``none``: the paper's least squares.
+    span : {"truth", "points"}
+        Columns the metrics use: every column the truth spans inside the map (the paper),
+        or only those between the first and last column left with points.
     max_cells : int
         Refuse maps larger than this many cells (a guard against a stray reading).
     """
@@ -51,6 +64,9 @@ class RunParams:
     smooth: float | None = None
     centre: tuple[float, float] | None = None
     drop_crosstalk: bool = False
+    auto_order: bool = False
+    robust: Literal["none", "huber"] = "none"
+    span: Literal["truth", "points"] = "truth"
     max_cells: int = 400_000_000
 
     def __post_init__(self) -> None:
@@ -71,6 +87,16 @@ class RunParams:
             raise ValueError(f"smoothing must be >= 0, got {self.smooth}")
         if self.centre is not None and not all(math.isfinite(v) for v in self.centre):
             raise ValueError("centre must be finite")
+        if self.robust not in ROBUST_KINDS:
+            raise ValueError(
+                f"robust must be one of {', '.join(ROBUST_KINDS)}, got {self.robust!r}"
+            )
+        if self.span not in SPANS:
+            raise ValueError(f"span must be one of {', '.join(SPANS)}, got {self.span!r}")
+        if (self.auto_order or self.robust != "none") and self.fit != "poly":
+            raise ValueError("--order auto and --robust apply to --fit poly only")
+        if self.span == "points" and self.fit == "polar":
+            raise ValueError("--span points applies to --fit poly or spline")
 
     @property
     def fit_order(self) -> int:
@@ -84,7 +110,7 @@ class RunParams:
         d = asdict(self)
         d["bbox"] = list(self.bbox) if self.bbox else None
         d["centre"] = list(self.centre) if self.centre else None
-        d["order"] = self.fit_order
+        d["order"] = "auto" if self.auto_order else self.fit_order
         return d
 
 

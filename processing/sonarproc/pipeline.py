@@ -23,7 +23,16 @@ import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog, read_log
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.fit import Fit, FitFailure, fit_polar, fit_polynomial, fit_spline
+from sonarproc.fit import (
+    Fit,
+    FitFailure,
+    PolyFit,
+    fit_polar,
+    fit_polynomial,
+    fit_polynomial_robust,
+    fit_spline,
+    select_order_cv,
+)
 from sonarproc.grid import Grid
 from sonarproc.metrics import (
     Bins,
@@ -34,8 +43,8 @@ from sonarproc.metrics import (
     truth_on_columns,
     truth_on_polar_bins,
 )
-from sonarproc.morphology import apply_ops, parse_ops
-from sonarproc.params import RunParams
+from sonarproc.params import MAX_AUTO_ORDER, RunParams
+from sonarproc.voting import apply_chain, parse_chain
 
 __all__ = ["METHOD", "STAGES", "RunResult", "load_log", "process", "run_file", "select_readings"]
 
@@ -154,6 +163,34 @@ def _fit_cartesian(params: RunParams, bins: Bins) -> Fit:
     return fit_polynomial(bins.centres, mean, bins.count, order=params.fit_order)
 
 
+def _fit_points(
+    params: RunParams,
+    px: npt.NDArray[np.float64],
+    py: npt.NDArray[np.float64],
+    weights: npt.NDArray[np.float64],
+) -> Fit:
+    """Beyond the paper: a fit over the individual points (robust and/or order by CV)."""
+    robust = params.robust == "huber"
+    w = weights if robust else np.ones_like(px)
+    order = params.fit_order
+    selection = None
+    if params.auto_order:
+        try:
+            order, scores = select_order_cv(
+                px, py, w, orders=range(0, MAX_AUTO_ORDER + 1), robust=robust
+            )
+        except ValueError as err:
+            return FitFailure("poly", str(err), None)
+        selection = {
+            "method": "5-fold cross-validation over columns (Huber loss)",
+            "scores": {str(k): v for k, v in scores.items()},
+        }
+    fit = fit_polynomial_robust(px, py, w, order=order, robust=robust)
+    if isinstance(fit, PolyFit) and selection is not None:
+        fit = replace(fit, selection=selection)
+    return fit
+
+
 def _polar(
     params: RunParams,
     grid: Grid,
@@ -220,7 +257,7 @@ def process(
             progress(name)
 
     stage("select")
-    ops = parse_ops(params.ops)
+    ops = parse_chain(params.ops)
     readings, counts = select_readings(log_, drop_crosstalk=params.drop_crosstalk)
     tp = log_.transducer_poses(readings)
     path = log_.path_lengths(readings)
@@ -241,7 +278,7 @@ def process(
         raise ValueError(f"{source}: no arc touches {where}")
     counts["arc_cells"] = int(counts_map.sum(dtype=np.int64))
     stage("morphology")
-    processed = apply_ops(arc_map, ops)
+    processed = apply_chain(counts_map, ops)
     stage("fit")
     ix, iy = np.nonzero(processed.T)
     counts["processed_cells"] = int(ix.size)
@@ -254,7 +291,11 @@ def process(
     else:
         centre = None
         bins = bin_stats(ix, py, grid.centres_x(), presorted=True)
-        fit = _fit_cartesian(params, bins)
+        if params.fit == "poly" and (params.auto_order or params.robust != "none"):
+            weights = counts_map[iy, ix].astype(np.float64)
+            fit = _fit_points(params, px, py, weights)
+        else:
+            fit = _fit_cartesian(params, bins)
         stage("metrics")
         truth_bins, spanned = None, None
         if truth is None:
@@ -263,6 +304,16 @@ def process(
             truth_bins = truth_on_columns(truth, bins.centres)
             _, _, bottom, top = grid.extent
             truth_bins[(truth_bins < bottom) | (truth_bins > top)] = np.nan
+        if params.span == "points":
+            # beyond the paper: judge only the columns between the first and last with points
+            inside = np.zeros(bins.centres.size, dtype=bool)
+            occ = np.flatnonzero(bins.occupied)
+            if occ.size:
+                inside[occ[0] : occ[-1] + 1] = True
+            if truth_bins is not None:
+                truth_bins[~inside] = np.nan
+            if spanned is not None:
+                spanned &= inside
     metrics = profile_metrics(
         bins,
         truth=truth_bins,
