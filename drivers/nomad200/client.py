@@ -312,8 +312,11 @@ class Client:
                     break
                 if received:
                     # a reply that has begun arrives at line speed: a lost byte must not
-                    # cost the whole command timeout
+                    # cost the whole command timeout (no timeout change, which costs a
+                    # tcsetattr, when the bytes are already there)
                     io = min(self._rest_timeout(need), remaining)
+                    if ser.in_waiting >= need:
+                        io = self._io_timeout
                 else:
                     io = timeout if remaining > 0.5 * timeout else remaining
                 if io != self._io_timeout:
