@@ -315,7 +315,7 @@ class Client:
                     # cost the whole command timeout (no timeout change, which costs a
                     # tcsetattr, when the bytes are already there)
                     io = min(self._rest_timeout(need), remaining)
-                    if ser.in_waiting >= need:
+                    if self._io_timeout is not None and ser.in_waiting >= need:
                         io = self._io_timeout
                 else:
                     io = timeout if remaining > 0.5 * timeout else remaining
