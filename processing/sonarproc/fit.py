@@ -409,10 +409,11 @@ def _irls(
     scale = SCALE_FLOOR
     for _ in range(max_iter if robust else 1):
         sw = np.sqrt(weights)
-        sol, _res, rank, _sv = np.linalg.lstsq(v * sw[:, None], y * sw, rcond=None)
-        if rank < v.shape[1]:
+        # normal equations in the well-conditioned Chebyshev basis: no threaded BLAS
+        # start-up per solve (these systems are thousands x at most 16)
+        new = _solve_normal(v * sw[:, None], y * sw)
+        if new is None:
             return None
-        new = _floats(sol)
         r = y - v @ new
         scale = _mad_scale(r)
         if coef is not None and float(np.max(np.abs(new - coef))) <= tol:
