@@ -6,8 +6,8 @@ the wall along its beam axis (a diffusely reflecting room: every reading makes a
 the worst case for the rasteriser). Targets: under 5 s wall and 1 GiB peak memory.
 
 Each run is a fresh ``python`` subprocess, timed from the outside (wall, including
-interpreter start and imports) with its own peak RSS from ``os.wait4``; each figure is
-the best of three runs (the machine is shared). The floor is a
+interpreter start and imports) with its own peak RSS (``VmHWM``, reported by the child
+at exit); each figure is the best of three runs (the machine is shared). The floor is a
 subprocess that imports sonarproc, reads the same log and does one numpy scatter of the
 run's arc cells into a map of the same size: the least any implementation must do.
 A 4-point table shows cost against readings (x1, x2) and map cells (x1, x2).
@@ -32,8 +32,20 @@ C = 343.3
 TARGET_S = 5.0
 TARGET_B = 1 << 30
 
-RUN = "import sys; from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
-FLOOR = """
+# The child reports its own peak RSS (VmHWM): Linux carries ru_maxrss across fork + exec,
+# so os.wait4 would report the larger of the child and the pytest parent it forked from.
+PEAK = (
+    "import atexit, re, sys\n"
+    "def _peak():\n"
+    "    text = open('/proc/self/status').read()\n"
+    "    kib = int(re.search(r'VmHWM:\\s*(\\d+)', text).group(1))\n"
+    "    sys.stderr.write(f'VMHWM_BYTES={kib * 1024}\\n')\n"
+    "atexit.register(_peak)\n"
+)
+RUN = PEAK + "from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
+FLOOR = (
+    PEAK
+    + """
 import sys, numpy as np
 from sonarlog import read_log
 lg = read_log(sys.argv[1]); n, cells = int(sys.argv[2]), int(sys.argv[3])
@@ -42,6 +54,7 @@ idx = rng.integers(0, cells, n)
 m = np.bincount(idx, minlength=cells).astype(np.uint16)
 print(int(m.sum()), lg.readings.size)
 """
+)
 
 
 def write_room_log(path: Path, hours: float, seed: int = 0) -> int:
@@ -99,8 +112,11 @@ def _child(args: list[str], tmp: Path) -> tuple[float, int, str]:
                 proc.stdout.close()
         wall = time.perf_counter() - t0
         err.seek(0)
-        assert proc.returncode == 0, err.read().decode()
-    return wall, usage.ru_maxrss * 1024, out.decode()
+        text = err.read().decode()
+        assert proc.returncode == 0, text
+    marks = [line for line in text.splitlines() if line.startswith("VMHWM_BYTES=")]
+    peak = int(marks[-1].split("=")[1]) if marks else usage.ru_maxrss * 1024
+    return wall, peak, out.decode()
 
 
 def _run(log: Path, out: Path, cell: float) -> tuple[float, int, dict[str, Any]]:
