@@ -1,1 +1,11 @@
-"""sonard: the acquisition daemon for the Nomad 200 sonar ring."""
+"""sonard: the acquisition daemon for the Nomad 200 sonar ring.
+
+Modules, one job each: :mod:`~sonard.plan` (YAML plans, validation, SI conversion),
+:mod:`~sonard.link` (bytes per poll, line time), :mod:`~sonard.ring` (the sensors table),
+:mod:`~sonard.tagging` (new firings -> pose-tagged SI readings),
+:mod:`~sonard.writer_thread` (the queue in front of the log writer),
+:mod:`~sonard.acquisition` (the serial loop, pacing, fault recovery),
+:mod:`~sonard.motion` (closed-loop moves), :mod:`~sonard.steps` and
+:mod:`~sonard.wallfollow` (resumable plan steps), :mod:`~sonard.notify` (sd_notify),
+:mod:`~sonard.daemon` (one run from start to exit) and :mod:`~sonard.cli` (``sonard``).
+"""

@@ -31,7 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 from serial import SerialException
 
-from nomad200 import NomadDisconnected
+from nomad200 import NomadDisconnected, NomadError
 from sonard.link import poll_seconds
 from sonard.notify import Notifier
 from sonard.plan import Plan
@@ -158,8 +158,6 @@ class Acquisition:
 
     def _retry(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """Call an idempotent client method, retrying damaged or missing replies."""
-        from nomad200 import NomadError
-
         for i in range(CONFIG_TRIES):
             try:
                 return fn(*args, **kwargs)
@@ -220,8 +218,6 @@ class Acquisition:
         returns None (the caller's closed loop checks the outcome on the next poll). A
         lost link goes through :meth:`recover`.
         """
-        from nomad200 import NomadError
-
         self.check_stop()
         tries = 3 if idempotent else 1
         for i in range(tries):
@@ -246,8 +242,6 @@ class Acquisition:
 
     def poll(self) -> Any:
         """Wait for the next poll slot, then GS; returns the newest state (maybe an older one)."""
-        from nomad200 import NomadError
-
         now = time.monotonic()
         wait = self._next_poll - now
         if not self.virtual_time and wait > 0 and self.stop_event.wait(wait):
