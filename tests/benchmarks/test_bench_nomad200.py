@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from procs import stop_process
 
 from nomad200 import Client, StateMask
 from nomad200.codec import Cmd, decode_frame
@@ -100,14 +101,7 @@ def pty_port(tmp_path: Path) -> Iterator[str]:
         assert p.stdout is not None and p.stdout.readline().startswith("/dev/")
         yield str(link)
     finally:
-        p.terminate()
-        try:
-            p.wait(5)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait(5)
-        if p.stdout is not None:
-            p.stdout.close()
+        stop_process(p)
 
 
 @pytest.mark.parametrize("transport", ["pty", "url"])

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from procs import stop_process
 
 ROOT = Path(__file__).resolve().parents[2]
 WORLD = ROOT / "configs" / "worlds" / "lab.yaml"
@@ -69,14 +70,7 @@ def emulator(tmp: Path) -> Iterator[str]:
         assert proc.stdout is not None
         yield proc.stdout.readline().strip()
     finally:
-        proc.terminate()
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        if proc.stdout is not None:
-            proc.stdout.close()
+        stop_process(proc)
 
 
 @contextmanager
@@ -85,13 +79,7 @@ def process(cmd: list[str]) -> Iterator[subprocess.Popen[bytes]]:
     try:
         yield proc
     finally:
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(5)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
+        stop_process(proc)
 
 
 @pytest.mark.benchmark

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from procs import stop_process
 
 import nomad200
 from nomad200 import protocol_nomad
@@ -24,18 +25,6 @@ start_pose: {x: 0.0, y: 0.0, theta_deg: 0.0}
 surfaces:
   - {type: room, x_min: -2.0, x_max: 2.0, y_min: -2.0, y_max: 3.0}
 """
-
-
-def _kill(p: subprocess.Popen[str]) -> None:
-    if p.poll() is None:
-        p.terminate()
-        try:
-            p.wait(5)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait(5)
-    if p.stdout is not None:
-        p.stdout.close()
 
 
 @pytest.fixture(autouse=True)
@@ -52,7 +41,7 @@ def _no_leaks() -> Iterator[None]:
     for p in _PROCS:
         if p.poll() is None:
             leaks.append(f"emulator pid {p.pid}")
-        _kill(p)
+        stop_process(p)
     _PROCS.clear()
     protocol_nomad.reset_devices()
     if leaks:
@@ -114,7 +103,7 @@ def make_port(request: pytest.FixtureRequest, tmp_path: Path) -> PortFactory:
 
     def stop_all() -> None:
         for p in mine:
-            _kill(p)
+            stop_process(p)
 
     request.addfinalizer(stop_all)
     return make

@@ -8,11 +8,12 @@ import signal
 from pathlib import Path
 
 import pytest
+from procs import stop_process
 
 from nomad200 import Client, StateMask
 from nomad200.emulator_cli import main
 
-from .conftest import _kill, start_emulator
+from .conftest import start_emulator
 
 
 def test_bad_world_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -48,7 +49,7 @@ def test_trace_and_sigterm(tmp_path: Path, box_world: Path) -> None:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(5) == 0
     finally:
-        _kill(proc)
+        stop_process(proc)
     recs = [json.loads(line) for line in trace.read_text().splitlines()]
     cmds = [r["cmd"] for r in recs if r["type"] == "command"]
     assert cmds[:4] == ["CT", "CT", "CONF_SN", "PR"]

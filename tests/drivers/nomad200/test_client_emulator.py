@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 import pytest
+from procs import stop_process
 
 from nomad200 import (
     Client,
@@ -21,7 +22,7 @@ from nomad200 import (
 )
 from nomad200.state import DEG10, IN10, INCH
 
-from .conftest import PortFactory, _kill, start_emulator
+from .conftest import PortFactory, start_emulator
 
 FULL = StateMask(sonars=frozenset(range(16)), pose=True, velocities=True)
 RES_XY = IN10 + 1e-9  # protocol resolution 0.1 in
@@ -246,7 +247,7 @@ def test_spy_url_traces_the_traffic(
         text = capsys.readouterr().err.lower()
         assert "01 02 00 07 0a 5c" in text  # the GS request, byte for byte
     finally:
-        _kill(proc)
+        stop_process(proc)
 
 
 def test_mv_pa_limp_and_get_sn(make_port: PortFactory, box_world: Path) -> None:
