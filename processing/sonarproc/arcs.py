@@ -21,6 +21,7 @@ from sonarproc.arcs_geometry import (
 )
 from sonarproc.arcs_raster import (
     IntArray,
+    _accumulate,
     _batch_keys,
     _batches,
     _Plan,
@@ -195,19 +196,10 @@ def rasterize_arcs(
         tx_xy, tx_heading, rx_xy, rx_heading, path, tx_half_beamwidth, rx_half_beamwidth, grid
     )
     npad = (grid.ny + 2) * (grid.nx + 2)
-    trash = npad
-    total: NDArray[np.intp] | None = None
-    for p0, p1 in _batches(plan):
-        batch = _batch_keys(plan, p0, p1, trash)
-        part = np.bincount(batch.keys, minlength=npad + 1)
-        if total is None:
-            total = part
-        else:
-            total += part
-    if total is None:
-        return np.zeros(grid.shape, dtype=np.uint32)
-    inner = total[:npad].reshape(grid.ny + 2, grid.nx + 2)[1:-1, 1:-1]
-    return inner.astype(np.uint32)
+    counts = np.zeros(npad + 1, dtype=np.uint32)  # the padded map, then the trash bin
+    _accumulate(plan, counts, npad)
+    inner = counts[:npad].reshape(grid.ny + 2, grid.nx + 2)[1:-1, 1:-1]
+    return np.ascontiguousarray(inner)
 
 
 def arc_cells(

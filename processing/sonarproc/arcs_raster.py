@@ -26,7 +26,6 @@ vectorised over all arcs at once (no Python loop per arc, per piece or per sampl
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -43,12 +42,16 @@ _SIMPLE_TURNING = np.pi / 4
 _LAG = 8
 #: Interior samples at each end of a piece that may repeat a cell of the arc.
 _EDGE = 2
-#: Samples per generation block (a few float64 temporaries of this size).
+#: Samples per generation block (its temporaries stay in a core's L2 cache).
 _CHUNK = 1 << 17
-#: Samples per batch of whole arcs: bounds the key buffer (8 bytes per sample).
+#: Samples per batch of whole arcs: bounds the key buffer of :func:`_batch_keys`.
 _BATCH = 1 << 25
-#: Row widths of the generation blocks (pieces are padded up to the next width).
-_WIDTHS = np.unique(np.round(1.25 ** np.arange(0, 100)).astype(np.intp))
+#: Pieces of about this many samples or fewer share a block whatever their count.
+_SMALL = 8
+#: Rows whose float32 error bound (cells) exceeds this are computed in float64.
+_F32_MAX_ERROR = 0.05
+#: Unit roundoff of float32.
+_U32 = 2.0**-24
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -81,6 +84,10 @@ class _Plan:
     width: int  # padded grid width
     start_key: IntArray
     end_key: IntArray
+    c_frac: FloatArray  # c_offset - floor(c_offset), in [0, 1)
+    c_int: FloatArray  # floor(c_offset)
+    row_key: FloatArray  # key part of a row that is not floor(v) (an integer)
+    eps: FloatArray  # bound of the float32 error of the computed coordinate
 
     def __len__(self) -> int:
         return int(self.n.shape[0])
@@ -244,12 +251,20 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
     n_c = np.where(xd, grid.ny, grid.nx)
     clip = (c_lo < -0.49) | (c_hi > n_c - 0.51)
     ellipse = (c_alpha != 0.0) | (beta != -1.0)
+    u0 = first - d_centre
+    d_key0 = (first.astype(np.intp) + 1) * d_mult
+    c_offset = c_centre + 1.5
+    c_int = np.floor(c_offset)
+    row_key = np.where(clip, d_key0, c_int * np.where(xd, w, 1) + d_key0)
+    eps = _f32_error_bound(u0, u0 + step * (n - 1), beta, gamma, c_alpha)
+    f64 = ~(eps <= _F32_MAX_ERROR)
     kind = (
         _CLIP * clip.astype(np.intp)
         + _ELLIPSE * ellipse
         + _X_DRIVEN * xd
         + _UP * up
         + _PLUS * (sign > 0)
+        + _F64 * f64
     )
     return _Plan(
         arc=geom.arc[row],
@@ -257,18 +272,54 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         n=n,
         last=last,
         complex_arc=complex_row[row],
-        u0=first - d_centre,
+        u0=u0,
         beta=beta,
         gamma=gamma,
         c_alpha=c_alpha,
-        c_offset=c_centre + 1.5,
+        c_offset=c_offset,
         c_max=np.where(xd, grid.ny + 1, grid.nx + 1).astype(np.float64),
-        d_key0=(first.astype(np.intp) + 1) * d_mult,
+        d_key0=d_key0,
         kind=kind,
         width=w,
         start_key=_padded_key(sx, sy, grid),
         end_key=_padded_key(ex, ey, grid),
+        c_frac=c_offset - c_int,
+        c_int=c_int,
+        row_key=row_key.astype(np.float64),
+        eps=eps,
     )
+
+
+def _f32_error_bound(
+    u_first: FloatArray, u_last: FloatArray, beta: FloatArray, gamma: FloatArray, alpha: FloatArray
+) -> FloatArray:
+    """Bound (cells) of the error of ``v = f + alpha u +- sqrt(beta u^2 + gamma)`` in float32.
+
+    ``f`` is in [0, 1) and ``u`` runs from ``u_first`` to ``u_last`` by steps of 1; the
+    inputs are float64 values rounded to float32 and every operation rounds once (unit
+    roundoff ``e``). With ``U = max |u|`` the rounded ``u`` is off by at most ``2 e U``, the
+    radicand ``Q`` by ``dQ <= 7 e |beta| U^2 + 2 e gamma``; ``Q`` is concave in ``u``
+    (``beta < 0``), so its least value on the piece is at an end, and the square root is
+    off by at most ``dQ / sqrt(Q_min) + e sqrt(gamma)``; ``alpha u`` adds ``4 e |alpha| U``
+    and the two sums ``2 e (1 + |alpha| U + sqrt(gamma))``. The sum, times 1.5 for the
+    second-order terms, is returned; ``inf`` where ``Q_min`` is not well clear of ``dQ``.
+    """
+    e = _U32
+    big_u = np.maximum(np.abs(u_first), np.abs(u_last))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q_min = np.minimum(beta * u_first * u_first, beta * u_last * u_last) + gamma
+        d_q = e * (7.0 * np.abs(beta) * big_u * big_u + 2.0 * np.abs(gamma))
+        root = np.sqrt(np.abs(gamma))
+        au = np.abs(alpha) * big_u
+        bound = 1.5 * (
+            d_q / np.sqrt(np.maximum(q_min, 0.0))
+            + e * root
+            + 4.0 * e * au
+            + 2.0 * e * (1.0 + au + root)
+        )
+        bad = ~(q_min > 4.0 * d_q)
+    bound[bad] = np.inf
+    return np.asarray(bound, dtype=np.float64)
 
 
 def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
@@ -278,11 +329,11 @@ def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
     return np.arange(total, dtype=np.intp) + np.repeat(starts - before, lengths)
 
 
-_BLOCK_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_offset", "c_max", "d_key0", "n")
-
 # Bits of a block's kind: all its pieces share them, so they become scalars.
-_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS = 1, 2, 4, 8, 16
-_KINDS = 32
+_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS, _F64 = 1, 2, 4, 8, 16, 32
+
+_F64_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_offset", "c_max", "d_key0")
+_F32_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_frac", "c_int", "c_max", "row_key")
 
 
 def _fill_block(
@@ -290,17 +341,15 @@ def _fill_block(
     width: int,
     kind: int,
     w: int,
-    trash: int,
     out: IntArray,
     scratch: tuple[FloatArray, FloatArray],
 ) -> None:
-    """Flat keys of the interior samples of a block of pieces into ``out`` (rows, width).
+    """Flat keys of a block's interior samples, in float64 (the general fallback).
 
-    ``par`` holds the per-piece parameters of the block's rows, which are sorted by
-    sample count ``n``. All rows share ``kind`` (bits: may need clipping, ellipse rather
-    than circle, x drives, driver increases, + branch of the root), so those cost no
-    per-sample work. Slots past a row's ``n`` get ``trash``. ``scratch`` is reused memory
-    of at least ``out.size`` elements (fresh temporaries cost a page fault per 4 KiB).
+    ``par`` holds the per-piece parameters of the block's rows. All rows share ``kind``
+    (bits: may need clipping, ellipse rather than circle, x drives, driver increases, +
+    branch of the root), so those cost no per-sample work. Slots past a row's ``n`` hold
+    garbage. ``scratch`` is reused memory of at least ``out.size`` elements.
     """
 
     def col(name: str) -> NDArray[Any]:
@@ -323,7 +372,7 @@ def _fill_block(
     else:  # circle: beta = -1
         np.subtract(col("gamma"), q, out=q)
     # q > 0 on every piece (it stays clear of the vertical tangents); only the padding
-    # slots past n may give NaN, and they are overwritten below.
+    # slots past n may give NaN.
     with np.errstate(invalid="ignore"):
         np.sqrt(q, out=q)
         if kind & _ELLIPSE:
@@ -332,33 +381,191 @@ def _fill_block(
                 q += u
             else:  # off - (sqrt - alpha u)
                 q -= u
-        # A row-driven piece inside the grid: key = floor(q) + driver key, an integer
-        # added before the floor, so the whole key is made in float (one fewer pass).
-        fold = not kind & (_X_DRIVEN | _CLIP)
-        off = par["c_offset"] + par["d_key0"] if fold else par["c_offset"]
         if kind & _PLUS:
-            q += off[:, None]
+            q += col("c_offset")
         else:
-            np.subtract(off[:, None], q, out=q)
+            np.subtract(col("c_offset"), q, out=q)
         if kind & _CLIP:
             np.maximum(q, 0.0, out=q)
             np.minimum(q, col("c_max"), out=q)
-        if fold:
-            q += kf * (w if kind & _UP else -w)
         np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
-    if not fold:
-        d_mult = 1
-        if kind & _X_DRIVEN:
-            out *= w
+    d_mult = 1
+    if kind & _X_DRIVEN:
+        out *= w
+    else:
+        d_mult = w
+    out += col("d_key0")
+    out += ki * (d_mult if kind & _UP else -d_mult)
+
+
+def _fill_block32(
+    par: dict[str, NDArray[Any]],
+    par64: dict[str, NDArray[Any]],
+    width: int,
+    kind: int,
+    w: int,
+    f32_keys: bool,
+    eps: float,
+    out: IntArray,
+    scratch: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]],
+    flags: BoolArray,
+) -> None:
+    """As :func:`_fill_block`, with float32 arithmetic and exact float64 repair.
+
+    The computed coordinate is ``v = frac + alpha u +- sqrt(beta u^2 + gamma)`` relative
+    to the integer ``c_int``; its float32 error is below the rows' bound ``eps``
+    (:func:`_f32_error_bound`), so ``floor(v)`` is exact wherever the fraction of v is at
+    least ``eps`` from an integer. The few samples closer than that are recomputed in
+    float64: the cells are those of the float64 computation. Keys are sums of integers;
+    below 2**24 float32 holds them exactly (``f32_keys``), otherwise they are made in int64.
+    """
+
+    def col(name: str) -> NDArray[Any]:
+        return par[name][:, None]
+
+    shape = out.shape
+    size = out.size
+    u = scratch[0][:size].reshape(shape)
+    q = scratch[1][:size].reshape(shape)
+    t = scratch[2][:size].reshape(shape)
+    risky = flags[:size].reshape(shape)
+    kf = np.arange(width, dtype=np.float32)
+    up = bool(kind & _UP)
+    if up:
+        np.add(col("u0"), kf, out=u)
+    else:
+        np.subtract(col("u0"), kf, out=u)
+    np.multiply(u, u, out=q)
+    if kind & _ELLIPSE:
+        q *= col("beta")
+        q += col("gamma")
+    else:  # circle: beta = -1
+        np.subtract(col("gamma"), q, out=q)
+    with np.errstate(invalid="ignore"):  # NaN only in padding slots past n
+        np.sqrt(q, out=q)
+        if kind & _ELLIPSE:
+            u *= col("c_alpha")
+            if kind & _PLUS:
+                q += u
+            else:
+                q -= u
+        if kind & _PLUS:
+            q += col("c_frac")
         else:
-            d_mult = w
-        out += col("d_key0")
-        out += ki * (d_mult if kind & _UP else -d_mult)
-    n = par["n"]
-    n_min = int(n[0])
-    if n_min < width:
-        tail = out[:, n_min:]
-        np.putmask(tail, ki[None, n_min:] >= n[:, None], trash)
+            np.subtract(col("c_frac"), q, out=q)
+        np.floor(q, out=t)
+        # The fraction of v (exact), folded to its distance from 0.5.
+        q -= t
+        q -= np.float32(0.5)
+        np.abs(q, out=q)
+        np.greater(q, np.float32(0.5 - eps), out=risky)
+    if risky.any():
+        _repair(par64, width, kind, risky, t)
+    if kind & _CLIP:
+        t += col("c_int")
+        np.maximum(t, np.float32(0.0), out=t)
+        np.minimum(t, col("c_max"), out=t)
+    d_step = (1 if kind & _X_DRIVEN else w) * (1 if up else -1)
+    with np.errstate(invalid="ignore"):
+        if f32_keys:
+            if kind & _X_DRIVEN:
+                t *= np.float32(w)
+            t += col("row_key")
+            t += np.arange(0, d_step * width, d_step, dtype=np.float32)[:width]
+            np.copyto(out, t, casting="unsafe")
+        else:
+            np.copyto(out, t, casting="unsafe")
+            if kind & _X_DRIVEN:
+                out *= w
+            out += par64["row_key"].astype(np.intp)[:, None]
+            out += np.arange(width, dtype=np.intp) * d_step
+
+
+def _repair(
+    par64: dict[str, NDArray[Any]], width: int, kind: int, risky: BoolArray, t: NDArray[np.float32]
+) -> None:
+    """Recompute ``floor(v)`` in float64 at the samples flagged in ``risky`` (into ``t``)."""
+    idx = np.flatnonzero(risky)
+    r, k = np.divmod(idx, width)
+    u = par64["u0"][r] + (k if kind & _UP else -k)
+    if kind & _ELLIPSE:
+        q = par64["beta"][r] * u * u + par64["gamma"][r]
+    else:
+        q = par64["gamma"][r] - u * u
+    with np.errstate(invalid="ignore"):
+        s = np.sqrt(q)
+    if kind & _ELLIPSE:
+        s = s + par64["c_alpha"][r] * u if kind & _PLUS else s - par64["c_alpha"][r] * u
+    v = par64["c_frac"][r] + s if kind & _PLUS else par64["c_frac"][r] - s
+    t.reshape(-1)[idx] = np.floor(v)
+
+
+@dataclass(frozen=True)
+class _Block:
+    rows: IntArray  # piece indices (local to the batch) of the block's rows
+    width: int
+    kind: int
+    keys: IntArray  # (rows, width) padded flat keys; slots past a row's n hold trash
+
+
+def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
+    """Generation blocks of the pieces ``[p0, p1)`` with interior samples.
+
+    Pieces are sorted by kind and sample count; a block takes consecutive pieces of one
+    kind whose counts are within about 1/8 of the first (or all at most ``_SMALL``), and
+    about ``_CHUNK`` samples. The yielded keys live in reused memory.
+    """
+    n = plan.n[p0:p1]
+    live = np.flatnonzero(n > 0)
+    if live.size == 0:
+        return
+    kinds = plan.kind[p0:p1][live]
+    perm = np.lexsort((n[live], kinds))
+    order = live[perm]
+    kinds = kinds[perm]
+    ns = n[order]
+    g64 = {name: getattr(plan, name)[order + p0] for name in (*_F32_FIELDS, "eps", "d_key0")}
+    g64["c_offset"] = plan.c_offset[order + p0]
+    g32 = {name: g64[name].astype(np.float32) for name in _F32_FIELDS}
+    chunk = max(int(_CHUNK), 1)
+    biggest = max(chunk, int(ns.max()))
+    s64 = (np.empty(biggest), np.empty(biggest))
+    s32 = (
+        np.empty(biggest, dtype=np.float32),
+        np.empty(biggest, dtype=np.float32),
+        np.empty(biggest, dtype=np.float32),
+    )
+    flags = np.empty(biggest, dtype=bool)
+    keys = np.empty(biggest, dtype=np.intp)
+    w = int(plan.width)
+    f32_keys = trash + 2 * w < 1 << 24  # all keys are integers float32 holds exactly
+    ks = np.arange(biggest, dtype=np.intp)
+    cuts = [*(np.flatnonzero(np.diff(kinds)) + 1).tolist(), int(order.shape[0])]
+    g0 = 0
+    for g1 in cuts:
+        kind = int(kinds[g0])
+        i = g0
+        while i < g1:
+            n_i = int(ns[i])
+            w_cap = max(n_i + n_i // 8 + 1, _SMALL)
+            j = i + int(np.searchsorted(ns[i:g1], w_cap, side="right"))
+            j = min(j, i + max(1, chunk // w_cap))
+            width = int(ns[j - 1])
+            out = keys[: (j - i) * width].reshape(j - i, width)
+            p64 = {name: v[i:j] for name, v in g64.items()}
+            if kind & _F64:
+                _fill_block(p64, width, kind, w, out, s64)
+            else:
+                p32 = {name: v[i:j] for name, v in g32.items()}
+                eps = float(p64["eps"].max())
+                _fill_block32(p32, p64, width, kind, w, f32_keys, eps, out, s32, flags)
+            n_min = n_i
+            if n_min < width:  # padding slots past a row's n go to the trash bin
+                tail = out[:, n_min:]
+                np.putmask(tail, ks[n_min:width] >= ns[i:j, None], trash)
+            yield _Block(rows=order[i:j], width=width, kind=kind, keys=out)
+            i = j
+        g0 = g1
 
 
 @dataclass(frozen=True)
@@ -374,38 +581,20 @@ def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
     n = plan.n[p0:p1]
     pre = plan.pre[p0:p1]
     npc = p1 - p0
-    w = int(plan.width)
-    live = np.flatnonzero(n > 0)
-    wi_live = np.searchsorted(_WIDTHS, n[live])
-    group = wi_live * _KINDS + plan.kind[p0:p1][live]
-    perm = np.lexsort((n[live], group))
-    order = live[perm]
-    group = group[perm]
-    gathered = {name: getattr(plan, name)[order + p0] for name in _BLOCK_FIELDS}
-    widths = _WIDTHS[group // _KINDS]
-    n_interior = int(widths.sum())
+    n_interior = int(n.sum())
     n_pre = int(pre.sum())
     keys = np.empty(n_interior + n_pre + npc, dtype=np.intp)
     row_base = np.full(npc, -1, dtype=np.intp)
-    pos = 0
-    cuts = np.concatenate([[0], np.flatnonzero(np.diff(group)) + 1, [order.shape[0]]])
-    if order.shape[0] == 0:
-        cuts = cuts[:1]
-    biggest = max(_CHUNK, int(widths.max()) if widths.size else 0)
-    scratch = (np.empty(biggest), np.empty(biggest))
-    for g0, g1 in itertools.pairwise(cuts.tolist()):
-        width = int(widths[g0])
-        kind = int(group[g0] % _KINDS)
-        per = max(1, _CHUNK // width)
-        for b0 in range(int(g0), int(g1), per):
-            b1 = min(b0 + per, int(g1))
-            rows_local = order[b0:b1]
-            nr = b1 - b0
-            block = keys[pos : pos + nr * width].reshape(nr, width)
-            par = {name: v[b0:b1] for name, v in gathered.items()}
-            _fill_block(par, width, kind, w, trash, block, scratch)
-            row_base[rows_local] = pos + width * np.arange(nr, dtype=np.intp)
-            pos += nr * width
+    before = np.cumsum(n) - n
+    row_base[n > 0] = before[n > 0]
+    for blk in _blocks(plan, p0, p1, trash):
+        nb = n[blk.rows]
+        if blk.width == 1:
+            keys[row_base[blk.rows]] = blk.keys[:, 0]
+        else:
+            mask = np.arange(blk.width) < nb[:, None]
+            keys[_ranges(row_base[blk.rows], nb)] = blk.keys[mask]
+    pos = n_interior
     start_pos = np.full(npc, -1, dtype=np.intp)
     has_pre = pre.astype(bool)
     start_pos[has_pre] = pos + np.arange(n_pre, dtype=np.intp)
@@ -413,8 +602,65 @@ def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
     pos += n_pre
     end_pos = pos + np.arange(npc, dtype=np.intp)
     keys[pos : pos + npc] = plan.end_key[p0:p1]
-    _trash_repeats(plan, p0, p1, keys, row_base, start_pos, end_pos, trash)
+    _trash_repeats(plan, p0, p1, keys, row_base, row_base + n, row_base, start_pos, end_pos, trash)
     return _BatchKeys(keys=keys, row_base=row_base, start_pos=start_pos, end_pos=end_pos)
+
+
+def _accumulate(plan: _Plan, counts: NDArray[np.uint32], trash: int) -> None:
+    """Add every arc's cells to ``counts`` (padded flat map plus the trash bin), in place.
+
+    Each generation block is scattered while it is in cache. Only the samples that may
+    repeat a cell of their arc (each piece's end points and ``_EDGE`` interior samples at
+    each end, and every sample of a complex arc) are kept aside; the repeat check of
+    :func:`_batch_keys` runs on them, and each repeat is taken off again.
+    """
+    one = np.uint32(1)
+    for p0, p1 in _batches(plan):
+        n = plan.n[p0:p1]
+        npc = p1 - p0
+        cx = plan.complex_arc[p0:p1]
+        # Side store: 4 slots a simple piece (samples 0, 1, n - 2, n - 1), then start and
+        # end points, then complex pieces' whole rows.
+        edge = np.zeros((npc, 4), dtype=np.intp)
+        full_rows: list[IntArray] = []
+        full_base = np.zeros(npc, dtype=np.intp)
+        full_pos = 0
+        for blk in _blocks(plan, p0, p1, trash):
+            np.add.at(counts, blk.keys.reshape(-1), one)
+            nb = n[blk.rows]
+            width = blk.width
+            edge[blk.rows, 0] = blk.keys[:, 0]
+            if width > 1:
+                edge[blk.rows, 1] = blk.keys[:, 1]
+            flat = blk.keys.reshape(-1)
+            base = np.arange(blk.rows.shape[0], dtype=np.intp) * width
+            edge[blk.rows, 2] = flat[base + np.maximum(nb - 2, 0)]
+            edge[blk.rows, 3] = flat[base + nb - 1]
+            cxb = np.flatnonzero(cx[blk.rows])
+            if cxb.size:
+                full_rows.append(blk.keys[cxb].reshape(-1))
+                full_base[blk.rows[cxb]] = 4 * npc + full_pos + width * np.arange(cxb.size)
+                full_pos += cxb.size * width
+        pre = plan.pre[p0:p1]
+        has_pre = pre.astype(bool)
+        n_pre = int(pre.sum())
+        start_keys = plan.start_key[p0:p1][has_pre]
+        end_keys = plan.end_key[p0:p1]
+        np.add.at(counts, start_keys, one)
+        np.add.at(counts, end_keys, one)
+        store = np.concatenate([edge.reshape(-1), *full_rows, start_keys, end_keys])
+        orig = store.copy()
+        head_base = np.where(cx, full_base, 4 * np.arange(npc, dtype=np.intp))
+        tail_end = np.where(cx, full_base + n, head_base + 4)
+        after = 4 * npc + full_pos
+        start_pos = np.full(npc, -1, dtype=np.intp)
+        start_pos[has_pre] = after + np.arange(n_pre, dtype=np.intp)
+        end_pos = after + n_pre + np.arange(npc, dtype=np.intp)
+        _trash_repeats(
+            plan, p0, p1, store, head_base, tail_end, full_base, start_pos, end_pos, trash
+        )
+        changed = np.flatnonzero(store != orig)
+        np.subtract.at(counts, orig[changed], one)
 
 
 def _trash_repeats(
@@ -422,12 +668,19 @@ def _trash_repeats(
     p0: int,
     p1: int,
     keys: IntArray,
-    row_base: IntArray,
+    head_base: IntArray,
+    tail_end: IntArray,
+    full_base: IntArray,
     start_pos: IntArray,
     end_pos: IntArray,
     trash: int,
 ) -> None:
     """Send every repeat of a cell within one arc to ``trash`` (in place).
+
+    ``keys`` holds a piece's first ``min(n, _EDGE)`` interior samples from
+    ``head_base``, its last ``min(n - head, _EDGE)`` ending at ``tail_end``, its start
+    and end points at ``start_pos`` / ``end_pos``, and, for complex arcs, all its ``n``
+    interior samples from ``full_base``.
 
     Interior samples of a piece have distinct driver indices, and on an arc whose tangent
     turns by at most 45 degrees two samples in one cell lie within about 1.5 cells of arc
@@ -444,8 +697,8 @@ def _trash_repeats(
     seq = np.empty(int(cnt.sum()), dtype=np.intp)
     has_pre = pre.astype(bool)
     seq[off[has_pre]] = start_pos[has_pre]
-    seq[_ranges(off + pre, head)] = _ranges(row_base, head)
-    seq[_ranges(off + pre + head, tail)] = _ranges(row_base + n - tail, tail)
+    seq[_ranges(off + pre, head)] = _ranges(head_base, head)
+    seq[_ranges(off + pre + head, tail)] = _ranges(tail_end - tail, tail)
     seq[off + pre + head + tail] = end_pos
     # Key and arc in one int64, so that equal values are repeats within one arc.
     skeys = np.repeat(plan.arc[p0:p1].astype(np.int64) * np.int64(trash + 1), cnt)
@@ -457,7 +710,7 @@ def _trash_repeats(
     cx = np.flatnonzero(plan.complex_arc[p0:p1])
     if cx.size:
         idx = np.concatenate(
-            [_ranges(row_base[cx], n[cx]), start_pos[cx][pre[cx] > 0], end_pos[cx]]
+            [_ranges(full_base[cx], n[cx]), start_pos[cx][pre[cx] > 0], end_pos[cx]]
         )
         owner = np.concatenate(
             [
