@@ -1,0 +1,71 @@
+"""run_plan's control flow around link faults, with a scripted stand-in for Acquisition."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from sonard.acquisition import Resume
+from sonard.plan import Plan, parse_plan
+from sonard.steps import run_plan
+
+
+class ScriptedAcquisition:
+    """Answers polls from a clock it advances itself; raises Resume where the script says."""
+
+    def __init__(self, resume_on: dict[str, int]) -> None:
+        self.resume_on = dict(resume_on)
+        self.calls: list[str] = []
+        self.events: list[tuple[str, str]] = []
+        self.recording = False
+        self.state = SimpleNamespace(clock=0.0, motor_status=0)
+        self.sink = SimpleNamespace(event=lambda kind, detail="": self.events.append((kind, detail)))
+
+    def _maybe_resume(self, name: str) -> None:
+        if self.resume_on.get(name, 0) > 0:
+            self.resume_on[name] -= 1
+            raise Resume
+
+    def command(self, name: str, *args: Any, **kwargs: Any) -> Any:
+        self.calls.append(name)
+        self._maybe_resume(name)
+        return self.state
+
+    def poll(self) -> Any:
+        self.calls.append("poll")
+        self.state.clock += 0.04
+        self._maybe_resume("poll")
+        return self.state
+
+    def wait_robot_time(self, seconds: float) -> None:
+        start = self.state.clock
+        while self.state.clock - start < seconds:
+            self.poll()
+
+
+def _plan(steps: list[Any]) -> Plan:
+    return parse_plan({"name": "t", "sonars": [0], "steps": steps}, "test.yaml")
+
+
+def test_link_drop_during_a_steps_closing_stop_does_not_escape() -> None:
+    acq = ScriptedAcquisition({"stop": 1})
+    run_plan(acq, _plan([{"dwell": {"seconds": 0.2}}]))  # type: ignore[arg-type]
+    assert acq.calls.count("stop") == 1
+    assert ("step", "0 dwell") in acq.events
+
+
+def test_link_drop_mid_step_resumes_the_step_with_its_progress() -> None:
+    acq = ScriptedAcquisition({"poll": 1})
+    run_plan(acq, _plan([{"dwell": {"seconds": 0.4}}]))  # type: ignore[arg-type]
+    # 0.4 s of robot time at 40 ms a poll, resumed once: no more polls than a clean run + 2
+    assert 10 <= acq.calls.count("poll") <= 13
+    assert acq.calls[-1] == "stop"
+
+
+@pytest.mark.parametrize("n_steps", [1, 3])
+def test_every_step_ends_with_stop(n_steps: int) -> None:
+    acq = ScriptedAcquisition({})
+    run_plan(acq, _plan([{"dwell": {"seconds": 0.08}}] * n_steps))  # type: ignore[arg-type]
+    assert acq.calls.count("stop") == n_steps
