@@ -21,7 +21,10 @@ class ScriptedAcquisition:
         self.events: list[tuple[str, str]] = []
         self.recording = False
         self.state = SimpleNamespace(clock=0.0, motor_status=0)
-        self.sink = SimpleNamespace(event=lambda kind, detail="": self.events.append((kind, detail)))
+        self.sink = SimpleNamespace(event=self._record_event)
+
+    def _record_event(self, kind: str, detail: str = "") -> None:
+        self.events.append((kind, detail))
 
     def _maybe_resume(self, name: str) -> None:
         if self.resume_on.get(name, 0) > 0:
