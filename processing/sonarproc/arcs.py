@@ -195,11 +195,10 @@ def rasterize_arcs(
     plan = _plan_for(
         tx_xy, tx_heading, rx_xy, rx_heading, path, tx_half_beamwidth, rx_half_beamwidth, grid
     )
-    npad = (grid.ny + 2) * (grid.nx + 2)
-    counts = np.zeros(npad + 1, dtype=np.uint32)  # the padded map, then the trash bin
-    _accumulate(plan, counts, npad)
-    inner = counts[:npad].reshape(grid.ny + 2, grid.nx + 2)[1:-1, 1:-1]
-    return np.ascontiguousarray(inner)
+    size = grid.ny * grid.nx
+    counts = np.zeros(size + 1, dtype=np.uint32)  # the map, then the trash bin
+    _accumulate(plan, counts, size)
+    return counts[:size].reshape(grid.shape)
 
 
 def arc_cells(
@@ -234,12 +233,11 @@ def arc_cells(
     plan = _plan_for(
         tx_xy, tx_heading, rx_xy, rx_heading, path, tx_half_beamwidth, rx_half_beamwidth, grid
     )
-    w = grid.nx + 2
-    npad = (grid.ny + 2) * w
+    size = grid.ny * grid.nx
     out_arc: list[IntArray] = []
     out_key: list[IntArray] = []
     for p0, p1 in _batches(plan):
-        bk = _batch_keys(plan, p0, p1, npad)
+        bk = _batch_keys(plan, p0, p1, size)
         n = plan.n[p0:p1]
         pre = plan.pre[p0:p1]
         # Buffer positions in order along each arc: start point, interior, end point.
@@ -252,13 +250,12 @@ def arc_cells(
         src[off + pre + n] = bk.end_pos
         keys = bk.keys[src]
         owner = np.repeat(plan.arc[p0:p1], cnt)
-        iy, ix = np.divmod(keys, w)
-        ok = (keys < npad) & (iy >= 1) & (iy <= grid.ny) & (ix >= 1) & (ix <= grid.nx)
+        ok = keys < size
         out_arc.append(owner[ok])
         out_key.append(keys[ok])
     if not out_key:
         empty = np.zeros(0, dtype=np.intp)
         return empty, empty.copy(), empty.copy()
     keys = np.concatenate(out_key)
-    iy, ix = np.divmod(keys, w)
-    return np.concatenate(out_arc).astype(np.intp), iy - 1, ix - 1
+    iy, ix = np.divmod(keys, grid.nx)
+    return np.concatenate(out_arc).astype(np.intp), iy, ix

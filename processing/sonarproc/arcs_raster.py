@@ -77,8 +77,8 @@ class _Plan:
     beta: FloatArray
     gamma: FloatArray
     c_alpha: FloatArray
-    c_offset: FloatArray  # centre's computed coordinate + 1.5 (padding, round half up)
-    c_max: FloatArray  # last padded index of the computed axis
+    c_offset: FloatArray  # centre's computed coordinate + 0.5 (round half up)
+    c_max: FloatArray  # last index of the computed axis
     d_key0: IntArray  # flat-key part of the first interior sample's driver index
     kind: IntArray  # block kind bits (_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS)
     width: int  # padded grid width
@@ -93,12 +93,14 @@ class _Plan:
         return int(self.n.shape[0])
 
 
-def _padded_key(gx: FloatArray, gy: FloatArray, grid: Grid) -> IntArray:
-    """Flat key in the padded grid of continuous grid coordinates (clipped to the ring)."""
-    w = grid.nx + 2
-    ix = np.clip(np.floor(gx + 1.5), 0, grid.nx + 1).astype(np.intp)
-    iy = np.clip(np.floor(gy + 1.5), 0, grid.ny + 1).astype(np.intp)
-    return iy * w + ix
+def _flat_key(gx: FloatArray, gy: FloatArray, grid: Grid) -> IntArray:
+    """Flat key ``iy * nx + ix`` of continuous grid coordinates; the trash key outside."""
+    ix = np.floor(gx + 0.5)
+    iy = np.floor(gy + 0.5)
+    out = (ix < 0) | (ix >= grid.nx) | (iy < 0) | (iy >= grid.ny)
+    key = (np.where(out, 0, iy) * grid.nx + np.where(out, 0, ix)).astype(np.intp)
+    key[out] = grid.nx * grid.ny
+    return key
 
 
 def _unit(e: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -236,7 +238,7 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
     first = np.where(up, np.maximum(first, 0.0), np.minimum(first, n_d - 1.0))
     lastd = np.where(up, np.minimum(lastd, n_d - 1.0), np.maximum(lastd, 0.0))
     n = np.maximum((lastd - first) * step + 1.0, 0.0).astype(np.intp)
-    w = grid.nx + 2
+    w = grid.nx
     d_mult = np.where(xd, 1, w).astype(np.intp)
     # Range of the computed coordinate over the piece: its end values and, if the piece
     # holds it, the extreme of its branch (centre + sign * half extent of the ellipse).
@@ -252,8 +254,8 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
     clip = (c_lo < -0.49) | (c_hi > n_c - 0.51)
     ellipse = (c_alpha != 0.0) | (beta != -1.0)
     u0 = first - d_centre
-    d_key0 = (first.astype(np.intp) + 1) * d_mult
-    c_offset = c_centre + 1.5
+    d_key0 = first.astype(np.intp) * d_mult
+    c_offset = c_centre + 0.5
     c_int = np.floor(c_offset)
     row_key = np.where(clip, d_key0, c_int * np.where(xd, w, 1) + d_key0)
     eps = _f32_error_bound(u0, u0 + step * (n - 1), beta, gamma, c_alpha)
@@ -277,12 +279,12 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         gamma=gamma,
         c_alpha=c_alpha,
         c_offset=c_offset,
-        c_max=np.where(xd, grid.ny + 1, grid.nx + 1).astype(np.float64),
+        c_max=np.where(xd, grid.ny - 1, grid.nx - 1).astype(np.float64),
         d_key0=d_key0,
         kind=kind,
         width=w,
-        start_key=_padded_key(sx, sy, grid),
-        end_key=_padded_key(ex, ey, grid),
+        start_key=_flat_key(sx, sy, grid),
+        end_key=_flat_key(ex, ey, grid),
         c_frac=c_offset - c_int,
         c_int=c_int,
         row_key=row_key.astype(np.float64),
@@ -300,9 +302,10 @@ def _f32_error_bound(
     roundoff ``e``). With ``U = max |u|`` the rounded ``u`` is off by at most ``2 e U``, the
     radicand ``Q`` by ``dQ <= 7 e |beta| U^2 + 2 e gamma``; ``Q`` is concave in ``u``
     (``beta < 0``), so its least value on the piece is at an end, and the square root is
-    off by at most ``dQ / sqrt(Q_min) + e sqrt(gamma)``; ``alpha u`` adds ``4 e |alpha| U``
-    and the two sums ``2 e (1 + |alpha| U + sqrt(gamma))``. The sum, times 1.5 for the
-    second-order terms, is returned; ``inf`` where ``Q_min`` is not well clear of ``dQ``.
+    off by at most ``dQ / (1.8 sqrt(Q_min)) + e sqrt(gamma)``; ``alpha u`` adds ``4 e |alpha| U``
+    the rounding of ``f`` ``e`` and the two sums ``2 e (1 + |alpha| U + sqrt(gamma))``. The
+    sum, times 1.1 for the second-order terms, is returned; ``inf`` where ``Q_min`` is not
+    well clear of ``dQ``.
     """
     e = _U32
     big_u = np.maximum(np.abs(u_first), np.abs(u_last))
@@ -311,12 +314,10 @@ def _f32_error_bound(
         d_q = e * (7.0 * np.abs(beta) * big_u * big_u + 2.0 * np.abs(gamma))
         root = np.sqrt(np.abs(gamma))
         au = np.abs(alpha) * big_u
-        bound = 1.5 * (
-            d_q / np.sqrt(np.maximum(q_min, 0.0))
-            + e * root
-            + 4.0 * e * au
-            + 2.0 * e * (1.0 + au + root)
-        )
+        # |sqrt(Q + d) - sqrt(Q)| = |d| / (sqrt(Q + d) + sqrt(Q)) <= |d| / (1.8 sqrt(Q))
+        # when |d| < Q / 4.
+        d_root = d_q / (1.8 * np.sqrt(np.maximum(q_min, 0.0))) + e * root
+        bound = 1.1 * (d_root + 4.0 * e * au + e + 2.0 * e * (1.0 + au + root))
         bad = ~(q_min > 4.0 * d_q)
     bound[bad] = np.inf
     return np.asarray(bound, dtype=np.float64)
@@ -341,6 +342,7 @@ def _fill_block(
     width: int,
     kind: int,
     w: int,
+    trash: int,
     out: IntArray,
     scratch: tuple[FloatArray, FloatArray],
 ) -> None:
@@ -373,22 +375,22 @@ def _fill_block(
         np.subtract(col("gamma"), q, out=q)
     # q > 0 on every piece (it stays clear of the vertical tangents); only the padding
     # slots past n may give NaN.
-    with np.errstate(invalid="ignore"):
-        np.sqrt(q, out=q)
-        if kind & _ELLIPSE:
-            u *= col("c_alpha")
-            if kind & _PLUS:  # off + alpha u + sqrt
-                q += u
-            else:  # off - (sqrt - alpha u)
-                q -= u
-        if kind & _PLUS:
-            q += col("c_offset")
-        else:
-            np.subtract(col("c_offset"), q, out=q)
-        if kind & _CLIP:
-            np.maximum(q, 0.0, out=q)
-            np.minimum(q, col("c_max"), out=q)
-        np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
+    np.sqrt(q, out=q)
+    if kind & _ELLIPSE:
+        u *= col("c_alpha")
+        if kind & _PLUS:  # off + alpha u + sqrt
+            q += u
+        else:  # off - (sqrt - alpha u)
+            q -= u
+    if kind & _PLUS:
+        q += col("c_offset")
+    else:
+        np.subtract(col("c_offset"), q, out=q)
+    if kind & _CLIP:
+        np.floor(q, out=q)
+        outside = (q < 0.0) | (q > col("c_max"))
+        q[outside] = 0.0
+    np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
     d_mult = 1
     if kind & _X_DRIVEN:
         out *= w
@@ -396,6 +398,8 @@ def _fill_block(
         d_mult = w
     out += col("d_key0")
     out += ki * (d_mult if kind & _UP else -d_mult)
+    if kind & _CLIP:
+        out[outside] = trash
 
 
 def _fill_block32(
@@ -406,6 +410,7 @@ def _fill_block32(
     w: int,
     f32_keys: bool,
     eps: float,
+    trash: int,
     out: IntArray,
     scratch: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]],
     flags: BoolArray,
@@ -441,59 +446,62 @@ def _fill_block32(
         q += col("gamma")
     else:  # circle: beta = -1
         np.subtract(col("gamma"), q, out=q)
-    with np.errstate(invalid="ignore"):  # NaN only in padding slots past n
-        np.sqrt(q, out=q)
-        if kind & _ELLIPSE:
-            u *= col("c_alpha")
-            if kind & _PLUS:
-                q += u
-            else:
-                q -= u
+    np.sqrt(q, out=q)
+    if kind & _ELLIPSE:
+        u *= col("c_alpha")
         if kind & _PLUS:
-            q += col("c_frac")
+            q += u
         else:
-            np.subtract(col("c_frac"), q, out=q)
-        np.floor(q, out=t)
-        # The fraction of v (exact), folded to its distance from 0.5.
-        q -= t
-        q -= np.float32(0.5)
-        np.abs(q, out=q)
-        np.greater(q, np.float32(0.5 - eps), out=risky)
-    if risky.any():
-        _repair(par64, width, kind, risky, t)
+            q -= u
+    if kind & _PLUS:
+        q += col("c_frac")
+    else:
+        np.subtract(col("c_frac"), q, out=q)
+    np.floor(q, out=t)
+    # The fraction of v (exact), folded to its distance from 0.5.
+    q -= t
+    q -= np.float32(0.5)
+    np.abs(q, out=q)
+    np.greater(q, np.float32(0.5 - eps), out=risky)
+    flags[size : -(-size // 8) * 8] = False
+    # Find the flagged samples eight at a time (np.flatnonzero on bools is slow).
+    words = flags[: -(-size // 8) * 8].view(np.uint64)
+    hit = np.flatnonzero(words != 0)
+    if hit.size:
+        cand = ((hit * 8)[:, None] + np.arange(8)).reshape(-1)
+        _repair(par64, width, kind, cand[flags[cand]], t)
     if kind & _CLIP:
         t += col("c_int")
-        np.maximum(t, np.float32(0.0), out=t)
-        np.minimum(t, col("c_max"), out=t)
+        outside = (t < 0.0) | (t > col("c_max"))
+        t[outside] = 0.0
     d_step = (1 if kind & _X_DRIVEN else w) * (1 if up else -1)
-    with np.errstate(invalid="ignore"):
-        if f32_keys:
-            if kind & _X_DRIVEN:
-                t *= np.float32(w)
-            t += col("row_key")
-            t += np.arange(0, d_step * width, d_step, dtype=np.float32)[:width]
-            np.copyto(out, t, casting="unsafe")
-        else:
-            np.copyto(out, t, casting="unsafe")
-            if kind & _X_DRIVEN:
-                out *= w
-            out += par64["row_key"].astype(np.intp)[:, None]
-            out += np.arange(width, dtype=np.intp) * d_step
+    if f32_keys:
+        if kind & _X_DRIVEN:
+            t *= np.float32(w)
+        t += col("row_key")
+        t += np.arange(0, d_step * width, d_step, dtype=np.float32)[:width]
+        np.copyto(out, t, casting="unsafe")
+    else:
+        np.copyto(out, t, casting="unsafe")
+        if kind & _X_DRIVEN:
+            out *= w
+        out += par64["row_key"].astype(np.intp)[:, None]
+        out += np.arange(width, dtype=np.intp) * d_step
+    if kind & _CLIP:
+        out[outside] = trash
 
 
 def _repair(
-    par64: dict[str, NDArray[Any]], width: int, kind: int, risky: BoolArray, t: NDArray[np.float32]
+    par64: dict[str, NDArray[Any]], width: int, kind: int, idx: IntArray, t: NDArray[np.float32]
 ) -> None:
-    """Recompute ``floor(v)`` in float64 at the samples flagged in ``risky`` (into ``t``)."""
-    idx = np.flatnonzero(risky)
+    """Recompute ``floor(v)`` in float64 at the flat positions ``idx`` of ``t`` (in place)."""
     r, k = np.divmod(idx, width)
     u = par64["u0"][r] + (k if kind & _UP else -k)
     if kind & _ELLIPSE:
         q = par64["beta"][r] * u * u + par64["gamma"][r]
     else:
         q = par64["gamma"][r] - u * u
-    with np.errstate(invalid="ignore"):
-        s = np.sqrt(q)
+    s = np.sqrt(q)  # NaN only in padding slots (the caller ignores invalid values)
     if kind & _ELLIPSE:
         s = s + par64["c_alpha"][r] * u if kind & _PLUS else s - par64["c_alpha"][r] * u
     v = par64["c_frac"][r] + s if kind & _PLUS else par64["c_frac"][r] - s
@@ -520,7 +528,7 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
     if live.size == 0:
         return
     kinds = plan.kind[p0:p1][live]
-    perm = np.lexsort((n[live], kinds))
+    perm = np.argsort(kinds * (int(n.max()) + 1) + n[live])
     order = live[perm]
     kinds = kinds[perm]
     ns = n[order]
@@ -535,7 +543,7 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
         np.empty(biggest, dtype=np.float32),
         np.empty(biggest, dtype=np.float32),
     )
-    flags = np.empty(biggest, dtype=bool)
+    flags = np.zeros(biggest + 8, dtype=bool)
     keys = np.empty(biggest, dtype=np.intp)
     w = int(plan.width)
     f32_keys = trash + 2 * w < 1 << 24  # all keys are integers float32 holds exactly
@@ -553,12 +561,14 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
             width = int(ns[j - 1])
             out = keys[: (j - i) * width].reshape(j - i, width)
             p64 = {name: v[i:j] for name, v in g64.items()}
-            if kind & _F64:
-                _fill_block(p64, width, kind, w, out, s64)
-            else:
-                p32 = {name: v[i:j] for name, v in g32.items()}
-                eps = float(p64["eps"].max())
-                _fill_block32(p32, p64, width, kind, w, f32_keys, eps, out, s32, flags)
+            # Padding slots past n may take NaN (the root of a negative) till trashed.
+            with np.errstate(invalid="ignore"):
+                if kind & _F64:
+                    _fill_block(p64, width, kind, w, trash, out, s64)
+                else:
+                    p32 = {name: v[i:j] for name, v in g32.items()}
+                    eps = float(p64["eps"].max())
+                    _fill_block32(p32, p64, width, kind, w, f32_keys, eps, trash, out, s32, flags)
             n_min = n_i
             if n_min < width:  # padding slots past a row's n go to the trash bin
                 tail = out[:, n_min:]
