@@ -414,6 +414,7 @@ def _fill_block32(
     out: IntArray,
     scratch: tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float32]],
     flags: BoolArray,
+    ik: NDArray[np.int32],
 ) -> None:
     """As :func:`_fill_block`, with float32 arithmetic and exact float64 repair.
 
@@ -453,16 +454,15 @@ def _fill_block32(
             q += u
         else:
             q -= u
+    # v + eps: floor(v) is floor(v + eps) unless the fraction of v + eps is below 2 eps.
+    f_eps = col("c_frac") + np.float32(eps)
     if kind & _PLUS:
-        q += col("c_frac")
+        q += f_eps
     else:
-        np.subtract(col("c_frac"), q, out=q)
+        np.subtract(f_eps, q, out=q)
     np.floor(q, out=t)
-    # The fraction of v (exact), folded to its distance from 0.5.
-    q -= t
-    q -= np.float32(0.5)
-    np.abs(q, out=q)
-    np.greater(q, np.float32(0.5 - eps), out=risky)
+    q -= t  # the fraction (exact)
+    np.less(q, np.float32(2.0 * eps), out=risky)
     flags[size : -(-size // 8) * 8] = False
     # Find the flagged samples eight at a time (np.flatnonzero on bools is slow).
     words = flags[: -(-size // 8) * 8].view(np.uint64)
@@ -475,12 +475,13 @@ def _fill_block32(
         outside = (t < 0.0) | (t > col("c_max"))
         t[outside] = 0.0
     d_step = (1 if kind & _X_DRIVEN else w) * (1 if up else -1)
-    if f32_keys:
+    if f32_keys:  # exact integers in float32, then int32 (cheaper than float to int64)
         if kind & _X_DRIVEN:
             t *= np.float32(w)
-        t += col("row_key")
-        t += np.arange(0, d_step * width, d_step, dtype=np.float32)[:width]
-        np.copyto(out, t, casting="unsafe")
+        k32 = ik[:size].reshape(shape)
+        np.add(t, col("row_key"), out=k32, casting="unsafe")
+        k32 += np.arange(0, d_step * width, d_step, dtype=np.int32)[:width]
+        np.copyto(out, k32)
     else:
         np.copyto(out, t, casting="unsafe")
         if kind & _X_DRIVEN:
@@ -544,6 +545,7 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
         np.empty(biggest, dtype=np.float32),
     )
     flags = np.zeros(biggest + 8, dtype=bool)
+    ik = np.empty(biggest, dtype=np.int32)
     keys = np.empty(biggest, dtype=np.intp)
     w = int(plan.width)
     f32_keys = trash + 2 * w < 1 << 24  # all keys are integers float32 holds exactly
@@ -568,7 +570,9 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
                 else:
                     p32 = {name: v[i:j] for name, v in g32.items()}
                     eps = float(p64["eps"].max())
-                    _fill_block32(p32, p64, width, kind, w, f32_keys, eps, trash, out, s32, flags)
+                    _fill_block32(
+                        p32, p64, width, kind, w, f32_keys, eps, trash, out, s32, flags, ik
+                    )
             n_min = n_i
             if n_min < width:  # padding slots past a row's n go to the trash bin
                 tail = out[:, n_min:]
