@@ -7,21 +7,29 @@ vectorised over all arcs at once (no Python loop per arc, per piece or per sampl
 1. Each arc is cut into pieces at the points where its tangent is at 45 degrees. On a
    "flat" piece (``|dy/dx| <= 1``) the chain takes one cell per grid column, on a "steep"
    piece one cell per row; the other coordinate comes from the closed-form conic
-   ``v = alpha u +- sqrt(beta u^2 + gamma)`` (float64: a rounding slip near a 45-degree
-   point would open a gap). The exact end points of every piece (beam limits and the
-   45 degree points) are cells of the chain too, which closes the joints.
-2. Pieces are sorted into blocks of equal padded length and equal kind (circle or
-   ellipse, axis, direction, branch, needs clipping), so each block is a handful of
-   broadcast numpy operations on a 2-D array in reused memory.
-3. Within a piece the cells are distinct (one per column or row). A cell can repeat
+   ``v = alpha u +- sqrt(beta u^2 + gamma)``. The exact end points of every piece (beam
+   limits and the 45 degree points) are cells of the chain too, which closes the joints.
+2. The cells must be those of exact arithmetic (a rounding slip near a 45-degree point
+   would open a gap), but float32 is three times cheaper per sample. So v is computed in
+   float32 with a proven per-piece error bound eps (:func:`_f32_error_bound`), and the
+   few samples whose v lies within eps of a cell edge (about 0.2 %) are recomputed in
+   float64; rows whose bound is too loose go wholly through float64. Keys are sums of
+   integers, exact in float32 below 2**24.
+3. Pieces are sorted by kind (circle or ellipse, axis, direction, branch, needs
+   clipping, float64) and sample count into blocks of nearly equal lengths, so each
+   block is a handful of broadcast numpy operations on a 2-D array in reused memory that
+   stays in cache.
+4. Within a piece the cells are distinct (one per column or row). A cell can repeat
    only next to a piece's ends, and on an arc whose tangent turns by at most 45 degrees
    two samples in one cell lie within about 1.5 cells of arc; so the repeats are found
    by comparing each end sample with the few before it along the arc. Other arcs (wide
-   beams, thin ellipses, two-piece joint regions) get an exact sort-based check. Repeats
-   and padding go to a trash bin.
-4. One ``np.bincount`` over flat cell indices of a grid padded by one cell makes the count
-   map; cells outside the grid fall into the padding ring and are cut off. Arcs are
-   processed in batches of about ``_BATCH`` samples to bound memory.
+   beams, thin ellipses, two-piece joint regions) get an exact sort-based check.
+5. Keys are flat cell indices ``iy * nx + ix``; cells outside the grid and padding slots
+   take the trash key ``nx * ny``. :func:`_accumulate` scatters each block into a uint32
+   count map with ``np.add.at`` while the block is in cache, keeps only the samples that
+   may repeat, and takes the repeats off again; :func:`_batch_keys` (for
+   :func:`sonarproc.arcs.arc_cells`) writes all keys to one buffer and trashes the
+   repeats there. Arcs are processed in batches of about ``_BATCH`` samples.
 """
 
 from __future__ import annotations
@@ -52,6 +60,8 @@ _SMALL = 8
 _F32_MAX_ERROR = 0.05
 #: Unit roundoff of float32.
 _U32 = 2.0**-24
+#: Flat keys below this are made in float32 (which holds integers up to 2**24 exactly).
+_F32_KEY_LIMIT = 1 << 24
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -299,13 +309,14 @@ def _f32_error_bound(
 
     ``f`` is in [0, 1) and ``u`` runs from ``u_first`` to ``u_last`` by steps of 1; the
     inputs are float64 values rounded to float32 and every operation rounds once (unit
-    roundoff ``e``). With ``U = max |u|`` the rounded ``u`` is off by at most ``2 e U``, the
-    radicand ``Q`` by ``dQ <= 7 e |beta| U^2 + 2 e gamma``; ``Q`` is concave in ``u``
+    roundoff ``e``). With ``U = max |u|`` the rounded ``u`` is off by at most ``2 e U``,
+    the radicand ``Q`` by ``dQ <= 7 e |beta| U^2 + 2 e gamma``; ``Q`` is concave in ``u``
     (``beta < 0``), so its least value on the piece is at an end, and the square root is
-    off by at most ``dQ / (1.8 sqrt(Q_min)) + e sqrt(gamma)``; ``alpha u`` adds ``4 e |alpha| U``
-    the rounding of ``f`` ``e`` and the two sums ``2 e (1 + |alpha| U + sqrt(gamma))``. The
-    sum, times 1.1 for the second-order terms, is returned; ``inf`` where ``Q_min`` is not
-    well clear of ``dQ``.
+    off by at most ``dQ / (1.8 sqrt(Q_min)) + e sqrt(gamma)``. ``alpha u`` adds
+    ``4 e |alpha| U``; the rounding of ``f`` and of ``f + eps`` (the shift of
+    :func:`_fill_block32`) ``2 e``; the two sums ``2 e (1 + |alpha| U + sqrt(gamma))``.
+    The total, times 1.1 for the second-order terms, is returned; ``inf`` where ``Q_min``
+    is not well clear of ``dQ``. ``test_float32_error_bound_holds`` checks it.
     """
     e = _U32
     big_u = np.maximum(np.abs(u_first), np.abs(u_last))
@@ -317,7 +328,7 @@ def _f32_error_bound(
         # |sqrt(Q + d) - sqrt(Q)| = |d| / (sqrt(Q + d) + sqrt(Q)) <= |d| / (1.8 sqrt(Q))
         # when |d| < Q / 4.
         d_root = d_q / (1.8 * np.sqrt(np.maximum(q_min, 0.0))) + e * root
-        bound = 1.1 * (d_root + 4.0 * e * au + e + 2.0 * e * (1.0 + au + root))
+        bound = 1.1 * (d_root + 4.0 * e * au + 2.0 * e + 2.0 * e * (1.0 + au + root))
         bad = ~(q_min > 4.0 * d_q)
     bound[bad] = np.inf
     return np.asarray(bound, dtype=np.float64)
@@ -548,7 +559,7 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
     ik = np.empty(biggest, dtype=np.int32)
     keys = np.empty(biggest, dtype=np.intp)
     w = int(plan.width)
-    f32_keys = trash + 2 * w < 1 << 24  # all keys are integers float32 holds exactly
+    f32_keys = trash + 2 * w < _F32_KEY_LIMIT
     ks = np.arange(biggest, dtype=np.intp)
     cuts = [*(np.flatnonzero(np.diff(kinds)) + 1).tolist(), int(order.shape[0])]
     g0 = 0

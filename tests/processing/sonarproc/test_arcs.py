@@ -393,3 +393,92 @@ def test_large_radius_polaroid_arcs() -> None:
     # 10 m circles at 1 cm: the count of a 25 degree arc is about its length per cell.
     r = reading((0, 0), 0.4, (0, 0), 0.4, 20.0, np.deg2rad(12.5), np.deg2rad(12.5))
     check_arc(r, 0.01)
+
+
+def _mixed_readings(seed: int, n: int, *, spread: float, max_path: float) -> Reading:
+    """Monostatic and bistatic readings of all sizes and beam widths (seeded)."""
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(-spread, spread, (n, 2))
+    h = rng.uniform(-np.pi, np.pi, n)
+    bistatic = rng.random((n, 1)) < 0.4
+    rx = t + bistatic * rng.uniform(-0.1, 0.1, (n, 2))
+    return {
+        "tx_xy": t,
+        "tx_heading": h,
+        "rx_xy": rx,
+        "rx_heading": h + rng.uniform(-0.2, 0.2, n),
+        "path": rng.uniform(0.05, max_path, n),
+        "tx_half_beamwidth": rng.uniform(0.05, 1.7, n),
+        "rx_half_beamwidth": rng.uniform(0.05, 1.7, n),
+    }
+
+
+@pytest.mark.parametrize(
+    ("spread", "max_path", "cell", "clip"),
+    [(0.5, 3.0, 0.01, False), (0.5, 3.0, 0.01, True), (5.0, 30.0, 0.01, True)],
+)
+def test_float32_path_matches_float64(
+    monkeypatch: pytest.MonkeyPatch, spread: float, max_path: float, cell: float, clip: bool
+) -> None:
+    # The float32 arithmetic with its float64 repair gives exactly the float64 cells; so
+    # does the int64 key path that grids of 2**24 cells or more take.
+    r = _mixed_readings(11, 400, spread=spread, max_path=max_path)
+    x0, x1, y0, y1 = bounds(r)
+    if clip:  # cut the grid well inside the arcs, so that many pieces need clipping
+        x0, x1, y0, y1 = 0.6 * x0, 0.7 * x1, 0.8 * y0, 0.5 * y1
+    grid = Grid.covering(x0, x1, y0, y1, cell=cell)
+    ref = counts(r, grid)
+    ref_cells = cells(r, grid)
+    assert ref.sum() > 0
+    for name, value in (("_F32_MAX_ERROR", -1.0), ("_F32_KEY_LIMIT", 0)):
+        with monkeypatch.context() as m:
+            m.setattr(arcs_raster, name, value)
+            np.testing.assert_array_equal(counts(r, grid), ref)
+            for got, want in zip(cells(r, grid), ref_cells, strict=True):
+                np.testing.assert_array_equal(got, want)
+
+
+def _f32_values(plan: arcs_raster._Plan, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Piece i's computed coordinate plus its eps, as the float32 engine makes it and exact."""
+    n = int(plan.n[i])
+    kind = int(plan.kind[i])
+    out = []
+    eps = np.float32(plan.eps[i])
+    for dt in (np.float32, np.float64):
+        k = np.arange(n, dtype=dt)
+        u = dt(plan.u0[i]) + k if kind & arcs_raster._UP else dt(plan.u0[i]) - k
+        q = u * u
+        if kind & arcs_raster._ELLIPSE:
+            q = q * dt(plan.beta[i]) + dt(plan.gamma[i])
+        else:
+            q = dt(plan.gamma[i]) - q
+        s = np.sqrt(q)
+        if kind & arcs_raster._ELLIPSE:
+            au = u * dt(plan.c_alpha[i])
+            s = s + au if kind & arcs_raster._PLUS else s - au
+        f = dt(plan.c_frac[i]) + dt(eps)
+        out.append((f + s if kind & arcs_raster._PLUS else f - s).astype(np.float64))
+    return out[0], out[1]
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    max_path=st.sampled_from([0.5, 3.0, 30.0]),
+    cell=st.sampled_from([0.002, 0.01, 0.05]),
+)
+def test_float32_error_bound_holds(seed: int, max_path: float, cell: float) -> None:
+    from sonarproc.arcs import _plan_for
+
+    r = _mixed_readings(seed, 40, spread=1.0, max_path=max_path)
+    try:
+        grid = Grid.covering(*bounds(r), cell=cell)
+    except ValueError:  # no arc at all
+        return
+    plan = _plan_for(
+        r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
+        r["tx_half_beamwidth"], r["rx_half_beamwidth"], grid,
+    )  # fmt: skip
+    for i in np.flatnonzero(plan.n > 0):
+        v32, v64 = _f32_values(plan, int(i))
+        assert np.abs(v32 - v64).max() <= plan.eps[i]
