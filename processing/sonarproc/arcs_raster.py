@@ -62,6 +62,8 @@ _F32_MAX_ERROR = 0.05
 _U32 = 2.0**-24
 #: Flat keys below this are made in float32 (which holds integers up to 2**24 exactly).
 _F32_KEY_LIMIT = 1 << 24
+#: Side (cells) of the tiles on which :func:`_overlap_bound` counts arcs.
+_TILE = 64
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -98,6 +100,7 @@ class _Plan:
     c_int: FloatArray  # floor(c_offset)
     row_key: FloatArray  # key part of a row that is not floor(v) (an integer)
     eps: FloatArray  # bound of the float32 error of the computed coordinate
+    overlap: int  # upper bound of the count of any cell
 
     def __len__(self) -> int:
         return int(self.n.shape[0])
@@ -299,7 +302,45 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         c_int=c_int,
         row_key=row_key.astype(np.float64),
         eps=eps,
+        overlap=_overlap_bound(
+            np.where(xd, np.minimum(sx, ex), c_lo),
+            np.where(xd, np.maximum(sx, ex), c_hi),
+            np.where(xd, c_lo, np.minimum(sy, ey)),
+            np.where(xd, c_hi, np.maximum(sy, ey)),
+            grid,
+        ),
     )
+
+
+def _overlap_bound(
+    x_lo: FloatArray, x_hi: FloatArray, y_lo: FloatArray, y_hi: FloatArray, grid: Grid
+) -> int:
+    """An upper bound of any cell's count: the most piece boxes over one tile of cells.
+
+    A piece's cells lie in its box (grid coordinates, widened by a cell); the boxes are
+    added onto tiles of ``_TILE`` cells with a summed 2-D difference array.
+    """
+    if x_lo.shape[0] == 0:
+        return 0
+    nty = -(-grid.ny // _TILE)
+    ntx = -(-grid.nx // _TILE)
+
+    def tiles(lo: FloatArray, hi: FloatArray, nt: int) -> tuple[IntArray, IntArray]:
+        with np.errstate(invalid="ignore"):
+            a = np.clip(np.floor((lo - 1.0) / _TILE), 0, nt - 1)
+            b = np.clip(np.floor((hi + 1.0) / _TILE), 0, nt - 1)
+        return np.nan_to_num(a).astype(np.intp), np.nan_to_num(b, nan=nt - 1).astype(np.intp)
+
+    tx0, tx1 = tiles(x_lo, x_hi, ntx)
+    ty0, ty1 = tiles(y_lo, y_hi, nty)
+    d = np.zeros((nty + 1) * (ntx + 1), dtype=np.int64)
+    w = ntx + 1
+    np.add.at(d, ty0 * w + tx0, 1)
+    np.add.at(d, ty0 * w + tx1 + 1, -1)
+    np.add.at(d, (ty1 + 1) * w + tx0, -1)
+    np.add.at(d, (ty1 + 1) * w + tx1 + 1, 1)
+    counts = np.cumsum(np.cumsum(d.reshape(nty + 1, w), axis=0), axis=1)
+    return int(counts.max())
 
 
 def _f32_error_bound(
@@ -631,7 +672,7 @@ def _batch_keys(plan: _Plan, p0: int, p1: int, trash: int) -> _BatchKeys:
     return _BatchKeys(keys=keys, row_base=row_base, start_pos=start_pos, end_pos=end_pos)
 
 
-def _accumulate(plan: _Plan, counts: NDArray[np.uint32], trash: int) -> None:
+def _accumulate(plan: _Plan, counts: NDArray[np.unsignedinteger[Any]], trash: int) -> None:
     """Add every arc's cells to ``counts`` (padded flat map plus the trash bin), in place.
 
     Each generation block is scattered while it is in cache. Only the samples that may
@@ -639,7 +680,7 @@ def _accumulate(plan: _Plan, counts: NDArray[np.uint32], trash: int) -> None:
     each end, and every sample of a complex arc) are kept aside; the repeat check of
     :func:`_batch_keys` runs on them, and each repeat is taken off again.
     """
-    one = np.uint32(1)
+    one = counts.dtype.type(1)
     for p0, p1 in _batches(plan):
         n = plan.n[p0:p1]
         npc = p1 - p0

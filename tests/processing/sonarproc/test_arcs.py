@@ -482,3 +482,27 @@ def test_float32_error_bound_holds(seed: int, max_path: float, cell: float) -> N
     for i in np.flatnonzero(plan.n > 0):
         v32, v64 = _f32_values(plan, int(i))
         assert np.abs(v32 - v64).max() <= plan.eps[i]
+
+
+def test_counts_beyond_uint16() -> None:
+    # 70 000 echoes of one small arc: every cell of it counts 70 000 (the uint32 path).
+    n = 70_000
+    one = reading((0, 0), 0.3, (0, 0), 0.3, 0.1, 0.6, 0.6)
+    many = {k: np.repeat(v, n, axis=0) for k, v in one.items()}
+    grid = Grid.covering(-0.1, 0.1, -0.1, 0.1, cell=0.01)
+    single = counts(one, grid)
+    np.testing.assert_array_equal(counts(many, grid), n * single.astype(np.int64))
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**31), cell=st.sampled_from([0.005, 0.02]))
+def test_overlap_bound_holds(seed: int, cell: float) -> None:
+    from sonarproc.arcs import _plan_for
+
+    r = _mixed_readings(seed, 300, spread=0.3, max_path=1.0)
+    grid = Grid.covering(-0.8, 0.8, -0.8, 0.8, cell=cell)  # clips some arcs
+    plan = _plan_for(
+        r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
+        r["tx_half_beamwidth"], r["rx_half_beamwidth"], grid,
+    )  # fmt: skip
+    assert plan.overlap >= counts(r, grid).max()
