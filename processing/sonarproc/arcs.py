@@ -198,11 +198,13 @@ def rasterize_arcs(
     size = grid.ny * grid.nx
     # The map, then the trash bin. uint16 scatters faster (half the memory) where no cell
     # can reach 2**16 arcs; the trash bin may wrap, harmlessly.
-    small = plan.overlap < 1 << 16
-    counts = np.zeros(size + 1, dtype=np.uint16 if small else np.uint32)
-    _accumulate(plan, counts, size)
-    inner = counts[:size].reshape(grid.shape)
-    return inner.astype(np.uint32) if small else inner
+    if plan.overlap < 1 << 16:
+        c16 = np.zeros(size + 1, dtype=np.uint16)
+        _accumulate(plan, c16, size)
+        return c16[:size].reshape(grid.shape).astype(np.uint32)
+    c32 = np.zeros(size + 1, dtype=np.uint32)
+    _accumulate(plan, c32, size)
+    return c32[:size].reshape(grid.shape)
 
 
 def arc_cells(
