@@ -1,0 +1,208 @@
+"""Exports of a method's map for robotics tools: ROS map_server, GeoJSON, PLY.
+
+* **ros-map**: ``NAME.pgm`` + ``NAME.yaml`` in ROS ``map_server`` form (ROS 1 and the
+  ROS 2 nav2 map server read the same pair). The PGM is binary (``P5``), header exactly
+  ``P5\\n<width> <height>\\n255\\n``, first row = the top of the map (largest y); pixels are
+  0 (occupied), 254 (free) and 205 (unknown). The YAML gives ``resolution`` (the cell),
+  ``origin`` (the lower-left corner of the lower-left pixel, m, yaw 0), ``negate: 0``,
+  ``occupied_thresh: 0.65``, ``free_thresh: 0.196`` and ``mode: trinary``; map_server's
+  occupancy of a pixel is ``(255 - v) / 255``, so 0 reads as occupied, 254 as free and
+  205 (0.196...) as unknown. A probabilistic method (``occupancy``) exports its p(occupied)
+  with those thresholds; the others export their processed cells as occupied and all
+  else as unknown.
+* **geojson**: the fitted profile as a ``LineString`` feature in the map frame (x, y in m;
+  *not* WGS 84 longitude/latitude, which RFC 7946 assumes: tools must treat it as a local
+  planar frame), with the method and the metrics as properties.
+* **ply**: the processed cells as a binary little-endian PLY point cloud (``float x, y, z``
+  with z = 0, and ``uint evidence``), readable by Open3D, CloudCompare, PCL and MeshLab.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.fit import FitFailure
+from sonarproc.grid import Grid
+from sonarproc.methods.base import MethodResult
+
+__all__ = [
+    "FORMATS",
+    "FREE",
+    "OCCUPIED",
+    "UNKNOWN",
+    "parse_formats",
+    "read_pgm",
+    "read_ros_map",
+    "ros_map_image",
+    "write_exports",
+    "write_geojson",
+    "write_ply",
+    "write_ros_map",
+]
+
+FORMATS = ("ros-map", "geojson", "ply")
+OCCUPIED, FREE, UNKNOWN = 0, 254, 205
+OCCUPIED_THRESH = 0.65
+FREE_THRESH = 0.196
+
+
+def parse_formats(text: str) -> list[str]:
+    """Split ``"ros-map,geojson"`` into known format names.
+
+    Examples
+    --------
+    >>> parse_formats("geojson, ros-map")
+    ['geojson', 'ros-map']
+    """
+    names = list(dict.fromkeys(p.strip().lower() for p in text.split(",") if p.strip()))
+    bad = [n for n in names if n not in FORMATS]
+    if bad or not names:
+        raise ValueError(f"export format must be one of {', '.join(FORMATS)}, got {text!r}")
+    return names
+
+
+def ros_map_image(result: MethodResult) -> npt.NDArray[np.uint8]:
+    """The map as map_server pixels, indexed ``[iy, ix]`` like the grid (row 0 = lowest y)."""
+    run = result.run
+    if result.probability is not None:
+        p = result.probability
+        img = np.full(p.shape, UNKNOWN, dtype=np.uint8)
+        img[p > OCCUPIED_THRESH] = OCCUPIED
+        img[p < FREE_THRESH] = FREE
+        return img
+    img = np.full(run.processed.shape, UNKNOWN, dtype=np.uint8)
+    img[run.processed] = OCCUPIED
+    return img
+
+
+def write_ros_map(result: MethodResult, stem: str | Path) -> tuple[Path, Path]:
+    """Write ``STEM.pgm`` and ``STEM.yaml``; return both paths."""
+    stem = Path(stem)
+    img = ros_map_image(result)
+    g = result.run.grid
+    pgm, yml = stem.with_suffix(".pgm"), stem.with_suffix(".yaml")
+    header = f"P5\n{g.nx} {g.ny}\n255\n".encode("ascii")
+    pgm.write_bytes(header + np.ascontiguousarray(img[::-1]).tobytes())
+    ox, oy = g.x0 - 0.5 * g.cell, g.y0 - 0.5 * g.cell
+    yml.write_text(
+        f"image: {pgm.name}\n"
+        "mode: trinary\n"
+        f"resolution: {g.cell:.10g}\n"
+        f"origin: [{ox:.10g}, {oy:.10g}, 0.0]\n"
+        "negate: 0\n"
+        f"occupied_thresh: {OCCUPIED_THRESH}\n"
+        f"free_thresh: {FREE_THRESH}\n",
+        encoding="utf-8",
+    )
+    return pgm, yml
+
+
+def read_pgm(path: str | Path) -> npt.NDArray[np.uint8]:
+    """Read a binary 8-bit PGM (``P5``, maxval 255); rows top first."""
+    data = Path(path).read_bytes()
+    parts = data.split(b"\n", 3)
+    if len(parts) < 4 or parts[0] != b"P5" or parts[2] != b"255":
+        raise ValueError(f"{path}: not an 8-bit binary PGM with a plain header")
+    w, h = (int(v) for v in parts[1].split())
+    pix = np.frombuffer(parts[3], dtype=np.uint8)
+    if pix.size != w * h:
+        raise ValueError(f"{path}: expected {w * h} pixels, found {pix.size}")
+    return pix.reshape(h, w)
+
+
+def read_ros_map(yaml_path: str | Path) -> tuple[Grid, npt.NDArray[np.uint8]]:
+    """Read a map written by :func:`write_ros_map`: its grid and pixels ``[iy, ix]``."""
+    import yaml
+
+    p = Path(yaml_path)
+    meta = yaml.safe_load(p.read_text(encoding="utf-8"))
+    img = read_pgm(p.parent / meta["image"])[::-1]
+    cell = float(meta["resolution"])
+    ox, oy = float(meta["origin"][0]), float(meta["origin"][1])
+    grid = Grid(x0=ox + 0.5 * cell, y0=oy + 0.5 * cell, cell=cell, nx=img.shape[1], ny=img.shape[0])
+    return grid, np.ascontiguousarray(img)
+
+
+def geojson_profile(result: MethodResult) -> dict[str, Any]:
+    """The fitted profile as a GeoJSON FeatureCollection (one LineString, map frame)."""
+    from sonarproc.report import _clean
+
+    run = result.run
+    props: dict[str, Any] = {
+        "method": result.method,
+        "source": run.source,
+        "frame": "map",
+        "units": "m",
+        "fit": run.fit.kind,
+        "fit_order": run.fit.order,
+        **run.metrics.to_json(),
+        "t_cpu_s": run.t_cpu_s,
+    }
+    features: list[dict[str, Any]] = []
+    if not isinstance(run.fit, FitFailure):
+        pts = run.fit.sample(run.grid.cell)
+        coords = np.round(pts, 6).tolist()
+        features.append(
+            {
+                "type": "Feature",
+                "geometry": {"type": "LineString", "coordinates": coords},
+                "properties": props,
+            }
+        )
+    else:
+        props["fit_failure"] = run.fit.reason
+    return dict(_clean({"type": "FeatureCollection", "features": features, "properties": props}))
+
+
+def write_geojson(result: MethodResult, path: str | Path) -> Path:
+    """Write :func:`geojson_profile` to ``path``."""
+    p = Path(path)
+    p.write_text(json.dumps(geojson_profile(result)) + "\n", encoding="utf-8")
+    return p
+
+
+PLY_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("evidence", "<u4")])
+
+
+def write_ply(result: MethodResult, path: str | Path) -> Path:
+    """Write the processed cells as a binary little-endian PLY point cloud."""
+    run = result.run
+    ix, iy = np.nonzero(run.processed.T)
+    v = np.zeros(ix.size, dtype=PLY_DTYPE)
+    v["x"] = run.grid.x0 + run.grid.cell * ix
+    v["y"] = run.grid.y0 + run.grid.cell * iy
+    v["evidence"] = run.counts_map[iy, ix]
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"comment sonarmorph {result.method} processed map, map frame, m\n"
+        f"element vertex {ix.size}\n"
+        "property float x\nproperty float y\nproperty float z\nproperty uint evidence\n"
+        "end_header\n"
+    ).encode("ascii")
+    p = Path(path)
+    p.write_bytes(header + v.tobytes())
+    return p
+
+
+def write_exports(result: MethodResult, out_dir: str | Path, formats: Iterable[str]) -> list[Path]:
+    """Write each format of ``formats`` as ``OUT/<method>.<ext>``; return the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / result.method
+    written: list[Path] = []
+    for f in formats:
+        if f == "ros-map":
+            written.extend(write_ros_map(result, stem))
+        elif f == "geojson":
+            written.append(write_geojson(result, stem.with_suffix(".geojson")))
+        elif f == "ply":
+            written.append(write_ply(result, stem.with_suffix(".ply")))
+        else:
+            raise ValueError(f"unknown export format {f!r}")
+    return written
