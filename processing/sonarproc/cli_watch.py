@@ -149,7 +149,16 @@ def watch(
         lg = read_log(log_path)
         return lg if truth_xy is None else replace(lg, truth=truth_xy)
 
-    first = read()
+    first = None
+    while first is None:
+        try:
+            first = read()
+        except (SonarLogError, OSError):
+            # A log its writer has only just created may not be readable yet: wait for
+            # it while the writer holds it open (or until told to stop).
+            if not log_path.is_file() or writer_closed(log_path) or once or stop.is_set():
+                raise
+            stop.wait(min(interval, 0.5))
     acc = LiveAccumulator(first, params)
     seen = 0
     updates = 0
