@@ -15,7 +15,7 @@ two intervals. Everything here is vectorised over readings; nothing loops per ar
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,6 +83,10 @@ class ArcGeometry:
 
     def __len__(self) -> int:
         return int(self.arc.shape[0])
+
+    def __getitem__(self, rows: slice) -> ArcGeometry:
+        """The rows ``rows`` (views)."""
+        return ArcGeometry(**{f.name: getattr(self, f.name)[rows] for f in fields(self)})
 
 
 def _as_inputs(

@@ -64,6 +64,8 @@ _U32 = 2.0**-24
 _F32_KEY_LIMIT = 1 << 24
 #: Side (cells) of the tiles on which :func:`_overlap_bound` counts arcs.
 _TILE = 64
+#: Arcs per chunk of :func:`_plan`.
+_PLAN_CHUNK = 8192
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -162,7 +164,22 @@ def _breakpoints(geom: ArcGeometry) -> tuple[FloatArray, FloatArray, FloatArray,
 
 
 def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
-    """Cut every arc into pieces and set up their sampling (vectorised, no loop per arc)."""
+    """Cut every arc into pieces and set up their sampling (vectorised, no loop per arc).
+
+    Runs on chunks of ``_PLAN_CHUNK`` arcs: some 150 array operations per chunk, whose
+    arrays then stay in cache.
+    """
+    parts = [
+        _plan_part(geom[i : i + _PLAN_CHUNK], grid) for i in range(0, len(geom), _PLAN_CHUNK)
+    ] or [_plan_part(geom, grid)]
+    f = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
+    overlap = _overlap_bound(f.pop("x_lo"), f.pop("x_hi"), f.pop("y_lo"), f.pop("y_hi"), grid)
+    return _Plan(**f, width=grid.nx, overlap=overlap)
+
+
+def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
+    """The fields of :class:`_Plan` (but ``width``, ``overlap``) for some arcs, and the
+    pieces' boxes ``x_lo, x_hi, y_lo, y_hi`` (grid coordinates)."""
     k = len(geom)
     # Intervals, in order along arcs.
     two = np.isfinite(geom.length[:, 1])
@@ -281,7 +298,7 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         + _PLUS * (sign > 0)
         + _F64 * f64
     )
-    return _Plan(
+    return dict(
         arc=geom.arc[row],
         pre=pre,
         n=n,
@@ -295,20 +312,16 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
         c_max=np.where(xd, grid.ny - 1, grid.nx - 1).astype(np.float64),
         d_key0=d_key0,
         kind=kind,
-        width=w,
         start_key=_flat_key(sx, sy, grid),
         end_key=_flat_key(ex, ey, grid),
         c_frac=c_offset - c_int,
         c_int=c_int,
         row_key=row_key.astype(np.float64),
         eps=eps,
-        overlap=_overlap_bound(
-            np.where(xd, np.minimum(sx, ex), c_lo),
-            np.where(xd, np.maximum(sx, ex), c_hi),
-            np.where(xd, c_lo, np.minimum(sy, ey)),
-            np.where(xd, c_hi, np.maximum(sy, ey)),
-            grid,
-        ),
+        x_lo=np.where(xd, np.minimum(sx, ex), c_lo),
+        x_hi=np.where(xd, np.maximum(sx, ex), c_hi),
+        y_lo=np.where(xd, c_lo, np.minimum(sy, ey)),
+        y_hi=np.where(xd, c_hi, np.maximum(sy, ey)),
     )
 
 

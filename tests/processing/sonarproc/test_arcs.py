@@ -306,6 +306,7 @@ def test_chunking_and_exact_path_do_not_change_the_map(monkeypatch: pytest.Monke
     ref_cells = cells(r, grid)
     monkeypatch.setattr(arcs_raster, "_CHUNK", 50)
     monkeypatch.setattr(arcs_raster, "_BATCH", 3000)
+    monkeypatch.setattr(arcs_raster, "_PLAN_CHUNK", 37)
     np.testing.assert_array_equal(counts(r, grid), ref)
     monkeypatch.setattr(arcs_raster, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
     np.testing.assert_array_equal(counts(r, grid), ref)
