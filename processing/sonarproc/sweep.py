@@ -26,6 +26,8 @@ import itertools
 import json
 import logging
 import math
+import multiprocessing
+import multiprocessing.context
 import re
 import time
 from collections.abc import Iterable, Sequence
@@ -461,6 +463,16 @@ def _tasks(combos: Sequence[Combination], jobs: int) -> list[list[Combination]]:
     return tasks
 
 
+def _mp_context() -> multiprocessing.context.BaseContext:
+    """Workers from a fork server that has imported this module (cheap to start, and no
+    fork of a possibly multi-threaded parent); plain spawn where there is no fork server."""
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["sonarproc.sweep", "sonarproc.pipeline", "sonarsim"])
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
 @dataclass
 class SweepResult:
     """What :func:`run_sweep` did."""
@@ -511,7 +523,7 @@ def run_sweep(
         for t in tasks:
             rows.extend(_run_task(t))
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=_mp_context()) as pool:
             for part in pool.map(_run_task, tasks):
                 rows.extend(part)
     rows.sort(key=lambda r: int(r["index"]))
