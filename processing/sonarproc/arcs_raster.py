@@ -230,7 +230,10 @@ def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
     ce, se = b_cos.ravel()[at + 1], b_sin.ravel()[at + 1]
     last = np.ones(row.shape[0], dtype=bool)
     last[:-1] = row[1:] != row[:-1]
-    complex_row = (geom.turning[:, 0] > _SIMPLE_TURNING) | two
+    # Two intervals, or (on either) a tangent that may turn more than _SIMPLE_TURNING.
+    both = two & np.isfinite(geom.length[:, 0])
+    turning = np.fmax(geom.turning[:, 0], geom.turning[:, 1])
+    complex_row = (turning > _SIMPLE_TURNING) | both
 
     # Geometry in grid units.
     cell = grid.cell
