@@ -80,8 +80,10 @@ def _table(doc: dict[str, Any], out: Path) -> None:
             str(r["points"]),
             f"order {r['fit_order']}" if r["fit_ok"] else "FAILED",
         )
-    Console().print(table)
-    Console().print(f"written to {out}")
+    console = Console()
+    console.width = max(console.width, 100)
+    console.print(table)
+    console.print(f"written to {out}")
 
 
 @app.command("compare")
