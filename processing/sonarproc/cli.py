@@ -67,7 +67,15 @@ def guarded() -> Iterator[None]:
 
 def _register_commands() -> None:
     # Imported for their side effect of adding commands to ``app``.
-    from sonarproc import cli_recover, cli_run, cli_simulate, cli_sweep, cli_watch  # noqa: F401
+    from sonarproc import (  # noqa: F401
+        cli_compare,
+        cli_export,
+        cli_recover,
+        cli_run,
+        cli_simulate,
+        cli_sweep,
+        cli_watch,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
