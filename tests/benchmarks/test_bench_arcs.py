@@ -8,7 +8,8 @@ For reference it also prints two other single scatters of the same cells: a fanc
 assignment (which sets but cannot count) and ``np.add.at`` into a uint16 map, the scatter
 :func:`~sonarproc.arcs.rasterize_arcs` itself runs its blocks through (it is faster than
 bincount because it touches a quarter of the memory). "ours / that" is the overhead of
-everything but the scatter: geometry, sampling and the repeat check.
+everything but the scatter: geometry, sampling and the repeat check. All are timed in
+turns, best of 7, so that a shared machine's load falls on them alike.
 """
 
 from __future__ import annotations
@@ -86,6 +87,17 @@ def best_of(fn: Callable[[], object], repeat: int = 5) -> float:
     return best
 
 
+def best_of_interleaved(fns: list[Callable[[], object]], repeat: int = 7) -> list[float]:
+    """Best time of each function, run in turns so that all see the same machine load."""
+    best = [float("inf")] * len(fns)
+    for _ in range(repeat):
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            fn()
+            best[i] = min(best[i], time.perf_counter() - t0)
+    return best
+
+
 def test_bench_arc_rasterisation() -> None:
     r = ring_readings(90_000, room=20.0)
     grid = covering_grid(r)
@@ -105,21 +117,25 @@ def test_bench_arc_rasterisation() -> None:
     del parts
     assert flat.size == ncells
     size = grid.nx * grid.ny
-    # Floors: one scatter of the same cells (bincount; fancy assignment for reference).
-    t_bincount = best_of(lambda: np.bincount(flat, minlength=size))
+    # The floor, one scatter of the same cells (bincount), and two other scatters for
+    # reference; timed in turns with ours (the machine may be shared).
     scratch = np.zeros(size, dtype=np.uint32)
+    acc16 = np.zeros(size, dtype=np.uint16)
 
     def assign() -> None:
         scratch[flat] = 1
 
-    t_assign = best_of(assign)
-    acc16 = np.zeros(size, dtype=np.uint16)
-
     def add_at() -> None:
         np.add.at(acc16, flat, np.uint16(1))
 
-    t_add_at = best_of(add_at)
-    t_ours = best_of(lambda: rasterize_arcs(**geo, **beams, grid=grid))
+    t_bincount, t_ours, t_assign, t_add_at = best_of_interleaved(
+        [
+            lambda: np.bincount(flat, minlength=size),
+            lambda: rasterize_arcs(**geo, **beams, grid=grid),
+            assign,
+            add_at,
+        ]
+    )
     tracemalloc.start()
     rasterize_arcs(**geo, **beams, grid=grid)
     _, peak = tracemalloc.get_traced_memory()
