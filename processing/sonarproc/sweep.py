@@ -449,15 +449,17 @@ def _run_task(task: list[Combination]) -> list[dict[str, Any]]:
 
 
 def _tasks(combos: Sequence[Combination], jobs: int) -> list[list[Combination]]:
-    """Group combinations by data (input, sigma, seed); split groups so jobs stay busy."""
+    """Group combinations by data (input, sigma, seed): each group loads or simulates its
+    log once. Groups are split only when there are fewer than ``jobs`` of them (a split
+    repeats the load), so that every worker has something to do."""
     groups: dict[str, list[Combination]] = {}
     for c in combos:
         key = json.dumps([c.input, *(c.values.get(k) for k in DATA_KEYS)])
         groups.setdefault(key, []).append(c)
     tasks: list[list[Combination]] = []
-    want = max(1, 4 * jobs)
-    size = max(1, math.ceil(len(combos) / want))
+    splits = max(1, math.ceil(jobs / max(1, len(groups))))
     for g in groups.values():
+        size = max(1, math.ceil(len(g) / splits))
         for s in range(0, len(g), size):
             tasks.append(g[s : s + size])
     return tasks
