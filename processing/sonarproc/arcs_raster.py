@@ -87,25 +87,37 @@ class _Plan:
     n: IntArray  # interior samples
     last: BoolArray  # last piece of its arc
     complex_arc: BoolArray
-    u0: FloatArray  # driver coordinate of the first interior sample minus the centre's
-    beta: FloatArray
-    gamma: FloatArray
-    c_alpha: FloatArray
-    c_offset: FloatArray  # centre's computed coordinate + 0.5 (round half up)
-    c_max: FloatArray  # last index of the computed axis
-    d_key0: IntArray  # flat-key part of the first interior sample's driver index
-    kind: IntArray  # block kind bits (_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS)
-    width: int  # padded grid width
+    kind: IntArray  # block kind bits (_CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS, _F64)
     start_key: IntArray
     end_key: IntArray
-    c_frac: FloatArray  # c_offset - floor(c_offset), in [0, 1)
-    c_int: FloatArray  # floor(c_offset)
-    row_key: FloatArray  # key part of a row that is not floor(v) (an integer)
-    eps: FloatArray  # bound of the float32 error of the computed coordinate
+    par: FloatArray  # (pieces, len(_PAR)) sampling parameters, one row a piece
+    width: int  # grid width
     overlap: int  # upper bound of the count of any cell
 
     def __len__(self) -> int:
         return int(self.n.shape[0])
+
+    def __getattr__(self, name: str) -> FloatArray:
+        """A column of :attr:`par` by its name in ``_PAR``."""
+        if name in _PAR:
+            return self.par[:, _PAR.index(name)]
+        raise AttributeError(name)
+
+
+#: Columns of :attr:`_Plan.par`; the first eight are those the float32 blocks use.
+_PAR = (
+    "u0",  # driver coordinate of the first interior sample minus the centre's
+    "beta",
+    "gamma",
+    "c_alpha",
+    "c_frac",  # c_offset - floor(c_offset), in [0, 1); c_offset = centre's coordinate + 0.5
+    "c_int",  # floor(c_offset)
+    "c_max",  # last index of the computed axis
+    "row_key",  # key part of a row that is not floor(v) (an integer)
+    "d_key0",  # flat-key part of the first interior sample's driver index (an integer)
+    "eps",  # bound of the float32 error of the computed coordinate
+)
+_N32 = 8
 
 
 def _flat_key(gx: FloatArray, gy: FloatArray, grid: Grid) -> IntArray:
@@ -172,9 +184,10 @@ def _plan(geom: ArcGeometry, grid: Grid) -> _Plan:
     parts = [
         _plan_part(geom[i : i + _PLAN_CHUNK], grid) for i in range(0, len(geom), _PLAN_CHUNK)
     ] or [_plan_part(geom, grid)]
+    par = np.concatenate([np.stack([part.pop(c) for c in _PAR], axis=1) for part in parts])
     f = {name: np.concatenate([part[name] for part in parts]) for name in parts[0]}
     overlap = _overlap_bound(f.pop("x_lo"), f.pop("x_hi"), f.pop("y_lo"), f.pop("y_hi"), grid)
-    return _Plan(**f, width=grid.nx, overlap=overlap)
+    return _Plan(**f, par=par, width=grid.nx, overlap=overlap)
 
 
 def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
@@ -311,7 +324,6 @@ def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
         beta=beta,
         gamma=gamma,
         c_alpha=c_alpha,
-        c_offset=c_offset,
         c_max=np.where(xd, grid.ny - 1, grid.nx - 1).astype(np.float64),
         d_key0=d_key0,
         kind=kind,
@@ -400,9 +412,6 @@ def _ranges(starts: IntArray, lengths: IntArray) -> IntArray:
 
 # Bits of a block's kind: all its pieces share them, so they become scalars.
 _CLIP, _ELLIPSE, _X_DRIVEN, _UP, _PLUS, _F64 = 1, 2, 4, 8, 16, 32
-
-_F64_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_offset", "c_max", "d_key0")
-_F32_FIELDS = ("u0", "beta", "gamma", "c_alpha", "c_frac", "c_int", "c_max", "row_key")
 
 
 def _fill_block(
@@ -601,9 +610,8 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
     order = live[perm]
     kinds = kinds[perm]
     ns = n[order]
-    g64 = {name: getattr(plan, name)[order + p0] for name in (*_F32_FIELDS, "eps", "d_key0")}
-    g64["c_offset"] = plan.c_offset[order + p0]
-    g32 = {name: g64[name].astype(np.float32) for name in _F32_FIELDS}
+    g64 = plan.par[order + p0]
+    g32 = g64[:, :_N32].astype(np.float32)
     chunk = max(int(_CHUNK), 1)
     biggest = max(chunk, int(ns.max()))
     s64 = (np.empty(biggest), np.empty(biggest))
@@ -630,13 +638,15 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
             j = min(j, i + max(1, chunk // w_cap))
             width = int(ns[j - 1])
             out = keys[: (j - i) * width].reshape(j - i, width)
-            p64 = {name: v[i:j] for name, v in g64.items()}
+            p64 = {name: g64[i:j, c] for c, name in enumerate(_PAR)}
             # Padding slots past n may take NaN (the root of a negative) till trashed.
             with np.errstate(invalid="ignore"):
                 if kind & _F64:
+                    p64["c_offset"] = p64["c_int"] + p64["c_frac"]
+                    p64["d_key0"] = p64["d_key0"].astype(np.intp)
                     _fill_block(p64, width, kind, w, trash, out, s64)
                 else:
-                    p32 = {name: v[i:j] for name, v in g32.items()}
+                    p32 = {name: g32[i:j, c] for c, name in enumerate(_PAR[:_N32])}
                     eps = float(p64["eps"].max())
                     _fill_block32(
                         p32, p64, width, kind, w, f32_keys, eps, trash, out, s32, flags, ik
