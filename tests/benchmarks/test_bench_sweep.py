@@ -41,5 +41,6 @@ def test_bench_sweep_jobs() -> None:
     assert strip(rows1) == strip(rows2)
     print(
         f"\nsweep throughput on {len(rows1)} runs (fig12, cpus={os.cpu_count()}): "
-        f"--jobs 1 {one:.2f} runs/s, --jobs 2 {two:.2f} runs/s, ratio {two / one:.2f}x"
+        f"--jobs 1 {one:.2f} runs/s, --jobs 2 {two:.2f} runs/s, ratio {two / one:.2f}x "
+        f"(load average {os.getloadavg()[0]:.1f})"
     )
