@@ -7,6 +7,10 @@ method then runs in this process, timed by process CPU (``t_cpu_s``, the metric 
 comparison reports) and wall clock, best of two. The baseline is the paper's
 ``morphological`` method measured in the same run: each figure is printed with its ratio
 to it. No timed asserts.
+
+The log's ranges are taken along each beam's axis, not to the nearest wall point in the
+beam as a real sonar measures; for oblique beams the occupancy grid's free cone then
+crosses the wall, so its accuracy figures here say nothing (only its time does).
 """
 
 from __future__ import annotations

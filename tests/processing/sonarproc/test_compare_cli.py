@@ -156,3 +156,30 @@ def test_compare_missing_log_and_unwritable_out(
     )
     err = capsys.readouterr().err
     assert err.startswith("sonarproc: error: ") and err.count("\n") == 1
+
+
+def test_compare_csv_log_without_truth(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sensors = SCENARIOS.parent / "sensors"
+    out = tmp_path / "csvlog"
+    code = main(
+        [
+            "compare",
+            str(sensors / "example-readings.csv"),
+            "--sensors",
+            str(sensors / "example-sensors.yaml"),
+            "--fit",
+            "spline",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
+    assert code == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["truth"] is False
+    for rec in doc["methods"]:
+        assert rec["E1_m"] is None and rec["E2"] is None and rec["e"] is None
+        assert 0 < rec["f_c"] <= 1 and rec["fit_ok"]
+    with (out / "compare.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["E1_m"] for r in rows] == [""] * 5

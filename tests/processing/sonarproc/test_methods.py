@@ -252,3 +252,38 @@ def test_bbox_applies_to_every_method(fig02: SonarLog) -> None:
         assert res.run.points_x.min() >= 1.0 - 1e-9 and res.run.points_x.max() <= 3.0 + 1e-9
     with pytest.raises(ValueError, match="no arc touches"):
         make_method("histogram").run(fig02, RunParams(bbox=(-9.0, -8.0, 0.0, 1.0)))
+
+
+def square_room_log(side: float = 4.0, stops: int = 24) -> SonarLog:
+    """A 16-sonar ring at the centre of a square room, turret turning; ranges on the axis."""
+    from logbuilders import ring_sensors
+
+    sens = ring_sensors()
+    ring = sens["heading"]
+    turret = np.repeat(np.linspace(0, np.pi / 8, stops, endpoint=False), 16)
+    k = np.tile(np.arange(16), stops)
+    h = turret + ring[k]
+    px, py = side / 2 + 0.22 * np.cos(h), side / 2 + 0.22 * np.sin(h)
+    c, s = np.cos(h), np.sin(h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.where(c > 0, (side - px) / c, np.where(c < 0, -px / c, np.inf))
+        ty = np.where(s > 0, (side - py) / s, np.where(s < 0, -py / s, np.inf))
+    r = np.zeros(k.size, READING_DTYPE)
+    r["t"] = np.arange(k.size) * 0.04
+    r["tx"] = r["rx"] = k
+    r["x"] = r["y"] = side / 2
+    r["turret"] = turret
+    r["tof"] = 2 * np.minimum(tx, ty) / C
+    corners = np.array([[0, 0], [side, 0], [side, side], [0, side], [0, 0]], dtype=float)
+    attrs = {"format": "sonarlog", "format_version": 1, "speed_of_sound": C, "robot": "t"}
+    return SonarLog(Path("room.h5"), attrs, sens, r, truth=corners)
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_polar_fit_in_a_room(name: str) -> None:
+    lg = square_room_log()
+    res = make_method(name).run(lg, RunParams(cell=0.02, fit="polar", order=12))
+    m = res.run.metrics
+    assert res.run.fit.kind == "polar" and res.run.centre == pytest.approx((2.0, 2.0))
+    assert m.E1_m is not None and math.isfinite(m.E1_m) and m.E1_m < 0.25
+    assert m.f_c > 0.2
