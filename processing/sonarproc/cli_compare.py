@@ -147,10 +147,10 @@ def compare_command(
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
         results = compare(lg, params, instances)
         doc = write_comparison(str(log), params, results, out_dir)
-        for r in results:
+        for r, row in zip(results, doc["methods"], strict=True):
             if formats:
                 write_exports(r, out_dir / "export", formats)
-            if not doc["methods"][results.index(r)]["fit_ok"]:
+            if not row["fit_ok"]:
                 reason = getattr(r.run.fit, "reason", "")
                 typer.echo(f"sonarproc: warning: {r.method}: fit failed: {reason}", err=True)
     if as_json:

@@ -21,7 +21,7 @@ import logging
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -102,7 +102,6 @@ class MethodResult:
     options: dict[str, OptionValue]
     run: RunResult
     probability: npt.NDArray[np.float64] | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
 
 
 def shared_grid(log_: SonarLog, params: RunParams, beams: Beams) -> Grid:

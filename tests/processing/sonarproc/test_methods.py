@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from sonarlog import READING_DTYPE, SENSOR_DTYPE, SonarLog, read_log
 from sonarproc.grid import Grid
@@ -287,3 +289,28 @@ def test_polar_fit_in_a_room(name: str) -> None:
     assert res.run.fit.kind == "polar" and res.run.centre == pytest.approx((2.0, 2.0))
     assert m.E1_m is not None and math.isfinite(m.E1_m) and m.E1_m < 0.25
     assert m.f_c > 0.2
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    t=st.tuples(st.floats(-2, 2), st.floats(-2, 2)),
+    base=st.floats(0.0, 0.5),
+    tilt=st.floats(-np.pi, np.pi),
+    ht=st.floats(-1.2, 1.2),
+    hr=st.floats(-1.2, 1.2),
+    extra=st.floats(0.3, 5.0),
+)
+def test_axis_point_lies_on_the_ellipse_and_the_bisector(
+    t: tuple[float, float], base: float, tilt: float, ht: float, hr: float, extra: float
+) -> None:
+    tx = np.array([t])
+    rx = tx + base * np.array([[np.cos(tilt), np.sin(tilt)]])
+    path = base + extra  # longer than the baseline: a real ellipse
+    head_t, head_r = tilt + np.pi / 2 + ht, tilt + np.pi / 2 + hr
+    apex, u, s = axis_points(tx, [head_t], rx, [head_r], [path])
+    p = apex[0] + s[0] * u[0]
+    assert np.hypot(*(p - tx[0])) + np.hypot(*(p - rx[0])) == pytest.approx(path, rel=1e-9)
+    bis = np.array([np.cos(head_t) + np.cos(head_r), np.sin(head_t) + np.sin(head_r)])
+    bis /= np.hypot(*bis)
+    np.testing.assert_allclose(u[0], bis, atol=1e-9)
+    np.testing.assert_allclose(apex[0], 0.5 * (tx[0] + rx[0]), atol=1e-12)
