@@ -74,19 +74,30 @@ def start_watch(log: Path, out: Path, *extra: str) -> subprocess.Popen[str]:
     )
 
 
-def poll_reports(out: Path, proc: subprocess.Popen[str], timeout: float) -> list[dict]:
-    """Read report.json as fast as possible while ``proc`` runs; every read must parse."""
+def poll_reports(
+    out: Path, proc: subprocess.Popen[str], timeout: float
+) -> tuple[list[dict], int, list[str]]:
+    """Read report.json and report.html as fast as possible while ``proc`` runs.
+
+    Every read must parse: a half-written file would fail ``json.loads`` or lack the
+    closing tag. Returns the distinct updates, the number of reads, and the pages seen.
+    """
     seen: list[dict] = []
+    pages: list[str] = []
+    reads = 0
     deadline = time.monotonic() + timeout
     while proc.poll() is None and time.monotonic() < deadline:
         path = out / "report.json"
         if path.exists():
-            text = path.read_text(encoding="utf-8")
-            doc = json.loads(text)  # a half-written file would fail here
+            doc = json.loads(path.read_text(encoding="utf-8"))
+            page = (out / "report.html").read_text(encoding="utf-8")
+            assert page.rstrip().endswith("</html>")
+            reads += 1
             if not seen or doc["live"]["updates"] != seen[-1]["live"]["updates"]:
                 seen.append(doc)
+                pages.append(page)
         time.sleep(0.002)
-    return seen
+    return seen, reads, pages
 
 
 def batch_report(log: Path, out: Path, capsys: pytest.CaptureFixture[str]) -> dict:
@@ -110,7 +121,7 @@ def test_watch_follows_a_live_writer_until_it_closes(
     writer = start_writer(source_log, live_log)
     watch = start_watch(live_log, out, "--interval", "0.2", "--idle", "0.6")
     try:
-        seen = poll_reports(out, watch, timeout=30)
+        seen, reads, pages = poll_reports(out, watch, timeout=30)
         assert watch.wait(30) == 0, watch.stderr.read() if watch.stderr else ""
         assert writer.wait(10) == 0
     finally:
@@ -119,7 +130,8 @@ def test_watch_follows_a_live_writer_until_it_closes(
     final = json.loads((out / "report.json").read_text(encoding="utf-8"))
     assert final["live"]["final"] is True and final["live"]["writer_closed"] is True
     # it processed the log while it grew: several updates with rising reading counts
-    assert len(seen) >= 3
+    assert len(seen) >= 3 and reads > 100
+    assert 'http-equiv="refresh" content="1"' in pages[0]  # reloads while watching
     used = [d["counts"]["readings_total"] for d in seen]
     assert used == sorted(used) and used[0] < used[-1]
     total = final["counts"]["readings_total"]
