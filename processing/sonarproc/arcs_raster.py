@@ -298,6 +298,15 @@ def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
     c_hi = np.maximum(np.maximum(c_s, c_e), c_ext)
     n_c = np.where(xd, grid.ny, grid.nx)
     clip = (c_lo < -0.49) | (c_hi > n_c - 0.51)
+    # |dc/dd| <= 1 on a piece, so a sample is surely outside the grid while its driver is
+    # nearer an end of the piece than that end is outside: skip those (with a margin).
+    out_s = np.maximum(np.maximum(-0.5 - c_s, c_s - (n_c - 0.5)), 0.0)
+    out_e = np.maximum(np.maximum(-0.5 - c_e, c_e - (n_c - 0.5)), 0.0)
+    skip0 = np.maximum(np.floor(out_s - np.abs(first - ds)) - 1.0, 0.0)
+    skip1 = np.maximum(np.floor(out_e - np.abs(de - lastd)) - 1.0, 0.0)
+    skip0 = np.minimum(skip0, n)
+    first = first + step * skip0
+    n = np.maximum(n - skip0 - skip1, 0.0).astype(np.intp)
     ellipse = (c_alpha != 0.0) | (beta != -1.0)
     u0 = first - d_centre
     d_key0 = first.astype(np.intp) * d_mult
@@ -463,11 +472,12 @@ def _fill_block(
         q += col("c_offset")
     else:
         np.subtract(col("c_offset"), q, out=q)
-    if kind & _CLIP:
+    if kind & _CLIP:  # outside the grid: q < 0 or q > c_max, i.e. q (q - c_max) > 0
         np.floor(q, out=q)
-        outside = (q < 0.0) | (q > col("c_max"))
-        q[outside] = 0.0
-    np.copyto(out, q, casting="unsafe")  # truncation = floor: q >= 0
+        np.subtract(q, col("c_max"), out=u)
+        u *= q
+        outside = u > 0.0
+    np.copyto(out, q, casting="unsafe")  # truncation = floor: q is integral here or >= 0
     d_mult = 1
     if kind & _X_DRIVEN:
         out *= w
@@ -476,7 +486,7 @@ def _fill_block(
     out += col("d_key0")
     out += ki * (d_mult if kind & _UP else -d_mult)
     if kind & _CLIP:
-        out[outside] = trash
+        np.putmask(out, outside, trash)
 
 
 def _fill_block32(
@@ -547,10 +557,12 @@ def _fill_block32(
     if hit.size:
         cand = ((hit * 8)[:, None] + np.arange(8)).reshape(-1)
         _repair(par64, width, kind, cand[flags[cand]], t)
-    if kind & _CLIP:
+    if kind & _CLIP:  # outside the grid: t < 0 or t > c_max, i.e. t (t - c_max) > 0
         t += col("c_int")
-        outside = (t < 0.0) | (t > col("c_max"))
-        t[outside] = 0.0
+        outside = flags[:size].reshape(shape)  # the repair is done with the flags
+        np.subtract(t, col("c_max"), out=q)
+        q *= t
+        np.greater(q, np.float32(0.0), out=outside)
     d_step = (1 if kind & _X_DRIVEN else w) * (1 if up else -1)
     if f32_keys:  # exact integers in float32, then int32 (cheaper than float to int64)
         if kind & _X_DRIVEN:
@@ -565,8 +577,8 @@ def _fill_block32(
             out *= w
         out += par64["row_key"].astype(np.intp)[:, None]
         out += np.arange(width, dtype=np.intp) * d_step
-    if kind & _CLIP:
-        out[outside] = trash
+    if kind & _CLIP:  # the keys made from cells outside are garbage: trash them
+        np.putmask(out, outside, trash)
 
 
 def _repair(

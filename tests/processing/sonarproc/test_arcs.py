@@ -507,3 +507,20 @@ def test_overlap_bound_holds(seed: int, cell: float) -> None:
         r["tx_half_beamwidth"], r["rx_half_beamwidth"], grid,
     )  # fmt: skip
     assert plan.overlap >= counts(r, grid).max()
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_clipping_many_arcs_matches_a_larger_grid(seed: int) -> None:
+    # Sub-grids cutting through many arcs (samples surely outside are skipped, the rest
+    # masked) give exactly the window of the full map.
+    r = _mixed_readings(seed, 300, spread=0.5, max_path=2.0)
+    big = Grid.covering(*bounds(r), cell=0.01)
+    full = counts(r, big)
+    rng = np.random.default_rng(seed)
+    for _ in range(4):
+        iy0, ix0 = rng.integers(0, big.ny // 2), rng.integers(0, big.nx // 2)
+        ny, nx = rng.integers(1, big.ny - iy0), rng.integers(1, big.nx - ix0)
+        small = Grid(
+            x0=big.x0 + ix0 * big.cell, y0=big.y0 + iy0 * big.cell, cell=big.cell, nx=nx, ny=ny
+        )
+        np.testing.assert_array_equal(counts(r, small), full[iy0 : iy0 + ny, ix0 : ix0 + nx])
