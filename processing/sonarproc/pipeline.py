@@ -22,33 +22,24 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog, read_log
+from sonarproc import evaluation as _evaluation
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.fit import (
-    Fit,
-    FitFailure,
-    PolyFit,
-    fit_polar,
-    fit_polynomial,
-    fit_polynomial_robust,
-    fit_spline,
-    select_order_cv,
-)
+from sonarproc.evaluation import fit_and_measure, make_grid
+from sonarproc.fit import Fit, FitFailure
 from sonarproc.grid import Grid
-from sonarproc.metrics import (
-    Bins,
-    Metrics,
-    bin_stats,
-    polar_bins,
-    profile_metrics,
-    truth_on_columns,
-    truth_on_polar_bins,
-)
-from sonarproc.params import MAX_AUTO_ORDER, RunParams
+from sonarproc.metrics import Bins, Metrics
+from sonarproc.params import RunParams
 from sonarproc.voting import apply_chain, parse_chain
 
 __all__ = ["METHOD", "STAGES", "RunResult", "load_log", "process", "run_file", "select_readings"]
 
 log = logging.getLogger(__name__)
+
+# TEMPORARY aliases for sonarproc.live until it moves to sonarproc.evaluation.
+_make_grid = make_grid
+_fit_cartesian = _evaluation._fit_binned
+_fit_points = _evaluation._fit_points
+_polar = _evaluation._polar
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
 #: Stage names reported to a progress callback, in order.
@@ -134,89 +125,6 @@ def select_readings(log_: SonarLog, *, drop_crosstalk: bool) -> tuple[np.ndarray
     return r[keep], counts
 
 
-def _make_grid(params: RunParams, bounds: tuple[float, float, float, float], source: str) -> Grid:
-    """Grid over ``params.bbox``, or over the arcs' bounding box ``bounds``."""
-    if params.bbox is not None:
-        xmin, xmax, ymin, ymax = params.bbox
-        axmin, axmax, aymin, aymax = bounds
-        if axmin > xmax or axmax < xmin or aymin > ymax or aymax < ymin:
-            raise ValueError(
-                f"{source}: no arc touches the bbox {xmin:g},{xmax:g},{ymin:g},{ymax:g} "
-                f"(the arcs span {axmin:.3g},{axmax:.3g},{aymin:.3g},{aymax:.3g})"
-            )
-    else:
-        xmin, xmax, ymin, ymax = bounds
-    nx = int(np.ceil((xmax - xmin) / params.cell)) + 1
-    ny = int(np.ceil((ymax - ymin) / params.cell)) + 1
-    if nx * ny > params.max_cells:
-        raise ValueError(
-            f"{source}: the map would be {nx} x {ny} cells at {params.cell:g} m; "
-            "pass a --bbox or a larger --cell"
-        )
-    return Grid.covering(xmin, xmax, ymin, ymax, cell=params.cell)
-
-
-def _fit_cartesian(params: RunParams, bins: Bins) -> Fit:
-    mean = np.nan_to_num(bins.mean)
-    if params.fit == "spline":
-        return fit_spline(bins.centres, mean, bins.count, lam=params.smooth)
-    return fit_polynomial(bins.centres, mean, bins.count, order=params.fit_order)
-
-
-def _fit_points(
-    params: RunParams,
-    px: npt.NDArray[np.float64],
-    py: npt.NDArray[np.float64],
-    weights: npt.NDArray[np.float64],
-) -> Fit:
-    """Beyond the paper: a fit over the individual points (robust and/or order by CV)."""
-    robust = params.robust == "huber"
-    w = weights if robust else np.ones_like(px)
-    order = params.fit_order
-    selection = None
-    if params.auto_order:
-        try:
-            order, scores = select_order_cv(
-                px, py, w, orders=range(0, MAX_AUTO_ORDER + 1), robust=robust
-            )
-        except ValueError as err:
-            return FitFailure("poly", str(err), None)
-        selection = {
-            "method": "5-fold cross-validation over columns (Huber loss)",
-            "scores": {str(k): v for k, v in scores.items()},
-        }
-    fit = fit_polynomial_robust(px, py, w, order=order, robust=robust)
-    if isinstance(fit, PolyFit) and selection is not None:
-        fit = replace(fit, selection=selection)
-    return fit
-
-
-def _polar(
-    params: RunParams,
-    grid: Grid,
-    px: npt.NDArray[np.float64],
-    py: npt.NDArray[np.float64],
-    arc_map: npt.NDArray[np.bool_],
-    truth: npt.NDArray[np.float64] | None,
-    centre: tuple[float, float],
-    stage: Progress,
-) -> tuple[Bins, Fit, npt.NDArray[np.float64] | None, npt.NDArray[np.bool_] | None]:
-    """Angular bins about ``centre`` about one cell wide at the points' typical radius."""
-    r = np.hypot(px - centre[0], py - centre[1])
-    r_typ = max(float(np.median(r)) if r.size else 1.0, params.cell)
-    nbins = int(np.clip(np.ceil(2 * np.pi * r_typ / params.cell), 16, 10**6))
-    bins = polar_bins(px, py, centre=centre, nbins=nbins)
-    mean = np.nan_to_num(bins.mean)
-    fit = fit_polar(bins.centres, mean, bins.count, centre=centre, order=params.fit_order)
-    stage("metrics")
-    if truth is not None:
-        tb = truth_on_polar_bins(truth, centre=centre, nbins=nbins, step=params.cell / 2)
-        return bins, fit, tb, None
-    ay, ax = np.nonzero(arc_map)
-    raw = polar_bins(grid.x0 + grid.cell * ax, grid.y0 + grid.cell * ay, centre=centre, nbins=nbins)
-    return bins, fit, None, raw.occupied
-
-
 def process(
     log_: SonarLog,
     params: RunParams,
@@ -268,7 +176,7 @@ def process(
         bounds = arc_bounds(*arcs_args, **beams)
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from err
-    grid = _make_grid(params, bounds, source)
+    grid = make_grid(params, bounds, source)
     stage("rasterise")
     counts_map = rasterize_arcs(*arcs_args, **beams, grid=grid)
     arc_map = counts_map > 0
@@ -280,69 +188,39 @@ def process(
     stage("morphology")
     processed = apply_chain(counts_map, ops)
     stage("fit")
-    ix, iy = np.nonzero(processed.T)
-    counts["processed_cells"] = int(ix.size)
-    px = grid.x0 + grid.cell * ix.astype(np.float64)
-    py = grid.y0 + grid.cell * iy.astype(np.float64)
     truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
-    if params.fit == "polar":
-        centre = params.centre or (float(readings["x"].mean()), float(readings["y"].mean()))
-        bins, fit, truth_bins, spanned = _polar(params, grid, px, py, arc_map, truth, centre, stage)
-    else:
-        centre = None
-        bins = bin_stats(ix, py, grid.centres_x(), presorted=True)
-        if params.fit == "poly" and (params.auto_order or params.robust != "none"):
-            weights = counts_map[iy, ix].astype(np.float64)
-            fit = _fit_points(params, px, py, weights)
-        else:
-            fit = _fit_cartesian(params, bins)
-        stage("metrics")
-        truth_bins, spanned = None, None
-        if truth is None:
-            spanned = np.asarray(arc_map.any(axis=0), dtype=bool)
-        else:
-            truth_bins = truth_on_columns(truth, bins.centres)
-            _, _, bottom, top = grid.extent
-            truth_bins[(truth_bins < bottom) | (truth_bins > top)] = np.nan
-        if params.span == "points":
-            # beyond the paper: judge only the columns between the first and last with points
-            inside = np.zeros(bins.centres.size, dtype=bool)
-            occ = np.flatnonzero(bins.occupied)
-            if occ.size:
-                inside[occ[0] : occ[-1] + 1] = True
-            if truth_bins is not None:
-                truth_bins[~inside] = np.nan
-            if spanned is not None:
-                spanned &= inside
-    metrics = profile_metrics(
-        bins,
-        truth=truth_bins,
-        fit=None if isinstance(fit, FitFailure) else fit,
-        spanned=spanned,
+    ev = fit_and_measure(
+        params,
+        grid,
+        processed,
+        counts_map,
+        truth=truth,
+        robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
+        stage=stage,
     )
+    counts["processed_cells"] = ev.points_x.size
     t_cpu = time.process_time() - cpu0
     stage("done")
     timings.pop("done")
-    if isinstance(fit, FitFailure):
-        log.info("%s: fit failed: %s", source, fit.reason)
-    robot_xy = np.column_stack((readings["x"], readings["y"])).astype(np.float64)
+    if isinstance(ev.fit, FitFailure):
+        log.info("%s: fit failed: %s", source, ev.fit.reason)
     return RunResult(
         source=source,
         params=params,
         grid=grid,
         counts_map=counts_map,
         processed=processed,
-        points_x=px,
-        points_y=py,
-        bins=bins,
-        fit=fit,
-        metrics=metrics,
+        points_x=ev.points_x,
+        points_y=ev.points_y,
+        bins=ev.bins,
+        fit=ev.fit,
+        metrics=ev.metrics,
         truth=truth,
         counts=counts,
         t_cpu_s=t_cpu,
         timings_s=timings,
-        centre=centre,
-        robot_xy=robot_xy,
+        centre=ev.centre,
+        robot_xy=ev.robot_xy,
     )
 
 

@@ -29,18 +29,11 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog, TransducerPoses
 from sonarproc.arcs import arc_bounds
+from sonarproc.evaluation import fit_and_measure, make_grid
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
-from sonarproc.metrics import bin_stats, profile_metrics, truth_on_columns
 from sonarproc.params import RunParams
-from sonarproc.pipeline import (
-    RunResult,
-    _fit_cartesian,
-    _fit_points,
-    _make_grid,
-    _polar,
-    select_readings,
-)
+from sonarproc.pipeline import RunResult, select_readings
 
 __all__ = ["Beams", "MapMethod", "MethodMap", "MethodResult", "OptionValue", "shared_grid"]
 
@@ -111,7 +104,7 @@ def shared_grid(log_: SonarLog, params: RunParams, beams: Beams) -> Grid:
         bounds = arc_bounds(*beams.arcs_args, **beams.beam_kwargs)
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from err
-    return _make_grid(params, bounds, source)
+    return make_grid(params, bounds, source)
 
 
 def select_beams(log_: SonarLog, params: RunParams) -> tuple[Beams, dict[str, int]]:
@@ -219,64 +212,34 @@ def evaluate(
     if counts["map_cells_set"] == 0:
         raise ValueError(f"{source}: the method left nothing on the map")
     counts["arc_cells"] = int(mmap.evidence.sum(dtype=np.int64))
-    ix, iy = np.nonzero(mmap.processed.T)
-    counts["processed_cells"] = int(ix.size)
-    px = grid.x0 + grid.cell * ix.astype(np.float64)
-    py = grid.y0 + grid.cell * iy.astype(np.float64)
     truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
     readings = beams.readings
-    if params.fit == "polar":
-        centre = params.centre or (float(readings["x"].mean()), float(readings["y"].mean()))
-        bins, fit, truth_bins, spanned = _polar(
-            params, grid, px, py, raw, truth, centre, lambda _name: None
-        )
-    else:
-        centre = None
-        bins = bin_stats(ix, py, grid.centres_x(), presorted=True)
-        if params.fit == "poly" and (params.auto_order or params.robust != "none"):
-            weights = np.maximum(mmap.evidence[iy, ix], 1).astype(np.float64)
-            fit = _fit_points(params, px, py, weights)
-        else:
-            fit = _fit_cartesian(params, bins)
-        truth_bins, spanned = None, None
-        if truth is None:
-            spanned = np.asarray(raw.any(axis=0), dtype=bool)
-        else:
-            truth_bins = truth_on_columns(truth, bins.centres)
-            _, _, bottom, top = grid.extent
-            truth_bins[(truth_bins < bottom) | (truth_bins > top)] = np.nan
-        if params.span == "points":
-            inside = np.zeros(bins.centres.size, dtype=bool)
-            occ = np.flatnonzero(bins.occupied)
-            if occ.size:
-                inside[occ[0] : occ[-1] + 1] = True
-            if truth_bins is not None:
-                truth_bins[~inside] = np.nan
-            if spanned is not None:
-                spanned &= inside
-    metrics = profile_metrics(
-        bins,
-        truth=truth_bins,
-        fit=None if isinstance(fit, FitFailure) else fit,
-        spanned=spanned,
+    ev = fit_and_measure(
+        params,
+        grid,
+        mmap.processed,
+        mmap.evidence,
+        truth=truth,
+        robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
     )
+    counts["processed_cells"] = ev.points_x.size
     t_cpu = time.process_time() - cpu0
-    if isinstance(fit, FitFailure):
-        log.info("%s: fit failed: %s", source, fit.reason)
+    if isinstance(ev.fit, FitFailure):
+        log.info("%s: fit failed: %s", source, ev.fit.reason)
     return RunResult(
         source=source,
         params=params,
         grid=grid,
         counts_map=mmap.evidence,
         processed=mmap.processed,
-        points_x=px,
-        points_y=py,
-        bins=bins,
-        fit=fit,
-        metrics=metrics,
+        points_x=ev.points_x,
+        points_y=ev.points_y,
+        bins=ev.bins,
+        fit=ev.fit,
+        metrics=ev.metrics,
         truth=truth,
         counts=counts,
         t_cpu_s=t_cpu,
-        centre=centre,
-        robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
+        centre=ev.centre,
+        robot_xy=ev.robot_xy,
     )
