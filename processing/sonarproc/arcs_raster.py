@@ -66,6 +66,8 @@ _F32_KEY_LIMIT = 1 << 24
 _TILE = 64
 #: Arcs per chunk of :func:`_plan`.
 _PLAN_CHUNK = 8192
+#: Rounds of skipping samples outside the grid from the ends of clipped pieces.
+_TRIM_ROUNDS = 3
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.intp]
@@ -306,7 +308,33 @@ def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
     skip1 = np.maximum(np.floor(out_e - np.abs(de - lastd)) - 1.0, 0.0)
     skip0 = np.minimum(skip0, n)
     first = first + step * skip0
-    n = np.maximum(n - skip0 - skip1, 0.0).astype(np.intp)
+    n = np.maximum(n - skip0 - skip1, 0.0)
+    # Then from the computed coordinate of the first and last samples themselves, a few
+    # times over: sample j after one that is D outside is outside while j < D.
+    cut = np.flatnonzero(clip & (n > 0))
+    for _ in range(_TRIM_ROUNDS):
+        if cut.size == 0:
+            break
+        nc = n[cut]
+        fc = first[cut]
+        st = step[cut]
+        for at_end in (False, True):
+            u = fc + (st * (nc - 1) if at_end else 0.0) - d_centre[cut]
+            with np.errstate(invalid="ignore"):
+                v = (
+                    c_centre[cut]
+                    + c_alpha[cut] * u
+                    + sign[cut] * np.sqrt(np.maximum(beta[cut] * u * u + gamma[cut], 0.0))
+                )
+            away = np.maximum(np.maximum(-0.5 - v, v - (n_c[cut] - 0.5)), 0.0)
+            k = np.minimum(np.where(away > 1e-6, np.ceil(away - 1e-6), 0.0), nc)
+            if not at_end:
+                fc = fc + st * k
+            nc = nc - k
+        first[cut] = fc
+        n[cut] = nc
+        cut = cut[nc > 0]
+    n = n.astype(np.intp)
     ellipse = (c_alpha != 0.0) | (beta != -1.0)
     u0 = first - d_centre
     d_key0 = first.astype(np.intp) * d_mult

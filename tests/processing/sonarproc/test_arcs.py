@@ -422,7 +422,8 @@ def test_float32_path_matches_float64(
     monkeypatch: pytest.MonkeyPatch, spread: float, max_path: float, cell: float, clip: bool
 ) -> None:
     # The float32 arithmetic with its float64 repair gives exactly the float64 cells; so
-    # does the int64 key path that grids of 2**24 cells or more take.
+    # does the int64 key path that grids of 2**24 cells or more take, and so do clipped
+    # pieces without the rounds that skip samples outside the grid.
     r = _mixed_readings(11, 400, spread=spread, max_path=max_path)
     x0, x1, y0, y1 = bounds(r)
     if clip:  # cut the grid well inside the arcs, so that many pieces need clipping
@@ -431,7 +432,7 @@ def test_float32_path_matches_float64(
     ref = counts(r, grid)
     ref_cells = cells(r, grid)
     assert ref.sum() > 0
-    for name, value in (("_F32_MAX_ERROR", -1.0), ("_F32_KEY_LIMIT", 0)):
+    for name, value in (("_F32_MAX_ERROR", -1.0), ("_F32_KEY_LIMIT", 0), ("_TRIM_ROUNDS", 0)):
         with monkeypatch.context() as m:
             m.setattr(arcs_raster, name, value)
             np.testing.assert_array_equal(counts(r, grid), ref)
