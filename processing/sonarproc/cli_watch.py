@@ -209,6 +209,11 @@ def watch(
                         + (f", E1={m['E1_m']}" if "E1_m" in m else "")
                     )
         if final:
+            if once and doc is None:
+                # nothing to report: fail the way ``sonarproc run`` does on this log
+                from sonarproc.pipeline import process
+
+                process(lg if lg is not None else first, params)
             reason = "once" if once else ("signal" if stop.is_set() else "closed")
             break
         stop.wait(interval)

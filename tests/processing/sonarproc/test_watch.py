@@ -213,3 +213,18 @@ def test_watch_usage_errors(
 def test_watch_missing_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["watch", str(tmp_path / "nope.h5"), "--once"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+def test_watch_once_on_a_log_without_readings(
+    source_log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from sonarlog import LogWriter, read_log
+
+    lg = read_log(source_log)
+    empty = tmp_path / "empty.h5"
+    with LogWriter(empty, lg.sensors, speed_of_sound=lg.speed_of_sound):
+        pass
+    assert main(["watch", str(empty), "--out", str(tmp_path / "o"), "--once"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "holds no readings" in err[0]
+    assert not (tmp_path / "o" / "report.json").exists()
