@@ -211,7 +211,7 @@ def _plan_part(geom: ArcGeometry, grid: Grid) -> dict[str, NDArray[Any]]:
     e0, off, bp_c, bp_s = _breakpoints(geom)
     # Breakpoints in order from lo: k = j0, j0 + 1, ... (k >= 4 wraps once round).
     t = mod_2pi(lo - e0[iv_row])
-    offr = off[iv_row]
+    offr = np.take(off, iv_row, axis=0)
     j0 = (offr[:, 0] < t).astype(np.intp) + (offr[:, 1] < t) + (offr[:, 2] < t) + (offr[:, 3] < t)
     idx = j0[:, None] + np.arange(4)[None, :]
     wrap = idx >= 4
@@ -650,7 +650,7 @@ def _blocks(plan: _Plan, p0: int, p1: int, trash: int) -> Iterator[_Block]:
     order = live[perm]
     kinds = kinds[perm]
     ns = n[order]
-    g64 = plan.par[order + p0]
+    g64 = np.take(plan.par, order + p0, axis=0)  # (much faster than fancy indexing)
     g32 = g64[:, :_N32].astype(np.float32)
     chunk = max(int(_CHUNK), 1)
     biggest = max(chunk, int(ns.max()))
