@@ -751,6 +751,7 @@ def _accumulate(plan: _Plan, counts: NDArray[np.unsignedinteger[Any]], trash: in
         n = plan.n[p0:p1]
         npc = p1 - p0
         cx = plan.complex_arc[p0:p1]
+        any_cx = bool(cx.any())
         # Side store: 4 slots a simple piece (samples 0, 1, n - 2, n - 1), then start and
         # end points, then complex pieces' whole rows.
         edge = np.zeros((npc, 4), dtype=np.intp)
@@ -768,7 +769,7 @@ def _accumulate(plan: _Plan, counts: NDArray[np.unsignedinteger[Any]], trash: in
             base = np.arange(blk.rows.shape[0], dtype=np.intp) * width
             edge[blk.rows, 2] = flat[base + np.maximum(nb - 2, 0)]
             edge[blk.rows, 3] = flat[base + nb - 1]
-            cxb = np.flatnonzero(cx[blk.rows])
+            cxb = np.flatnonzero(cx[blk.rows]) if any_cx else cx[:0].nonzero()[0]
             if cxb.size:
                 full_rows.append(blk.keys[cxb].reshape(-1))
                 full_base[blk.rows[cxb]] = 4 * npc + full_pos + width * np.arange(cxb.size)
