@@ -25,9 +25,13 @@ vectorised over all arcs at once (no Python loop per arc, per piece or per sampl
    by comparing each end sample with the few before it along the arc. Other arcs (wide
    beams, thin ellipses, two-piece joint regions) get an exact sort-based check.
 5. Keys are flat cell indices ``iy * nx + ix``; cells outside the grid and padding slots
-   take the trash key ``nx * ny``. :func:`_accumulate` scatters each block into a uint32
-   count map with ``np.add.at`` while the block is in cache, keeps only the samples that
-   may repeat, and takes the repeats off again; :func:`_batch_keys` (for
+   take the trash key ``nx * ny``. On a piece the computed coordinate moves by at most
+   one cell per sample, so samples near a piece end that lies far outside the grid are
+   surely outside and are not made at all (:func:`_plan_part`).
+6. :func:`_accumulate` scatters each block with ``np.add.at`` while the block is in
+   cache, into a uint16 count map where a tile bound (:func:`_overlap_bound`) proves no
+   cell reaches 2**16 arcs (else uint32); it keeps aside only the samples that may
+   repeat, and takes the repeats off again. :func:`_batch_keys` (for
    :func:`sonarproc.arcs.arc_cells`) writes all keys to one buffer and trashes the
    repeats there. Arcs are processed in batches of about ``_BATCH`` samples.
 """
