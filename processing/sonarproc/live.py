@@ -24,25 +24,16 @@ import logging
 import os
 import time
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.fit import FitFailure
+from sonarproc.evaluation import fit_and_measure, make_grid
 from sonarproc.grid import Grid
-from sonarproc.metrics import bin_stats, profile_metrics, truth_on_columns
 from sonarproc.params import RunParams
-from sonarproc.pipeline import (
-    RunResult,
-    _fit_cartesian,
-    _fit_points,
-    _make_grid,
-    _polar,
-    select_readings,
-)
+from sonarproc.pipeline import RunResult, select_readings
 from sonarproc.voting import apply_chain, parse_chain
 
 __all__ = ["LiveAccumulator", "writer_closed"]
@@ -250,7 +241,7 @@ class LiveAccumulator:
         """
         if self._bounds is None or self._work is None or self._counts is None:
             return None
-        grid = _make_grid(self.params, self._bounds, str(self._template.path))
+        grid = make_grid(self.params, self._bounds, str(self._template.path))
         oy, ox = self._offset(grid, self._work)
         crop = self._counts[oy : oy + grid.ny, ox : ox + grid.nx]
         return grid, np.ascontiguousarray(crop)
@@ -289,53 +280,21 @@ class LiveAccumulator:
         t_morph = time.perf_counter()
         processed = apply_chain(counts_map, self._ops)
         t_fit = time.perf_counter()
-        ix, iy = np.nonzero(processed.T)
-        counts["processed_cells"] = int(ix.size)
-        px = grid.x0 + grid.cell * ix.astype(np.float64)
-        py = grid.y0 + grid.cell * iy.astype(np.float64)
         truth = None if lg.truth is None else np.asarray(lg.truth, dtype=np.float64)
-        if p.fit == "polar":
-            centre = p.centre or (float(readings["x"].mean()), float(readings["y"].mean()))
-            bins, fit, truth_bins, spanned = _polar(
-                p, grid, px, py, arc_map, truth, centre, lambda _s: None
-            )
-        else:
-            centre = None
-            bins = bin_stats(ix, py, grid.centres_x(), presorted=True)
-            if p.fit == "poly" and (p.auto_order or p.robust != "none"):
-                fit = _fit_points(p, px, py, counts_map[iy, ix].astype(np.float64))
-            else:
-                fit = _fit_cartesian(p, bins)
-            truth_bins, spanned = None, None
-            if truth is None:
-                spanned = np.asarray(arc_map.any(axis=0), dtype=bool)
-            else:
-                truth_bins = truth_on_columns(truth, bins.centres)
-                _, _, bottom, top = grid.extent
-                truth_bins[(truth_bins < bottom) | (truth_bins > top)] = np.nan
-            if p.span == "points":
-                inside = np.zeros(bins.centres.size, dtype=bool)
-                occ = np.flatnonzero(bins.occupied)
-                if occ.size:
-                    inside[occ[0] : occ[-1] + 1] = True
-                if truth_bins is not None:
-                    truth_bins[~inside] = np.nan
-                if spanned is not None:
-                    spanned &= inside
-        t_metrics = time.perf_counter()
-        metrics = profile_metrics(
-            bins,
-            truth=truth_bins,
-            fit=None if isinstance(fit, FitFailure) else fit,
-            spanned=spanned,
+        ev = fit_and_measure(
+            p,
+            grid,
+            processed,
+            counts_map,
+            truth=truth,
+            robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
         )
-        t_end = time.perf_counter()
-        timings: dict[str, Any] = {
+        counts["processed_cells"] = ev.points_x.size
+        timings: dict[str, float] = {
             "rasterise": self._raster_s,
             "select": t_morph - wall0,
             "morphology": t_fit - t_morph,
-            "fit": t_metrics - t_fit,
-            "metrics": t_end - t_metrics,
+            "fit": time.perf_counter() - t_fit,
         }
         return RunResult(
             source=source,
@@ -343,15 +302,15 @@ class LiveAccumulator:
             grid=grid,
             counts_map=counts_map,
             processed=processed,
-            points_x=px,
-            points_y=py,
-            bins=bins,
-            fit=fit,
-            metrics=metrics,
+            points_x=ev.points_x,
+            points_y=ev.points_y,
+            bins=ev.bins,
+            fit=ev.fit,
+            metrics=ev.metrics,
             truth=truth,
             counts=counts,
             t_cpu_s=self._cpu + (time.process_time() - cpu0),
             timings_s=timings,
-            centre=centre,
-            robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
+            centre=ev.centre,
+            robot_xy=ev.robot_xy,
         )

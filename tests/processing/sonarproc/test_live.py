@@ -80,8 +80,9 @@ def test_regrow_happens_and_stays_exact(logs: dict[str, SonarLog]) -> None:
         RunParams(fit="polar", order=8),
         RunParams(bbox=(0.0, 3.0, 0.0, 3.5), span="points"),
         RunParams(cell=0.02, drop_crosstalk=True),
+        RunParams(ops="closing,thinning:2", robust="huber", order=6),
     ],
-    ids=["vote-huber-auto", "spline", "polar", "bbox", "cell"],
+    ids=["vote-huber-auto", "spline", "polar", "bbox", "cell", "closing-huber"],
 )
 def test_snapshot_equals_process_for_every_method(
     logs: dict[str, SonarLog], params: RunParams
