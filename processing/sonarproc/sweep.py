@@ -298,16 +298,16 @@ def combinations(inputs: Sequence[str], grid: dict[str, list[Any]]) -> list[Comb
         for combo in itertools.product(*(grid[k] for k in keys)):
             values = dict(zip(keys, combo, strict=True))
             out.append(Combination(len(out), inp, values))
-    bad: set[str] = set()
+    checked: set[str] = set()
     for c in out:
         sig = json.dumps({k: v for k, v in c.values.items() if k not in DATA_KEYS})
-        if sig in bad:
+        if sig in checked:
             continue
         try:
             _params(c.values)
         except ValueError as err:
             raise GridSyntaxError(f"--grid: combination {sig} is invalid: {err}") from None
-        bad.add(sig)  # checked
+        checked.add(sig)
     return out
 
 
@@ -433,18 +433,12 @@ def _clean(v: Any) -> Any:
 
 
 def _run_task(task: list[Combination]) -> list[dict[str, Any]]:
-    """Run combinations that share one input, noise and seed: load or simulate once."""
+    """Run combinations that share one input, noise and seed: load or simulate once.
+
+    A log or scenario that cannot be read raises (the whole sweep stops: a usage error).
+    """
     data = {k: v for k, v in task[0].values.items() if k in DATA_KEYS}
-    try:
-        lg = _load(task[0].input, data)
-    except (ValueError, OSError) as err:
-        rows = []
-        for c in task:
-            row: dict[str, Any] = {k: None for k in COLUMNS}
-            row.update(index=c.index, input=c.input, ok=False, fit_ok=False, error=str(err))
-            row.update(c.values)
-            rows.append(row)
-        return rows
+    lg = _load(task[0].input, data)
     return [_row(c, lg) for c in task]
 
 

@@ -288,3 +288,21 @@ def test_best_without_truth_uses_cross_validation() -> None:
     assert best["row"]["index"] == 1 and "cv_score" in best["criterion"]
     truth = [{**r, "E1_m": 0.1 * (4 - r["index"])} for r in rows]
     assert best_rows(truth)["x.h5"]["row"]["index"] == 3
+
+
+def test_unreadable_inputs_stop_the_sweep(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nworld: nowhere.yaml\n", encoding="utf-8")
+    out = str(tmp_path / "o")
+    for jobs in ("1", "2"):
+        assert main(["sweep", str(bad), "--grid", "seed=0..2", "--jobs", jobs, "--out", out]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("sonarproc: error: ") and "bad.yaml" in err[0]
+    assert main(["sweep", str(tmp_path / "none.h5"), "--grid", "order=4", "--out", out]) == 2
+    assert "none.h5: no such file" in capsys.readouterr().err
+    notlog = tmp_path / "x.csv"
+    notlog.write_text("t\n", encoding="utf-8")
+    assert main(["sweep", str(notlog), "--grid", "order=4", "--out", out]) == 2
+    assert "must be a sonarlog (.h5) or a scenario (.yaml)" in capsys.readouterr().err
