@@ -22,7 +22,6 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog, read_log
-from sonarproc import evaluation as _evaluation
 from sonarproc.arcs import arc_bounds, rasterize_arcs
 from sonarproc.evaluation import fit_and_measure, make_grid
 from sonarproc.fit import Fit, FitFailure
@@ -34,12 +33,6 @@ from sonarproc.voting import apply_chain, parse_chain
 __all__ = ["METHOD", "STAGES", "RunResult", "load_log", "process", "run_file", "select_readings"]
 
 log = logging.getLogger(__name__)
-
-# TEMPORARY aliases for sonarproc.live until it moves to sonarproc.evaluation.
-_make_grid = make_grid
-_fit_cartesian = _evaluation._fit_binned
-_fit_points = _evaluation._fit_points
-_polar = _evaluation._polar
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
 #: Stage names reported to a progress callback, in order.
