@@ -15,12 +15,20 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from sonarproc.cli import app, guarded
+from sonarproc.cli_options import (
+    BboxOption,
+    CellOption,
+    DropCrosstalkOption,
+    FitOption,
+    SensorsOption,
+    TruthOption,
+    build_run_params,
+)
 
 if TYPE_CHECKING:
     from sonarproc.methods import MapMethod
-    from sonarproc.params import RunParams
 
-__all__ = ["build_methods", "build_params", "compare_command"]
+__all__ = ["build_methods", "compare_command"]
 
 SetOption = Annotated[
     list[str] | None,
@@ -29,22 +37,6 @@ SetOption = Annotated[
         help="A method option METHOD.OPTION=VALUE, e.g. occupancy.select=ridge (repeatable).",
     ),
 ]
-
-
-def build_params(
-    *, cell: float, bbox: str | None, ops: str, fit: str, order: int | None, drop_crosstalk: bool
-) -> RunParams:
-    """The shared run parameters of ``compare`` and ``export``."""
-    from sonarproc.params import RunParams, parse_bbox
-
-    return RunParams(
-        cell=cell,
-        bbox=parse_bbox(bbox) if bbox is not None else None,
-        ops=ops,
-        fit=fit,  # type: ignore[arg-type]  # validated by RunParams
-        order=order,
-        drop_crosstalk=drop_crosstalk,
-    )
 
 
 def build_methods(names: list[str], settings: list[str] | None) -> list[MapMethod]:
@@ -99,26 +91,18 @@ def compare_command(
     out: Annotated[
         Path | None, typer.Option("--out", help="Output directory (default: LOG_compare/).")
     ] = None,
-    cell: Annotated[float, typer.Option(help="Grid cell size (m).")] = 0.01,
-    bbox: Annotated[
-        str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
-    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
     ops: Annotated[
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
-    fit: Annotated[str, typer.Option(help="Fit: poly, spline or polar.")] = "poly",
+    fit: FitOption = "poly",
     order: Annotated[
         int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
     ] = None,
-    sensors: Annotated[
-        Path | None, typer.Option(help="Sensors YAML, for a readings CSV log.")
-    ] = None,
-    truth: Annotated[
-        Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
-    ] = None,
-    drop_crosstalk: Annotated[
-        bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
-    ] = False,
+    sensors: SensorsOption = None,
+    truth: TruthOption = None,
+    drop_crosstalk: DropCrosstalkOption = False,
     settings: SetOption = None,
     export: Annotated[
         str | None,
@@ -137,7 +121,7 @@ def compare_command(
     from sonarproc.pipeline import load_log
 
     with guarded():
-        params = build_params(
+        params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, drop_crosstalk=drop_crosstalk
         )
         names = parse_method_list(methods) if methods is not None else list(DEFAULT_METHODS)

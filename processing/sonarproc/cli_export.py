@@ -13,7 +13,15 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli import app, guarded
-from sonarproc.cli_compare import SetOption, build_methods, build_params
+from sonarproc.cli_compare import SetOption, build_methods
+from sonarproc.cli_options import (
+    BboxOption,
+    CellOption,
+    DropCrosstalkOption,
+    FitOption,
+    SensorsOption,
+    build_run_params,
+)
 
 __all__ = ["export_command"]
 
@@ -28,26 +36,20 @@ def export_command(
     out: Annotated[
         Path | None, typer.Option("--out", help="Output directory (default: LOG_export/).")
     ] = None,
-    cell: Annotated[float, typer.Option(help="Grid cell size (m).")] = 0.01,
-    bbox: Annotated[
-        str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
-    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
     ops: Annotated[
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
-    fit: Annotated[str, typer.Option(help="Fit: poly, spline or polar.")] = "poly",
+    fit: FitOption = "poly",
     order: Annotated[
         int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
     ] = None,
-    sensors: Annotated[
-        Path | None, typer.Option(help="Sensors YAML, for a readings CSV log.")
-    ] = None,
+    sensors: SensorsOption = None,
     truth: Annotated[
         Path | None, typer.Option(help="True profile CSV (x,y), for the metrics in the GeoJSON.")
     ] = None,
-    drop_crosstalk: Annotated[
-        bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
-    ] = False,
+    drop_crosstalk: DropCrosstalkOption = False,
     settings: SetOption = None,
 ) -> None:
     """Export one method's map of a log: ROS map_server map, GeoJSON profile, PLY cloud."""
@@ -56,7 +58,7 @@ def export_command(
     from sonarproc.pipeline import load_log
 
     with guarded():
-        params = build_params(
+        params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, drop_crosstalk=drop_crosstalk
         )
         names = parse_method_list(method)

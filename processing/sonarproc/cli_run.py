@@ -17,6 +17,20 @@ from typing import Annotated, Any
 import typer
 
 from sonarproc.cli import app, guarded
+from sonarproc.cli_options import (
+    BboxOption,
+    CellOption,
+    CentreOption,
+    DropCrosstalkOption,
+    FitOption,
+    OrderOption,
+    RobustOption,
+    SensorsOption,
+    SmoothOption,
+    SpanOption,
+    TruthOption,
+    build_run_params,
+)
 
 __all__ = ["run_command"]
 
@@ -95,88 +109,40 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     Console().print(table)
 
 
-def _parse_order(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise ValueError(f"--order must be an integer or 'auto', got {text!r}") from None
-
-
 @app.command("run")
 def run_command(
     log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
     out: Annotated[
         Path | None, typer.Option("--out", help="Report directory (default: LOG_report/).")
     ] = None,
-    cell: Annotated[float, typer.Option(help="Grid cell size (m).")] = 0.01,
-    bbox: Annotated[
-        str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
-    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
     ops: Annotated[
         str, typer.Option(help="Morphological operations, e.g. 'closing,thinning:3'.")
     ] = "thinning:3",
-    fit: Annotated[str, typer.Option(help="Fit: poly, spline or polar.")] = "poly",
-    order: Annotated[
-        str | None,
-        typer.Option(
-            help="Polynomial order m (default 9) or polar harmonics (16); 'auto': choose m "
-            "by cross-validation on the points (poly)."
-        ),
-    ] = None,
-    smooth: Annotated[
-        float | None, typer.Option(help="Spline smoothing; default: cross-validation.")
-    ] = None,
-    centre: Annotated[
-        str | None, typer.Option(help="Polar fit centre 'x,y' (m); default: mean robot position.")
-    ] = None,
-    sensors: Annotated[
-        Path | None, typer.Option(help="Sensors YAML, for a readings CSV log.")
-    ] = None,
-    truth: Annotated[
-        Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
-    ] = None,
-    drop_crosstalk: Annotated[
-        bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
-    ] = False,
-    robust: Annotated[
-        str,
-        typer.Option(
-            help="Polynomial fit: 'none' (the paper's least squares) or 'huber' (robust, "
-            "over the points, weighted by their arc counts)."
-        ),
-    ] = "none",
-    span: Annotated[
-        str,
-        typer.Option(
-            help="Metric columns: 'truth' (all the truth spans in the map, the paper) or "
-            "'points' (only between the first and last column with points)."
-        ),
-    ] = "truth",
+    fit: FitOption = "poly",
+    order: OrderOption = None,
+    smooth: SmoothOption = None,
+    centre: CentreOption = None,
+    sensors: SensorsOption = None,
+    truth: TruthOption = None,
+    drop_crosstalk: DropCrosstalkOption = False,
+    robust: RobustOption = "none",
+    span: SpanOption = "truth",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
 ) -> None:
     """Turn a sonar log into an arc map, a processed map, a fitted profile and a report."""
     from sonarproc.fit import FitFailure
-    from sonarproc.params import RunParams, parse_bbox, parse_point
     from sonarproc.pipeline import run_file
     from sonarproc.report import default_out_dir, write_report
 
     with guarded():
-        auto_order = order is not None and order.strip().lower() == "auto"
-        params = RunParams(
-            cell=cell,
-            bbox=parse_bbox(bbox) if bbox is not None else None,
-            ops=ops,
-            fit=fit,  # type: ignore[arg-type]  # validated by RunParams
-            order=None if order is None or auto_order else _parse_order(order),
-            smooth=smooth,
-            centre=parse_point(centre) if centre is not None else None,
-            drop_crosstalk=drop_crosstalk,
-            auto_order=auto_order,
-            robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
-            span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
-        )
+        params = build_run_params(
+            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust=robust, span=span,
+        )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
         try:

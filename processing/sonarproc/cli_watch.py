@@ -31,6 +31,19 @@ from typing import Annotated, Any
 import typer
 
 from sonarproc.cli import app, fail, guarded
+from sonarproc.cli_options import (
+    BboxOption,
+    CellOption,
+    CentreOption,
+    DropCrosstalkOption,
+    FitOption,
+    OrderOption,
+    RobustOption,
+    SmoothOption,
+    SpanOption,
+    TruthOption,
+    build_run_params,
+)
 
 __all__ = ["WatchOutcome", "watch", "watch_command", "write_report_atomic"]
 
@@ -234,29 +247,19 @@ def watch_command(
         typer.Option(help="Stop when the writer closed the log and nothing arrived for S s."),
     ] = 10.0,
     once: Annotated[bool, typer.Option("--once", help="One pass, then stop.")] = False,
-    cell: Annotated[float, typer.Option(help="Grid cell size (m).")] = 0.01,
-    bbox: Annotated[
-        str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
-    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
     ops: Annotated[str, typer.Option(help="Morphological operations.")] = "thinning:3",
-    fit: Annotated[str, typer.Option(help="Fit: poly, spline or polar.")] = "poly",
-    order: Annotated[
-        str | None, typer.Option(help="Polynomial order m, polar harmonics, or 'auto'.")
-    ] = None,
-    smooth: Annotated[float | None, typer.Option(help="Spline smoothing.")] = None,
-    centre: Annotated[str | None, typer.Option(help="Polar fit centre 'x,y' (m).")] = None,
-    truth: Annotated[
-        Path | None, typer.Option(help="True profile CSV (x,y) for E1 and E2.")
-    ] = None,
-    drop_crosstalk: Annotated[
-        bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
-    ] = False,
-    robust: Annotated[str, typer.Option(help="Polynomial fit: 'none' or 'huber'.")] = "none",
-    span: Annotated[str, typer.Option(help="Metric columns: 'truth' or 'points'.")] = "truth",
+    fit: FitOption = "poly",
+    order: OrderOption = None,
+    smooth: SmoothOption = None,
+    centre: CentreOption = None,
+    truth: TruthOption = None,
+    drop_crosstalk: DropCrosstalkOption = False,
+    robust: RobustOption = "none",
+    span: SpanOption = "truth",
 ) -> None:
     """Process a log while it is being written; keep the report directory current."""
-    from sonarproc.cli_run import _parse_order
-    from sonarproc.params import RunParams, parse_bbox, parse_point
     from sonarproc.report import default_out_dir
 
     stop = threading.Event()
@@ -265,20 +268,10 @@ def watch_command(
             fail(f"--interval must be > 0 s, got {interval}")
         if not (idle >= 0):
             fail(f"--idle must be >= 0 s, got {idle}")
-        auto_order = order is not None and order.strip().lower() == "auto"
-        params = RunParams(
-            cell=cell,
-            bbox=parse_bbox(bbox) if bbox is not None else None,
-            ops=ops,
-            fit=fit,  # type: ignore[arg-type]  # validated by RunParams
-            order=None if order is None or auto_order else _parse_order(order),
-            smooth=smooth,
-            centre=parse_point(centre) if centre is not None else None,
-            drop_crosstalk=drop_crosstalk,
-            auto_order=auto_order,
-            robust=robust.strip().lower(),  # type: ignore[arg-type]
-            span=span.strip().lower(),  # type: ignore[arg-type]
-        )
+        params = build_run_params(
+            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust=robust, span=span,
+        )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
 
         def on_signal(signum: int, frame: FrameType | None) -> None:
