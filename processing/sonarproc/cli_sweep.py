@@ -67,7 +67,8 @@ def sweep_merge_command(
     ] = None,
 ) -> None:
     """Merge shard tables; report missing/duplicate combinations; pick the best parameters."""
-    from sonarproc.sweep import best_rows, merge_shards, write_table
+    from sonarproc.sweep import write_table
+    from sonarproc.sweep_merge import best_rows, merge_shards
 
     with guarded():
         merged = merge_shards(dirs)

@@ -16,19 +16,19 @@ runs them. ``sigma`` (range noise, m) and ``seed`` apply to scenario inputs: eac
 combination simulates its scenario with that noise and seed.
 
 Library only: :func:`parse_grid`, :func:`combinations`, :func:`shard_indices`,
-:func:`run_sweep`, :func:`merge_shards`; the command line is :mod:`sonarproc.cli_sweep`.
+:func:`run_sweep` here, :func:`~sonarproc.sweep_merge.merge_shards` and
+:func:`~sonarproc.sweep_merge.best_rows` in :mod:`sonarproc.sweep_merge`; the command line
+is :mod:`sonarproc.cli_sweep`.
 """
 
 from __future__ import annotations
 
 import csv
-import itertools
 import json
 import logging
 import math
 import multiprocessing
 import multiprocessing.context
-import re
 import time
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -38,16 +38,26 @@ from typing import Any
 
 import numpy as np
 
-from sonarproc.params import RunParams
+from sonarproc.sweep_grid import (
+    DATA_KEYS,
+    KEYS,
+    Combination,
+    GridSyntaxError,
+    combination_params,
+    combinations,
+    is_scenario_path,
+    parse_grid,
+    parse_shard,
+    shard_indices,
+)
 
 __all__ = [
+    "COLUMNS",
     "KEYS",
     "Combination",
     "GridSyntaxError",
-    "MergeResult",
-    "best_rows",
+    "SweepResult",
     "combinations",
-    "merge_shards",
     "parse_grid",
     "parse_shard",
     "run_sweep",
@@ -57,26 +67,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-SYNTAX = (
-    "KEY=V1|V2|A..B|LO..HI@N|LO..HI@logN[;KEY=...] with KEY in "
-    "ops, order, cell, fit, robust, span, smooth, drop_crosstalk, sigma, seed"
-)
-
-#: Parameter keys and the kind of their values.
-KEYS: dict[str, str] = {
-    "ops": "ops",
-    "order": "order",
-    "cell": "float",
-    "fit": "choice:poly,spline,polar",
-    "robust": "choice:none,huber",
-    "span": "choice:truth,points",
-    "smooth": "float",
-    "drop_crosstalk": "bool",
-    "sigma": "float",
-    "seed": "int",
-}
-#: Keys that change the data (simulation) rather than the processing.
-DATA_KEYS = ("sigma", "seed")
 #: Columns of the results table, in order.
 COLUMNS = (
     "index",
@@ -97,261 +87,13 @@ COLUMNS = (
     "cv_score",
 )
 
-_RANGE = re.compile(r"^(-?[0-9.eE+-]+?)\.\.(-?[0-9.eE+-]+?)(?:@(log)?([0-9]+))?$")
-_INT_RANGE = re.compile(r"^(.*?)(-?[0-9]+)\.\.(-?[0-9]+)$")
-
-
-class GridSyntaxError(ValueError):
-    """A bad ``--grid`` (or ``--shard``) spec; the message names the token and the syntax."""
-
-
-def _bad(token: str, why: str) -> GridSyntaxError:
-    return GridSyntaxError(f"--grid: bad token {token!r}: {why}; syntax: {SYNTAX}")
-
-
-def _numbers(token: str, kind: str) -> list[Any]:
-    """Expand one alternative of a numeric key: a number or a range."""
-    m = _RANGE.match(token)
-    if m is None:
-        try:
-            return [int(token)] if kind == "int" else [float(token)]
-        except ValueError:
-            raise _bad(token, f"not a{'n integer' if kind == 'int' else ' number'}") from None
-    lo_s, hi_s, log_, count_s = m.groups()
-    if count_s is None:
-        try:
-            lo, hi = int(lo_s), int(hi_s)
-        except ValueError:
-            raise _bad(token, "A..B needs integers (use LO..HI@N for numbers)") from None
-        if hi < lo:
-            raise _bad(token, "empty range (B < A)")
-        values: list[Any] = list(range(lo, hi + 1))
-        return values if kind == "int" else [float(v) for v in values]
-    if kind == "int":
-        raise _bad(token, "this key takes integers: use A..B")
-    try:
-        lo_f, hi_f = float(lo_s), float(hi_s)
-    except ValueError:
-        raise _bad(token, "range ends must be numbers") from None
-    count = int(count_s)
-    if count < 1:
-        raise _bad(token, "the count after @ must be >= 1")
-    if log_:
-        if not (lo_f > 0 and hi_f > 0):
-            raise _bad(token, "a log range needs LO > 0 and HI > 0")
-        arr = np.geomspace(lo_f, hi_f, count)
-    else:
-        arr = np.linspace(lo_f, hi_f, count)
-    return [float(f"{v:.6g}") for v in arr]
-
-
-def _ops_values(token: str) -> list[str]:
-    """Expand one ``ops`` alternative (a chain) with integer ranges inside its steps."""
-    from sonarproc.voting import parse_chain
-
-    steps: list[list[str]] = []
-    for step in token.split(","):
-        step = step.strip()
-        m = _INT_RANGE.match(step)
-        if m is None:
-            steps.append([step])
-            continue
-        head, lo, hi = m.group(1), int(m.group(2)), int(m.group(3))
-        if hi < lo:
-            raise _bad(token, "empty range (B < A)")
-        steps.append([f"{head}{k}" for k in range(lo, hi + 1)])
-    chains = [",".join(c) for c in itertools.product(*steps)]
-    for chain in chains:
-        try:
-            parse_chain(chain)
-        except ValueError as err:
-            raise _bad(token, str(err)) from None
-    return chains
-
-
-def _expand(key: str, alternatives: list[str]) -> list[Any]:
-    kind = KEYS[key]
-    out: list[Any] = []
-    for alt in alternatives:
-        if kind == "ops":
-            out.extend(_ops_values(alt))
-        elif kind == "order":
-            out.extend(["auto"] if alt.lower() == "auto" else _numbers(alt, "int"))
-        elif kind in ("int", "float"):
-            out.extend(_numbers(alt, kind))
-        elif kind == "bool":
-            low = alt.lower()
-            if low not in ("true", "false", "1", "0", "yes", "no"):
-                raise _bad(alt, "expected true or false")
-            out.append(low in ("true", "1", "yes"))
-        else:
-            allowed = kind.split(":", 1)[1].split(",")
-            if alt.lower() not in allowed:
-                raise _bad(alt, f"expected one of {', '.join(allowed)}")
-            out.append(alt.lower())
-    for v in out:  # value checks: the same rules as sonarproc run
-        _check_value(key, v)
-    return out
-
-
-def _check_value(key: str, v: Any) -> None:
-    if key == "sigma":
-        if not (math.isfinite(v) and 0 <= v <= 1):
-            raise _bad(f"{key}={v}", "sigma must be between 0 and 1 m")
-        return
-    if key == "seed":
-        if v < 0:
-            raise _bad(f"{key}={v}", "seed must be >= 0")
-        return
-    try:
-        _params({key: v})
-    except ValueError as err:
-        raise _bad(f"{key}={v}", str(err)) from None
-
-
-def parse_grid(spec: str) -> dict[str, list[Any]]:
-    """Parse a grid spec into ``{key: [values...]}`` in the order the spec names the keys.
-
-    Parameters
-    ----------
-    spec : str
-        ``KEY=VALUES[;KEY=VALUES...]`` (see the module docstring).
-
-    Returns
-    -------
-    dict
-
-    Raises
-    ------
-    GridSyntaxError
-        One line naming the bad token and giving the syntax.
-
-    Examples
-    --------
-    >>> g = parse_grid("ops=thinning:1..3;order=4,6|8;cell=0.01..0.03@3")
-    >>> g["ops"], g["order"], g["cell"]
-    (['thinning:1', 'thinning:2', 'thinning:3'], [4, 6, 8], [0.01, 0.02, 0.03])
-    """
-    grid: dict[str, list[Any]] = {}
-    parts = [p.strip() for p in spec.split(";") if p.strip()]
-    if not parts:
-        raise _bad(spec, "empty grid")
-    for part in parts:
-        key, sep, values = part.partition("=")
-        key = key.strip().lower().replace("-", "_")
-        if not sep or not values.strip():
-            raise _bad(part, "expected KEY=VALUES")
-        if key not in KEYS:
-            raise _bad(part, f"unknown key {key!r}")
-        if key in grid:
-            raise _bad(part, f"key {key!r} given twice")
-        seps = r"\|" if key == "ops" else r"[|,]"
-        alternatives = [a.strip() for a in re.split(seps, values)]
-        if any(not a for a in alternatives):
-            raise _bad(part, "empty value")
-        expanded = _expand(key, alternatives)
-        if len(set(map(str, expanded))) != len(expanded):
-            raise _bad(part, "a value appears twice")
-        grid[key] = expanded
-    return grid
-
-
-def _params(values: dict[str, Any]) -> RunParams:
-    """A :class:`RunParams` from grid values (the data keys are ignored)."""
-    kw = {k: v for k, v in values.items() if k not in DATA_KEYS}
-    order = kw.pop("order", None)
-    if order == "auto":
-        kw["auto_order"] = True
-    elif order is not None:
-        kw["order"] = int(order)
-    return RunParams(**kw)
-
-
-@dataclass(frozen=True)
-class Combination:
-    """One point of the grid on one input."""
-
-    index: int
-    input: str
-    values: dict[str, Any]
-
-    @property
-    def key(self) -> str:
-        """A stable identity (input and values) used to find duplicates across shards."""
-        return json.dumps({"input": self.input, **self.values}, sort_keys=True)
-
-
-def combinations(inputs: Sequence[str], grid: dict[str, list[Any]]) -> list[Combination]:
-    """Every combination, numbered in the deterministic sweep order.
-
-    Raises
-    ------
-    ValueError
-        ``sigma``/``seed`` with an input that is not a scenario, or a combination of
-        values ``sonarproc run`` refuses (e.g. ``robust=huber`` with ``fit=spline``).
-    """
-    keys = list(grid)
-    out: list[Combination] = []
-    for inp in inputs:
-        if _is_scenario(inp) is False and any(k in grid for k in DATA_KEYS):
-            raise GridSyntaxError(f"--grid: sigma and seed need a scenario input, not {inp}")
-        for combo in itertools.product(*(grid[k] for k in keys)):
-            values = dict(zip(keys, combo, strict=True))
-            out.append(Combination(len(out), inp, values))
-    checked: set[str] = set()
-    for c in out:
-        sig = json.dumps({k: v for k, v in c.values.items() if k not in DATA_KEYS})
-        if sig in checked:
-            continue
-        try:
-            _params(c.values)
-        except ValueError as err:
-            raise GridSyntaxError(f"--grid: combination {sig} is invalid: {err}") from None
-        checked.add(sig)
-    return out
-
-
-def parse_shard(text: str) -> tuple[int, int]:
-    """Parse ``I/N`` (0 <= I < N).
-
-    Examples
-    --------
-    >>> parse_shard("2/8")
-    (2, 8)
-    """
-    m = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", text)
-    if m is None or not 0 <= int(m.group(1)) < int(m.group(2)):
-        raise GridSyntaxError(f"--shard: bad value {text!r}; expected I/N with 0 <= I < N")
-    return int(m.group(1)), int(m.group(2))
-
-
-def shard_indices(total: int, shard: tuple[int, int]) -> range:
-    """Indices of the combinations shard ``(I, N)`` runs: every N-th from I.
-
-    Examples
-    --------
-    >>> list(shard_indices(7, (1, 3)))
-    [1, 4]
-    """
-    i, n = shard
-    return range(i, total, n)
-
-
-def _is_scenario(inp: str) -> bool | None:
-    suffix = Path(inp).suffix.lower()
-    if suffix in (".yaml", ".yml"):
-        return True
-    if suffix in (".h5", ".hdf5"):
-        return False
-    return None
-
 
 def _load(inp: str, values: dict[str, Any]) -> Any:
     """The log of a combination: read a sonarlog, or simulate a scenario."""
     from sonarlog import SonarLog
     from sonarproc.pipeline import load_log
 
-    scenario = _is_scenario(inp)
+    scenario = is_scenario_path(inp)
     if scenario is None:
         raise ValueError(f"{inp}: a sweep input must be a sonarlog (.h5) or a scenario (.yaml)")
     if not scenario:
@@ -377,14 +119,14 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
     from sonarproc.fit import FitFailure, select_order_cv
     from sonarproc.pipeline import process
 
-    p = _params(c.values)
+    p = combination_params(c.values)
     row: dict[str, Any] = {"index": c.index, "input": c.input}
     effective = p.to_json()
     for k in KEYS:
         row[k] = c.values.get(k, effective.get(k))
-    if "sigma" not in c.values and _is_scenario(c.input):
+    if "sigma" not in c.values and is_scenario_path(c.input):
         row["sigma"] = None
-    if "seed" not in c.values and _is_scenario(c.input):
+    if "seed" not in c.values and is_scenario_path(c.input):
         row["seed"] = lg.attrs.get("seed")
     row.update(ok=False, error=None, fit_ok=False)
     row.update({k: None for k in COLUMNS if k not in row})
@@ -507,7 +249,7 @@ def run_sweep(
     for inp in inputs:
         if not Path(inp).is_file():
             raise FileNotFoundError(2, "no such file", inp)
-        if _is_scenario(inp) is None:
+        if is_scenario_path(inp) is None:
             raise ValueError(f"{inp}: a sweep input must be a sonarlog (.h5) or a scenario (.yaml)")
     grid = parse_grid(spec)
     combos = combinations(list(inputs), grid)
@@ -573,110 +315,3 @@ def write_sweep(result: SweepResult, out_dir: Path) -> Path:
     manifest = {**result.manifest, "table": f"{stem}.jsonl", "wall_s": result.wall_s}
     (out_dir / f"{stem}.json").write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return csv_path
-
-
-# ---- merging and choosing ---------------------------------------------------------------
-
-
-@dataclass
-class MergeResult:
-    """Merged shards: the rows by index, and what is missing or repeated."""
-
-    rows: list[dict[str, Any]]
-    total: int
-    missing: list[int]
-    duplicates: list[int]
-    conflicting: list[int]
-    manifests: list[Path]
-
-
-def merge_shards(dirs: Sequence[Path]) -> MergeResult:
-    """Merge the shard outputs found in ``dirs`` into one table.
-
-    Every ``results*.json`` manifest names its table; all must come from the same grid
-    and inputs. Rows repeated across shards are kept once (``duplicates``; those whose
-    metrics differ are listed in ``conflicting`` too); indices no shard ran are
-    ``missing``.
-
-    Raises
-    ------
-    ValueError
-        No manifest found, or manifests of different sweeps.
-    """
-    manifests = sorted(
-        {p for d in dirs for p in Path(d).glob("results*.json") if p.name != "results.merged.json"}
-    )
-    if not manifests:
-        raise ValueError(f"no sweep outputs (results*.json) in {', '.join(map(str, dirs))}")
-    ref: dict[str, Any] | None = None
-    by_index: dict[int, dict[str, Any]] = {}
-    duplicates: set[int] = set()
-    conflicting: set[int] = set()
-    for mpath in manifests:
-        try:
-            man = json.loads(mpath.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as err:
-            raise ValueError(f"{mpath}: unreadable sweep manifest ({err})") from None
-        ident = {k: man.get(k) for k in ("grid", "inputs", "total")}
-        if ref is None:
-            ref = ident
-        elif ident != ref:
-            raise ValueError(f"{mpath}: from a different sweep (grid, inputs or size differ)")
-        table = mpath.with_name(str(man.get("table", "")))
-        with table.open(encoding="utf-8") as fh:
-            for line in fh:
-                if not line.strip():
-                    continue
-                row = json.loads(line)
-                i = int(row["index"])
-                if i in by_index:
-                    duplicates.add(i)
-                    a = {k: v for k, v in by_index[i].items() if k != "t_cpu_s"}
-                    b = {k: v for k, v in row.items() if k != "t_cpu_s"}
-                    if a != b:
-                        conflicting.add(i)
-                    continue
-                by_index[i] = row
-    assert ref is not None
-    total = int(ref["total"])
-    missing = sorted(set(range(total)) - set(by_index))
-    rows = [by_index[i] for i in sorted(by_index)]
-    return MergeResult(rows, total, missing, sorted(duplicates), sorted(conflicting), manifests)
-
-
-def best_rows(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """The best parameters for each input.
-
-    With a truth profile: the smallest ``E1_m``. Without: among the runs that keep at
-    least 90 % of the best coverage ``f_c``, the smallest ``cv_score`` (the 5-fold
-    cross-validated held-out loss of the fitted order on the run's own points, from
-    :func:`sonarproc.fit.select_order_cv`: no ground truth); if no run has one, the
-    largest ``f_c``.
-
-    Returns
-    -------
-    dict
-        ``{input: {"criterion": ..., "row": row}}``.
-    """
-    out: dict[str, dict[str, Any]] = {}
-    for inp in dict.fromkeys(r["input"] for r in rows):
-        good = [r for r in rows if r["input"] == inp and r.get("ok") and r.get("fit_ok")]
-        with_e1 = [r for r in good if r.get("E1_m") is not None]
-        if with_e1:
-            best = min(with_e1, key=lambda r: (r["E1_m"], r["index"]))
-            out[inp] = {"criterion": "min E1_m (truth)", "row": best}
-            continue
-        cover = [r for r in good if r.get("f_c") is not None]
-        if not cover:
-            continue
-        top = max(r["f_c"] for r in cover)
-        near = [r for r in cover if r["f_c"] >= 0.9 * top]
-        scored = [r for r in near if r.get("cv_score") is not None]
-        if scored:
-            best = min(scored, key=lambda r: (r["cv_score"], r["index"]))
-            crit = "min cv_score among f_c >= 0.9 max f_c (no truth)"
-        else:
-            best = max(cover, key=lambda r: (r["f_c"], -r["index"]))
-            crit = "max f_c (no truth)"
-        out[inp] = {"criterion": crit, "row": best}
-    return out

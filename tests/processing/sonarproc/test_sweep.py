@@ -14,12 +14,12 @@ from sonarproc.cli import main
 from sonarproc.simulate import simulate_to_log
 from sonarproc.sweep import (
     GridSyntaxError,
-    best_rows,
     combinations,
     parse_grid,
     parse_shard,
     shard_indices,
 )
+from sonarproc.sweep_merge import best_rows
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
 FIG13 = SCENARIOS / "fig13.yaml"
