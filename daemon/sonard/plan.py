@@ -382,9 +382,9 @@ def load_plan(path: str | Path) -> Plan:
 
     Examples
     --------
-    >>> import tempfile, os
-    >>> p = os.path.join(tempfile.mkdtemp(), "p.yaml")
-    >>> _ = open(p, "w").write("sonars: [0]\\nsteps:\\n  - dwell: {seconds: 1}\\n")
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "p.yaml"
+    >>> _ = p.write_text("sonars: [0]\\nsteps:\\n  - dwell: {seconds: 1}\\n")
     >>> load_plan(p).interval
     0.04
     """
