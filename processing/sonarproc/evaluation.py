@@ -38,7 +38,7 @@ from sonarproc.metrics import (
 )
 from sonarproc.params import MAX_AUTO_ORDER, RunParams
 
-__all__ = ["Evaluation", "fit_and_measure", "make_grid"]
+__all__ = ["Evaluation", "fit_and_measure", "make_grid", "map_counts", "no_arc_message"]
 
 Stage = Callable[[str], None]
 
@@ -159,6 +159,20 @@ def _polar(
     ay, ax = np.nonzero(arc_map)
     raw = polar_bins(grid.x0 + grid.cell * ax, grid.y0 + grid.cell * ay, centre=centre, nbins=nbins)
     return bins, fit, None, raw.occupied
+
+
+def no_arc_message(source: str, bbox: tuple[float, ...] | None) -> str:
+    """The error for an empty arc map: it names the bbox when one was given."""
+    where = "the bbox " + ",".join(f"{v:g}" for v in bbox) if bbox else "the map"
+    return f"{source}: no arc touches {where}"
+
+
+def map_counts(evidence: npt.NDArray[Any], *, empty: str) -> dict[str, int]:
+    """Cells set in a map and their total evidence; ``ValueError(empty)`` if none is set."""
+    cells_set = int(np.count_nonzero(evidence))
+    if cells_set == 0:
+        raise ValueError(empty)
+    return {"map_cells_set": cells_set, "arc_cells": int(evidence.sum(dtype=np.int64))}
 
 
 def fit_and_measure(

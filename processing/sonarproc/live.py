@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.evaluation import fit_and_measure, make_grid
+from sonarproc.evaluation import fit_and_measure, make_grid, map_counts, no_arc_message
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, select_readings
@@ -271,12 +271,7 @@ class LiveAccumulator:
         lg = replace(self._template, readings=self.readings)
         source = str(lg.path)
         readings, counts = select_readings(lg, drop_crosstalk=p.drop_crosstalk)
-        arc_map = counts_map > 0
-        counts["map_cells_set"] = int(np.count_nonzero(arc_map))
-        if counts["map_cells_set"] == 0:
-            where = "the bbox " + ",".join(f"{v:g}" for v in p.bbox) if p.bbox else "the map"
-            raise ValueError(f"{source}: no arc touches {where}")
-        counts["arc_cells"] = int(counts_map.sum(dtype=np.int64))
+        counts.update(map_counts(counts_map, empty=no_arc_message(source, p.bbox)))
         t_morph = time.perf_counter()
         processed = apply_chain(counts_map, self._ops)
         t_fit = time.perf_counter()

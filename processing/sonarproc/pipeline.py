@@ -23,7 +23,7 @@ import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog, read_log
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.evaluation import fit_and_measure, make_grid
+from sonarproc.evaluation import fit_and_measure, make_grid, map_counts, no_arc_message
 from sonarproc.fit import Fit, FitFailure
 from sonarproc.grid import Grid
 from sonarproc.metrics import Bins, Metrics
@@ -172,12 +172,7 @@ def process(
     grid = make_grid(params, bounds, source)
     stage("rasterise")
     counts_map = rasterize_arcs(*arcs_args, **beams, grid=grid)
-    arc_map = counts_map > 0
-    counts["map_cells_set"] = int(np.count_nonzero(arc_map))
-    if counts["map_cells_set"] == 0:
-        where = "the bbox " + ",".join(f"{v:g}" for v in params.bbox) if params.bbox else "the map"
-        raise ValueError(f"{source}: no arc touches {where}")
-    counts["arc_cells"] = int(counts_map.sum(dtype=np.int64))
+    counts.update(map_counts(counts_map, empty=no_arc_message(source, params.bbox)))
     stage("morphology")
     processed = apply_chain(counts_map, ops)
     stage("fit")

@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog, TransducerPoses
 from sonarproc.arcs import arc_bounds
-from sonarproc.evaluation import fit_and_measure, make_grid
+from sonarproc.evaluation import fit_and_measure, make_grid, map_counts
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
@@ -206,12 +206,10 @@ def evaluate(
 ) -> RunResult:
     """Fit and measure a method's map the way :func:`sonarproc.pipeline.process` does."""
     source = str(log_.path)
-    raw = mmap.evidence > 0
-    counts = dict(counts)
-    counts["map_cells_set"] = int(np.count_nonzero(raw))
-    if counts["map_cells_set"] == 0:
-        raise ValueError(f"{source}: the method left nothing on the map")
-    counts["arc_cells"] = int(mmap.evidence.sum(dtype=np.int64))
+    counts = {
+        **counts,
+        **map_counts(mmap.evidence, empty=f"{source}: the method left nothing on the map"),
+    }
     truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
     readings = beams.readings
     ev = fit_and_measure(
