@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from sonarproc.params import RunParams
 
 __all__ = [
+    "ArcStepOption",
     "BboxOption",
     "CellOption",
     "CentreOption",
@@ -70,6 +71,16 @@ SpanOption = Annotated[
     ),
 ]
 
+ArcStepOption = Annotated[
+    float | None,
+    typer.Option(
+        "--arc-step",
+        metavar="DEG",
+        help="Draw each arc paper-style as samples every DEG degrees (one cell per "
+        "sample, gaps allowed); default: gap-free 8-connected arcs.",
+    ),
+]
+
 
 def _parse_order(text: str) -> int:
     try:
@@ -90,14 +101,18 @@ def build_run_params(
     drop_crosstalk: bool = False,
     robust: str = "none",
     span: str = "truth",
+    arc_step_deg: float | None = None,
 ) -> RunParams:
     """Validated run parameters from option values as typed on the command line.
 
     Raises
     ------
     ValueError
-        A malformed bbox, centre or order, or a value :class:`RunParams` refuses.
+        A malformed bbox, centre or order, or a value :class:`RunParams` refuses
+        (e.g. ``arc_step_deg <= 0``).
     """
+    import math
+
     from sonarproc.params import RunParams, parse_bbox, parse_point
 
     auto_order = isinstance(order, str) and order.strip().lower() == "auto"
@@ -117,4 +132,5 @@ def build_run_params(
         auto_order=auto_order,
         robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
+        arc_step=None if arc_step_deg is None else math.radians(arc_step_deg),
     )

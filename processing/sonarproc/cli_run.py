@@ -18,6 +18,7 @@ import typer
 
 from sonarproc.cli import app, guarded
 from sonarproc.cli_options import (
+    ArcStepOption,
     BboxOption,
     CellOption,
     CentreOption,
@@ -129,6 +130,7 @@ def run_command(
     drop_crosstalk: DropCrosstalkOption = False,
     robust: RobustOption = "none",
     span: SpanOption = "truth",
+    arc_step: ArcStepOption = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
@@ -141,7 +143,7 @@ def run_command(
     with guarded():
         params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
-            drop_crosstalk=drop_crosstalk, robust=robust, span=span,
+            drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)

@@ -54,6 +54,11 @@ class RunParams:
         or only those between the first and last column left with points.
     max_cells : int
         Refuse maps larger than this many cells (a guard against a stray reading).
+    arc_step : float or None
+        ``None`` (default): each arc is a gap-free 8-connected chain of cells
+        (:func:`sonarproc.arcs.rasterize_arcs`). A step (rad, > 0): each arc is drawn
+        paper-style as samples every ``arc_step`` of angle, one cell per sample
+        (:mod:`sonarproc.arcs_sampled`; ``--arc-step DEG``).
     """
 
     cell: float = 0.01
@@ -68,6 +73,7 @@ class RunParams:
     robust: Literal["none", "huber"] = "none"
     span: Literal["truth", "points"] = "truth"
     max_cells: int = 400_000_000
+    arc_step: float | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.cell) and self.cell > 0):
@@ -91,6 +97,8 @@ class RunParams:
             raise ValueError(
                 f"robust must be one of {', '.join(ROBUST_KINDS)}, got {self.robust!r}"
             )
+        if self.arc_step is not None and not (math.isfinite(self.arc_step) and self.arc_step > 0):
+            raise ValueError(f"arc step must be > 0, got {math.degrees(self.arc_step):g} deg")
         if self.span not in SPANS:
             raise ValueError(f"span must be one of {', '.join(SPANS)}, got {self.span!r}")
         if (self.auto_order or self.robust != "none") and self.fit != "poly":

@@ -171,7 +171,14 @@ def process(
         raise ValueError(f"{source}: {err}") from err
     grid = make_grid(params, bounds, source)
     stage("rasterise")
-    counts_map = rasterize_arcs(*arcs_args, **beams, grid=grid)
+    if params.arc_step is None:
+        counts_map = rasterize_arcs(*arcs_args, **beams, grid=grid)
+    else:  # paper-style: samples at a fixed angular step (optional, not the default)
+        from sonarproc.arcs_sampled import rasterize_arcs_sampled
+
+        counts_map = rasterize_arcs_sampled(
+            *arcs_args, **beams, step_rad=params.arc_step, grid=grid
+        )
     counts.update(map_counts(counts_map, empty=no_arc_message(source, params.bbox)))
     stage("morphology")
     processed = apply_chain(counts_map, ops)
