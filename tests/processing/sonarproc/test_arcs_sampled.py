@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -118,7 +119,7 @@ def test_distinct_cells_match_width_over_step(step_deg: float) -> None:
 
 def test_count_map_counts_distinct_arcs_per_cell() -> None:
     grid = Grid.covering(-1.2, 1.2, -1.2, 1.2, cell=CELL)
-    one = {"tx_half_beamwidth": 0.3, "rx_half_beamwidth": 0.3, "grid": grid}
+    one: dict[str, Any] = {"tx_half_beamwidth": 0.3, "rx_half_beamwidth": 0.3, "grid": grid}
     # A very fine step: many samples per cell, still one count per arc.
     fine = rasterize_arcs_sampled([[0, 0]], [1.5], [[0, 0]], [1.5], [2.0], step_rad=1e-4, **one)
     assert fine.max() == 1 and fine.dtype == np.uint32
