@@ -215,3 +215,22 @@ def test_cli_arc_step_must_be_positive(
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("sonarproc: error: arc step must be > 0")
     assert not (tmp_path / "rep").exists()
+
+
+def test_reproduce_renders_the_sampled_section() -> None:
+    from sonarproc.reproduce import PAPER, TABLE1, Outcome, SampledRow, render_markdown
+
+    def out(f_c: float) -> Outcome:
+        return Outcome(0.1, f_c, 2.0, 0.1, 0.01, 100, True)
+
+    fig02 = SampledRow("fig02 (Fig. 4)", PAPER["fig02"], out(0.9), (out(0.8), out(0.5), out(0.25)),
+                       (400, 300, 200, 100))  # fmt: skip
+    t1 = [SampledRow(p.figure, p, out(1.0 - 0.1 * i), (out(0.9 - 0.1 * i), out(0.5), out(0.0)))
+          for i, p in enumerate(TABLE1)]  # fmt: skip
+    text = render_markdown([("fig02", PAPER["fig02"], out(0.9), "d")], [], cell=0.01,
+                           sampled=[fig02], sampled_table1=t1)  # fmt: skip
+    assert "## Paper-style sampled arcs, steps 0.5° / 1° / 2°" in text
+    assert "| 0.341 / 0.900 / 0.800 / 0.500 / 0.250 | 3.18 / 2.00 / 2.00 / 2.00 / 2.00 |" in text
+    assert text.count("400 / 300 / 200 / 100") == 1
+    assert "paper 0.924 -> 0.000; connected 1.000 -> 0.300; 0.5° 0.900 -> 0.200;" in text
+    assert "Paper-style" not in render_markdown([], [], cell=0.01)
