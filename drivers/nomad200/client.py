@@ -9,11 +9,19 @@ damaged bytes are skipped by a resynchronising decoder.
 
 Idempotent commands (GS, GET_SN, GET_RC, GET_RV and the setters CT, CONF_SN, CONF_TM, AC,
 SP, DP, DA, VM, ST, LP) are retried up to ``retries`` times after a timeout, a damaged reply
-or a NAK; PR, PA, MV, ZR and WS are never retried.
+or a NAK; PR, PA, MV, ZR and WS are never retried. Damage on the way TO the robot shows up
+as a NAK (the robot refused a packet with a bad checksum or end byte and did nothing) or as
+a timeout (the robot never saw a whole packet); damage on the way back as a damaged reply or
+a timeout. A failed exchange raises a :class:`~nomad200.errors.NomadError` whose message
+names the command and says whether the robot may have executed it (also in its
+``command`` and ``executed`` attributes); the caller of a non-idempotent command decides
+(e.g. reads the state and commands again).
 
-Counters (``requests``, ``retry_count``, ``timeouts``, ``naks``, ``frame_errors``,
-``skipped_bytes``, ``stale_packets``, ``reconnects``) are plain attributes; ``counters()``
-returns them as a dict for logging.
+Counters are plain attributes; ``counters()`` returns them as a dict for logging. Every
+exchange (``requests``) ends in exactly one of ``replies``, ``naks``, ``timeouts``,
+``frame_errors`` (a reply that arrived damaged or incomplete) or a lost port; ``retry_count``
+counts the repeated exchanges among them. ``skipped_bytes`` and ``stale_packets`` count
+received bytes and packets that were thrown away.
 """
 
 from __future__ import annotations
@@ -43,6 +51,7 @@ from nomad200.errors import (
     NomadPortBusy,
     NomadProtocolError,
     NomadTimeout,
+    TruncatedPacketError,
 )
 from nomad200.state import (
     DEG10,
@@ -145,6 +154,7 @@ class Client:
         self._layout: StateLayout = layout_for(self._mask)
         self._decoder = StreamDecoder()
         self.requests = 0
+        self.replies = 0
         self.retry_count = 0
         self.timeouts = 0
         self.naks = 0
@@ -173,6 +183,7 @@ class Client:
         """All counters as a dict."""
         return {
             "requests": self.requests,
+            "replies": self.replies,
             "retries": self.retry_count,
             "timeouts": self.timeouts,
             "naks": self.naks,
@@ -277,7 +288,8 @@ class Client:
     # ------------------------------------------------------------ transactions
     def _transact(self, code: Cmd, args: tuple[int, ...], reply_len: int, timeout: float) -> Packet:
         frame = encode_command(code, *args)
-        attempts = 1 + (self.retries if code in _IDEMPOTENT else 0)
+        idempotent = code in _IDEMPOTENT
+        attempts = 1 + (self.retries if idempotent else 0)
         with self._lock:
             last: NomadError | None = None
             for attempt in range(attempts):
@@ -288,10 +300,27 @@ class Client:
                     return self._exchange(frame, code, reply_len, timeout)
                 except (NomadTimeout, NomadProtocolError, NomadNak) as err:
                     last = err
+                except NomadError as err:  # the port is gone: no retry
+                    err.command = code.name
+                    raise
             assert last is not None
+            last.command = code.name
+            last.executed = False if isinstance(last, NomadNak) else None
+            if isinstance(last, NomadNak):
+                note = "the robot did not execute it"
+            elif idempotent:
+                note = "no good reply"
+            else:
+                note = "the robot may or may not have executed it"
+            if idempotent:
+                note += f" after {attempts} attempt(s)"
+            else:
+                note += f"; {code.name} is not idempotent and was not retried"
+            last.args = (f"{last.args[0] if last.args else ''} ({note})", *last.args[1:])
             raise last
 
     def _exchange(self, frame: bytes, code: Cmd, reply_len: int, timeout: float) -> Packet:
+        """One request and its reply; counts exactly one outcome unless the port is lost."""
         ser = self._ser
         if ser is None:
             raise NomadDisconnected(f"{self.port}: not open")
@@ -327,13 +356,13 @@ class Client:
                 if data:
                     for ev in dec.feed(data):
                         if isinstance(ev, FrameError):
-                            self.frame_errors += 1
                             last_err = ev
                         elif ev.type == code:
+                            self.replies += 1
                             return ev
                         elif ev.type == Cmd.NAK:
                             self.naks += 1
-                            raise NomadNak(f"robot refused {code.name}")
+                            raise NomadNak(f"robot refused {code.name} (NAK)")
                         else:
                             self.stale_packets += 1
                 if len(data) < need:
@@ -352,8 +381,13 @@ class Client:
         trunc = dec.flush()
         if trunc is not None:
             self.frame_errors += 1
-            raise trunc
+            raise TruncatedPacketError(
+                f"{code.name}: incomplete reply ({trunc})",
+                offset=trunc.offset,
+                skipped=trunc.skipped,
+            ) from trunc
         if last_err is not None:
+            self.frame_errors += 1
             raise NomadProtocolError(f"{code.name}: damaged reply ({last_err})") from last_err
         self.timeouts += 1
         raise NomadTimeout(f"{self.port}: no reply to {code.name} within {timeout:g} s")

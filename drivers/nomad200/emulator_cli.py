@@ -16,6 +16,7 @@ from typing import IO, NoReturn
 
 from nomad200.emulator.device import EmulatorOptions, build_link
 from nomad200.emulator.pty_server import PtyServer
+from nomad200.emulator.rx import GAP_TIMEOUT
 
 __all__ = ["main"]
 
@@ -32,13 +33,41 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fast", action="store_true", help="no real waiting; virtual time")
     p.add_argument("--link", metavar="PATH", help="keep a symlink to the current pty here")
     p.add_argument("--trace", metavar="FILE", help="JSON lines: commands, firings, TRUE poses")
-    p.add_argument("--garble", type=float, default=0.0, metavar="RATE", help="per reply byte")
-    p.add_argument("--drop", type=float, default=0.0, metavar="RATE", help="per reply byte")
+    p.add_argument(
+        "--garble",
+        type=float,
+        default=0.0,
+        metavar="RATE",
+        help="probability per reply byte (robot to host) of being garbled",
+    )
+    p.add_argument(
+        "--drop",
+        type=float,
+        default=0.0,
+        metavar="RATE",
+        help="probability per reply byte (robot to host) of being lost",
+    )
+    p.add_argument(
+        "--garble-rx",
+        type=float,
+        default=0.0,
+        metavar="RATE",
+        help="probability per request byte (host to robot) of being garbled: the robot "
+        "NAKs a damaged packet or ignores it",
+    )
+    p.add_argument(
+        "--drop-rx",
+        type=float,
+        default=0.0,
+        metavar="RATE",
+        help="probability per request byte (host to robot) of being lost: the robot drops "
+        f"the incomplete packet after its {GAP_TIMEOUT:g} s inter-byte timeout, unanswered",
+    )
     p.add_argument("--stall", type=float, default=0.0, metavar="RATE", help="per reply")
     p.add_argument("--stall-for", type=float, default=2.0, metavar="S", help="stall length")
     p.add_argument("--unplug-at", type=float, metavar="S", help="vanish S seconds after start")
     p.add_argument("--unplug-for", type=float, default=2.0, metavar="S", help="outage length")
-    p.add_argument("--seed", type=int, default=0, help="fault generator seed")
+    p.add_argument("--seed", type=int, default=0, help="fault generator seed (both directions)")
     p.add_argument("-v", "--verbose", action="store_true", help="log to stderr")
     return p
 
@@ -59,6 +88,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         drop=args.drop,
         stall=args.stall,
         stall_for=args.stall_for,
+        garble_rx=args.garble_rx,
+        drop_rx=args.drop_rx,
         unplug_at=args.unplug_at,
         unplug_for=args.unplug_for,
         trace=args.trace,

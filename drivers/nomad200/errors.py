@@ -17,7 +17,11 @@ The tree::
      +-- NomadPortBusy                           another process holds the port lock
 
 Errors coming from pyserial or the OS are re-raised as one of these with
-``raise ... from err``.
+``raise ... from err``. Errors of a command exchange say which command failed
+(:attr:`NomadError.command`) and whether the robot executed it
+(:attr:`NomadError.executed`): ``False`` after a NAK (the robot refuses a damaged or invalid
+packet without acting on it), ``None`` when unknown (no or a damaged reply: the request or
+the reply may have been lost).
 """
 
 from __future__ import annotations
@@ -40,7 +44,19 @@ __all__ = [
 
 
 class NomadError(Exception):
-    """Root of every error raised by :mod:`nomad200`."""
+    """Root of every error raised by :mod:`nomad200`.
+
+    Attributes
+    ----------
+    command : str or None
+        Name of the command whose exchange failed (``"PR"``), if any.
+    executed : bool or None
+        ``False`` when the robot surely did not act on the command (it answered NAK),
+        ``None`` when nobody knows.
+    """
+
+    command: str | None = None
+    executed: bool | None = None
 
 
 class NomadTimeout(NomadError, TimeoutError):

@@ -19,9 +19,14 @@ fast=1
     No real waiting: simulated time is virtual and advances by the wire time of each
     byte (and by the host's timeouts), so the robot moves and fires plausibly.
 seed=N
-    Seed of the fault generator (default 0).
+    Seed of the fault generators (default 0; one stream per direction).
 garble=P, drop=P
-    Probability per reply byte of being replaced by another byte / lost.
+    Probability per reply byte (robot to host) of being replaced by another byte / lost.
+garble_rx=P, drop_rx=P
+    Probability per request byte (host to robot) of being replaced by another byte / lost.
+    The robot answers a damaged request with one NAK (bad checksum or end byte) or not at
+    all (a lost start byte, an implausible length, or a packet left incomplete: dropped
+    after the robot's 0.1 s inter-byte timeout), as the real robot does.
 stall=P, stall_for=S
     Probability per reply of being delayed by S seconds (default 2).
 unplug_at=S, unplug_for=S
@@ -46,7 +51,16 @@ from nomad200.emulator.link import Delivery, Link
 
 __all__ = ["Serial", "open_ports", "parse_url", "reset_devices"]
 
-_FLOATS = ("garble", "drop", "stall", "stall_for", "unplug_at", "unplug_for")
+_FLOATS = (
+    "garble",
+    "drop",
+    "garble_rx",
+    "drop_rx",
+    "stall",
+    "stall_for",
+    "unplug_at",
+    "unplug_for",
+)
 _INTS = ("baud", "seed")
 
 

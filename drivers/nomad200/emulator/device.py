@@ -31,12 +31,14 @@ class EmulatorOptions:
     unplug_at: float | None = None
     unplug_for: float = 2.0
     trace: str | None = None
+    garble_rx: float = 0.0
+    drop_rx: float = 0.0
 
     def validate(self) -> None:
         """Raise ValueError with a one-line message for impossible options."""
         if self.baud <= 0:
             raise ValueError(f"baud must be positive, got {self.baud}")
-        for name in ("garble", "drop", "stall"):
+        for name in ("garble", "drop", "stall", "garble_rx", "drop_rx"):
             p = getattr(self, name)
             if not (math.isfinite(p) and 0.0 <= p <= 1.0):
                 raise ValueError(f"{name} rate must be within 0..1, got {p}")
@@ -90,5 +92,7 @@ def build_link(
         stall=opts.stall,
         stall_s=opts.stall_for,
         seed=opts.seed,
+        garble_rx=opts.garble_rx,
+        drop_rx=opts.drop_rx,
     )
     return Link(model, baud=opts.baud, faults=faults)

@@ -6,8 +6,12 @@ on its own clock: axes move, the sonar ring fires in its configured order and ra
 CONF_TM watchdog stops the motors when the host falls silent. Time comes from an injected
 clock (real monotonic time, or a :class:`~nomad200.emulator.clock.VirtualClock`).
 
-Damaged packets (bad checksum or end byte, a payload of the wrong size, an unsupported
-command or mask) are answered with NAK; stray bytes outside packets are ignored.
+Host packets are parsed as the robot's firmware does (:class:`~nomad200.emulator.rx.HostParser`):
+a damaged packet (bad checksum or end byte) and a refused one (a payload of the wrong size,
+an unsupported command or mask) are answered with exactly one NAK and have no effect; stray
+bytes outside packets are ignored; a packet left incomplete (a byte lost on the line) is
+dropped without a reply when the line stays quiet for the inter-byte timeout
+(:data:`~nomad200.emulator.rx.GAP_TIMEOUT`).
 """
 
 from __future__ import annotations
@@ -22,8 +26,15 @@ import numpy as np
 from nomad200.codec import Cmd, Command, MvMode, Packet, decode_command, encode_frame
 from nomad200.emulator.clock import Clock, MonotonicClock
 from nomad200.emulator.motion import Drive
+from nomad200.emulator.rx import HostParser
 from nomad200.emulator.sonar import EchoFn, simulate_firings
-from nomad200.errors import ChecksumError, EndByteError, FrameError, PayloadError
+from nomad200.errors import (
+    ChecksumError,
+    EndByteError,
+    FrameError,
+    PayloadError,
+    TruncatedPacketError,
+)
 from nomad200.state import (
     DEG10,
     IN10,
@@ -35,7 +46,6 @@ from nomad200.state import (
     encode_get_sn,
     layout_for,
 )
-from nomad200.stream import StreamDecoder
 
 __all__ = ["NomadModel"]
 
@@ -48,7 +58,6 @@ _STATE_REPLY = frozenset(
     }
 )  # fmt: skip
 _NAK = encode_frame(Cmd.NAK)
-_PARTIAL_TIMEOUT = 0.5  # s: a packet not completed within this is dropped
 _Att = tuple[int, ...]
 
 
@@ -109,10 +118,11 @@ class NomadModel:
         self.sonar_raw = [NO_ECHO] * 16
         self.sonar_att: list[_Att] = [(0,) * 9] * 16
         self._pending_readings: list[tuple[int, int, int, _Att]] = []
-        self._decoder = StreamDecoder()
-        self._partial_since = self.t0
+        self.rx = HostParser()
+        self._last_rx = -math.inf
         self.naks = 0
         self.commands = 0
+        self.discarded = 0
 
     # ------------------------------------------------------------ time
     def clock_ms(self, t: float | None = None) -> int:
@@ -221,27 +231,38 @@ class NomadModel:
             self.trace.write(json.dumps(rec) + "\n")
 
     # ------------------------------------------------------------ bytes in, bytes out
-    def feed(self, data: bytes, t: float | None = None) -> list[tuple[float, bytes]]:
-        """Take host bytes that arrived at time ``t``; return ``(ready time, frame)`` replies."""
+    def feed(
+        self, data: bytes, t: float | None = None, *, quiet: float | None = None
+    ) -> list[tuple[float, bytes]]:
+        """Take host bytes that arrived at time ``t``; return ``(ready time, frame)`` replies.
+
+        Parameters
+        ----------
+        data : bytes
+            Bytes that arrived back to back (a transport's read or write).
+        t : float, optional
+            When the last of them arrived (default: the clock).
+        quiet : float, optional
+            How long the line was silent before them (default: since the previous feed);
+            longer than the inter-byte timeout drops an incomplete packet.
+        """
         t = self.clock() if t is None else t
         t = max(t, self.t)
         self.advance(t)
-        dec = self._decoder
-        if dec.pending and t - self._partial_since > _PARTIAL_TIMEOUT:
-            dec.reset()
-        if not dec.pending:
-            self._partial_since = t
+        if quiet is None:
+            quiet = t - self._last_rx
+        self._last_rx = t
         out: list[tuple[float, bytes]] = []
-        for ev in dec.feed(data):
-            if isinstance(ev, FrameError):
-                if isinstance(ev, ChecksumError | EndByteError):
-                    self.naks += 1
-                    out.append((self.t, _NAK))
-                    self.emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(ev)})
-                continue
-            out.append(self._handle(ev))
-        if dec.pending:
-            self._partial_since = t
+        for ev in self.rx.feed(data, quiet=quiet):
+            if isinstance(ev, ChecksumError | EndByteError):
+                self.naks += 1
+                out.append((self.t, _NAK))
+                self.emit({"type": "nak", "t": self.clock_ms() / 1000.0, "why": str(ev)})
+            elif isinstance(ev, TruncatedPacketError):
+                self.discarded += 1
+                self.emit({"type": "discard", "t": self.clock_ms() / 1000.0, "why": str(ev)})
+            elif not isinstance(ev, FrameError):
+                out.append(self._handle(ev))
         return out
 
     def _handle(self, pkt: Packet) -> tuple[float, bytes]:
@@ -281,8 +302,10 @@ class NomadModel:
             for ax, v in zip(d.axes, a, strict=True):
                 ax.set_velocity(float(v))
         elif code == Cmd.MV:
+            if any(m > max(MvMode) for m in a[0::2]):  # refuse before touching any axis
+                raise ValueError(f"bad MV modes {a[0::2]}")
             for i, ax in enumerate(d.axes):
-                self._mv(ax, MvMode(a[2 * i]) if a[2 * i] <= 6 else None, a[2 * i + 1])
+                self._mv(ax, MvMode(a[2 * i]), a[2 * i + 1])
         elif code == Cmd.ST:
             for ax in d.axes:
                 ax.stop()
@@ -315,9 +338,7 @@ class NomadModel:
             raise PayloadError(f"unsupported command {code.name}")
         return self.state_frame(int(code))
 
-    def _mv(self, ax: Any, mode: MvMode | None, v: int) -> None:
-        if mode is None:
-            raise ValueError(f"bad MV mode for value {v}")
+    def _mv(self, ax: Any, mode: MvMode, v: int) -> None:
         if mode == MvMode.VM:
             ax.set_velocity(float(v))
         elif mode == MvMode.PR:

@@ -70,6 +70,7 @@ class PtyServer:
         self._master = -1
         self._slave = -1
         self._out: list[_Out] = []
+        self._last_rx = -float("inf")  # monotonic time of the last bytes from the host
 
     # ------------------------------------------------------------ pty lifecycle
     def open(self) -> str:
@@ -138,7 +139,10 @@ class PtyServer:
     def _accept(self, data: bytes) -> None:
         clock = self.model.clock
         now_real = time.monotonic()
-        for d in self.link.receive(data, clock()):
+        # the line's real silence: in fast mode the link clock does not see the host wait
+        quiet = now_real - self._last_rx
+        self._last_rx = now_real
+        for d in self.link.receive(data, clock(), quiet=quiet):
             if self.fast:
                 extra = self.link.faults.stall_s if d.stalled else 0.0
                 self._out.append(_Out(now_real + extra, d.t, d.data))
