@@ -25,7 +25,16 @@ def test_bad_world_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert main(["--world", str(bad)]) == 2
 
 
-@pytest.mark.parametrize("argv", [["--world", "w.yaml", "--garble", "2"], ["--bogus"], []])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--world", "w.yaml", "--garble", "2"],
+        ["--world", "w.yaml", "--drop-rx", "-0.5"],
+        ["--world", "w.yaml", "--garble-rx", "nan"],
+        ["--bogus"],
+        [],
+    ],
+)
 def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     try:
         code = main(argv)
@@ -33,6 +42,16 @@ def test_bad_options_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str])
         code = int(e.code or 0)
     assert code == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_help_tells_both_directions(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--garble-rx RATE" in text and "--drop-rx RATE" in text
+    assert "per request byte (host to robot)" in text
+    assert "per reply byte (robot to host)" in text
 
 
 def test_trace_and_sigterm(tmp_path: Path, box_world: Path) -> None:

@@ -157,9 +157,11 @@ def test_exclusive_lock(make_port: PortFactory, box_world: Path) -> None:
 
 def test_nak_for_a_refused_packet(make_port: PortFactory, box_world: Path) -> None:
     with Client(make_port(world=box_world, fast=True), baud=38400, retries=1) as c:
-        with pytest.raises(NomadNak):
+        with pytest.raises(NomadNak) as info:
             c._state_cmd(Cmd.CONF_SN, (0, *([255] * 16)))  # rate 0 is refused
         assert c.naks == 2 and c.retry_count == 1
+        assert info.value.command == "CONF_SN" and info.value.executed is False
+        assert "did not execute it after 2 attempt(s)" in str(info.value)
         c.get_state()
 
 
