@@ -46,6 +46,20 @@ log = logging.getLogger(__name__)
 LINK_LOST_S = 1.0
 #: errors that mean the port went away (the driver may let a raw termios/OS error through)
 LINK_ERRORS = (NomadDisconnected, OSError, termios.error, SerialException)
+
+
+def is_link_error(exc: BaseException) -> bool:
+    """Whether ``exc`` means the port went away, rather than one exchange failing.
+
+    ``NomadTimeout`` is a ``TimeoutError`` and so an ``OSError``, but a missing reply is the
+    line's fault, not the port's: it is retried, and only a link silent for longer than
+    :data:`LINK_LOST_S` is treated as lost.
+    """
+    if isinstance(exc, NomadError):
+        return isinstance(exc, NomadDisconnected)
+    return isinstance(exc, LINK_ERRORS)
+
+
 #: attempts for a configuration command on a noisy line
 CONFIG_TRIES = 20
 #: commands that redefine the odometry frame
@@ -161,10 +175,8 @@ class Acquisition:
         for i in range(CONFIG_TRIES):
             try:
                 return fn(*args, **kwargs)
-            except LINK_ERRORS:
-                raise
             except NomadError as exc:
-                if i == CONFIG_TRIES - 1:
+                if is_link_error(exc) or i == CONFIG_TRIES - 1:
                     raise
                 log.debug("%s failed (%d/%d): %s", fn.__name__, i + 1, CONFIG_TRIES, exc)
                 self.check_stop()
@@ -214,12 +226,13 @@ class Acquisition:
     def command(self, name: str, *args: Any, idempotent: bool = True) -> Any:
         """Call a client method and feed its reply.
 
-        A timeout or garbled reply is retried when ``idempotent`` (twice), otherwise
-        returns None (the caller's closed loop checks the outcome on the next poll). A
-        lost link goes through :meth:`recover`.
+        A timeout or garbled reply is retried when ``idempotent`` (twice). A command that
+        is not idempotent is re-sent only when the robot refused it (NAK: it did nothing),
+        otherwise this returns None (the caller's closed loop checks the outcome on the next
+        poll). A lost link goes through :meth:`recover`.
         """
         self.check_stop()
-        tries = 3 if idempotent else 1
+        tries = 3
         for i in range(tries):
             try:
                 reply = getattr(self.client, name)(*args)
@@ -231,13 +244,17 @@ class Acquisition:
                     self.recording = True
                 st = self.feed(reply)
                 return st
-            except LINK_ERRORS as exc:
-                self.recover(exc)
             except NomadError as exc:
+                if is_link_error(exc):
+                    self.recover(exc)
                 log.debug("%s failed (%d/%d): %s", name, i + 1, tries, exc)
                 if time.monotonic() - self._last_good > LINK_LOST_S:
                     self.recover(exc)
                 self.check_stop()
+                if not idempotent and exc.executed is not False:
+                    return None  # the robot may have run it: do not run it twice
+            except LINK_ERRORS as exc:
+                self.recover(exc)
         return None
 
     def poll(self) -> Any:
@@ -253,12 +270,12 @@ class Acquisition:
         try:
             if self.feed(self.client.get_state()) is not None and before is not None:
                 self._learn_clock_rate(self.state.clock - before, time.monotonic() - host)
-        except LINK_ERRORS as exc:
-            self.recover(exc)
         except NomadError as exc:
             log.debug("poll failed: %s", exc)
-            if time.monotonic() - self._last_good > LINK_LOST_S:
+            if is_link_error(exc) or time.monotonic() - self._last_good > LINK_LOST_S:
                 self.recover(exc)
+        except LINK_ERRORS as exc:
+            self.recover(exc)
         return self.state
 
     def _learn_clock_rate(self, d_robot: float, d_host: float) -> None:
@@ -296,7 +313,7 @@ class Acquisition:
         log.warning("link fault: %s", detail)
         self.sink.event("fault", detail)
         self.notifier.status(f"link fault: {detail}")
-        if not isinstance(exc, LINK_ERRORS) and self.stop_robot() and self._reconfigure():
+        if not is_link_error(exc) and self.stop_robot() and self._reconfigure():
             self._resumed("noisy link")  # the robot answers again: the line was only noisy
         deadline = time.monotonic() + self.fault_timeout_s
         delay = 0.1

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from sonard.acquisition import Acquisition, Resume
-from sonard.motion import translate_to, turn_to, wrap
+from sonard.motion import MotionError, translate_to, turn_to, wrap
 from sonard.plan import (
     DefinePose,
     Dwell,
@@ -69,10 +69,14 @@ class ZeroRun(StepRun):
             if n.watchdog_period:  # ZR blocks up to 120 s: widen the systemd watchdog meanwhile
                 n.send(f"WATCHDOG_USEC={int(ZR_WATCHDOG_S * 1e6)}")
             try:
-                acq.command("zero", idempotent=False)
+                reply = acq.command("zero", idempotent=False)
             finally:
                 if n.watchdog_period:
                     n.send(f"WATCHDOG_USEC={int(n.watchdog_period * 2e6)}")
+            if reply is None:
+                # No acknowledgement: the frame of every later reading would be unknown.
+                # Zeroing again is harmless (it re-zeros where the robot stands).
+                raise MotionError("ZR was not acknowledged by the robot")
             self.started = True
         acq.poll()
 

@@ -22,6 +22,7 @@ class ScriptedAcquisition:
         self.recording = False
         self.state = SimpleNamespace(clock=0.0, motor_status=0)
         self.sink = SimpleNamespace(event=self._record_event)
+        self.notifier = SimpleNamespace(watchdog_period=0.0, send=lambda _msg: None)
 
     def _record_event(self, kind: str, detail: str = "") -> None:
         self.events.append((kind, detail))
@@ -72,3 +73,65 @@ def test_every_step_ends_with_stop(n_steps: int) -> None:
     acq = ScriptedAcquisition({})
     run_plan(acq, _plan([{"dwell": {"seconds": 0.08}}] * n_steps))  # type: ignore[arg-type]
     assert acq.calls.count("stop") == n_steps
+
+
+def test_zero_that_is_never_acknowledged_fails_the_plan(monkeypatch: pytest.MonkeyPatch) -> None:
+    from sonard.motion import MotionError
+
+    acq = ScriptedAcquisition({})
+    monkeypatch.setattr(acq, "command", lambda name, *a, **k: None if name == "zero" else acq.state)
+    with pytest.raises(MotionError, match="ZR was not acknowledged"):
+        run_plan(acq, _plan(["zero", {"dwell": {"seconds": 0.08}}]))  # type: ignore[arg-type]
+
+
+class _FlakyClient:
+    """Fails ``move_relative`` with the given errors, then acknowledges it (reply None)."""
+
+    def __init__(self, errors: list[Exception]) -> None:
+        self.errors = list(errors)
+        self.sent = 0
+
+    def move_relative(self, *args: float) -> None:
+        self.sent += 1
+        if self.errors:
+            raise self.errors.pop(0)
+
+
+def _nak() -> Exception:
+    from nomad200 import NomadNak
+
+    err = NomadNak("robot refused PR")
+    err.command, err.executed = "PR", False
+    return err
+
+
+def _timeout() -> Exception:
+    from nomad200 import NomadTimeout
+
+    err = NomadTimeout("no reply to PR")
+    err.command, err.executed = "PR", None
+    return err
+
+
+@pytest.mark.parametrize(
+    ("errors", "sent"),
+    [
+        ([], 1),
+        ([_nak()], 2),  # refused: it did nothing, so sending it again is safe
+        ([_nak(), _nak()], 3),
+        ([_timeout()], 1),  # unknown: it may have moved, so it is not sent twice
+        ([_nak(), _timeout()], 2),
+    ],
+)
+def test_non_idempotent_commands_are_resent_only_after_a_refusal(
+    errors: list[Exception], sent: int
+) -> None:
+    import threading
+
+    from sonard.acquisition import Acquisition
+
+    client = _FlakyClient(errors)
+    sink = SimpleNamespace(event=lambda *_a, **_k: None)
+    acq = Acquisition(client, _plan([{"dwell": {"seconds": 1}}]), sink, stop=threading.Event())  # type: ignore[arg-type]
+    acq.command("move_relative", 0.1, 0.0, 0.0, idempotent=False)
+    assert client.sent == sent
