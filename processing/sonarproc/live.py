@@ -284,28 +284,21 @@ class LiveAccumulator:
             truth=truth,
             robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
         )
-        counts["processed_cells"] = ev.points_x.size
         timings: dict[str, float] = {
             "rasterise": self._raster_s,
             "select": t_morph - wall0,
             "morphology": t_fit - t_morph,
             "fit": time.perf_counter() - t_fit,
         }
-        return RunResult(
+        return RunResult.of(
+            ev,
             source=source,
             params=p,
             grid=grid,
             counts_map=counts_map,
             processed=processed,
-            points_x=ev.points_x,
-            points_y=ev.points_y,
-            bins=ev.bins,
-            fit=ev.fit,
-            metrics=ev.metrics,
             truth=truth,
             counts=counts,
             t_cpu_s=self._cpu + (time.process_time() - cpu0),
             timings_s=timings,
-            centre=ev.centre,
-            robot_xy=ev.robot_xy,
         )

@@ -23,7 +23,13 @@ import numpy.typing as npt
 
 from sonarlog import FLAG_CROSSTALK, FLAG_NO_ECHO, SonarLog, read_log
 from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.evaluation import fit_and_measure, make_grid, map_counts, no_arc_message
+from sonarproc.evaluation import (
+    Evaluation,
+    fit_and_measure,
+    make_grid,
+    map_counts,
+    no_arc_message,
+)
 from sonarproc.fit import Fit, FitFailure
 from sonarproc.grid import Grid
 from sonarproc.metrics import Bins, Metrics
@@ -61,6 +67,43 @@ class RunResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     centre: tuple[float, float] | None = None
     robot_xy: npt.NDArray[np.float64] | None = None
+
+    @classmethod
+    def of(
+        cls,
+        ev: Evaluation,
+        *,
+        source: str,
+        params: RunParams,
+        grid: Grid,
+        counts_map: npt.NDArray[np.unsignedinteger[Any]],
+        processed: npt.NDArray[np.bool_],
+        truth: npt.NDArray[np.float64] | None,
+        counts: dict[str, int],
+        t_cpu_s: float,
+        timings_s: dict[str, float] | None = None,
+    ) -> RunResult:
+        """The record of a run whose processed map ``ev`` evaluated (counts its points)."""
+        if isinstance(ev.fit, FitFailure):
+            log.info("%s: fit failed: %s", source, ev.fit.reason)
+        return cls(
+            source=source,
+            params=params,
+            grid=grid,
+            counts_map=counts_map,
+            processed=processed,
+            points_x=ev.points_x,
+            points_y=ev.points_y,
+            bins=ev.bins,
+            fit=ev.fit,
+            metrics=ev.metrics,
+            truth=truth,
+            counts={**counts, "processed_cells": int(ev.points_x.size)},
+            t_cpu_s=t_cpu_s,
+            timings_s=timings_s or {},
+            centre=ev.centre,
+            robot_xy=ev.robot_xy,
+        )
 
 
 def select_readings(log_: SonarLog, *, drop_crosstalk: bool) -> tuple[np.ndarray, dict[str, int]]:
@@ -193,29 +236,20 @@ def process(
         robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
         stage=stage,
     )
-    counts["processed_cells"] = ev.points_x.size
     t_cpu = time.process_time() - cpu0
     stage("done")
     timings.pop("done")
-    if isinstance(ev.fit, FitFailure):
-        log.info("%s: fit failed: %s", source, ev.fit.reason)
-    return RunResult(
+    return RunResult.of(
+        ev,
         source=source,
         params=params,
         grid=grid,
         counts_map=counts_map,
         processed=processed,
-        points_x=ev.points_x,
-        points_y=ev.points_y,
-        bins=ev.bins,
-        fit=ev.fit,
-        metrics=ev.metrics,
         truth=truth,
         counts=counts,
         t_cpu_s=t_cpu,
         timings_s=timings,
-        centre=ev.centre,
-        robot_xy=ev.robot_xy,
     )
 
 

@@ -30,7 +30,6 @@ import numpy.typing as npt
 from sonarlog import SonarLog, TransducerPoses
 from sonarproc.arcs import arc_bounds
 from sonarproc.evaluation import fit_and_measure, make_grid, map_counts
-from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, select_readings
@@ -220,24 +219,15 @@ def evaluate(
         truth=truth,
         robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
     )
-    counts["processed_cells"] = ev.points_x.size
     t_cpu = time.process_time() - cpu0
-    if isinstance(ev.fit, FitFailure):
-        log.info("%s: fit failed: %s", source, ev.fit.reason)
-    return RunResult(
+    return RunResult.of(
+        ev,
         source=source,
         params=params,
         grid=grid,
         counts_map=mmap.evidence,
         processed=mmap.processed,
-        points_x=ev.points_x,
-        points_y=ev.points_y,
-        bins=ev.bins,
-        fit=ev.fit,
-        metrics=ev.metrics,
         truth=truth,
         counts=counts,
         t_cpu_s=t_cpu,
-        centre=ev.centre,
-        robot_xy=ev.robot_xy,
     )
