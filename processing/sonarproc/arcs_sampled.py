@@ -132,26 +132,6 @@ def _distinct_cells(geom: ArcGeometry, step: float, grid: Grid) -> tuple[IntArra
     return np.concatenate(rows_out), np.concatenate(keys_out)
 
 
-def _geometry(
-    tx_xy: ArrayLike,
-    tx_heading: ArrayLike,
-    rx_xy: ArrayLike,
-    rx_heading: ArrayLike,
-    path: ArrayLike,
-    tx_half_beamwidth: ArrayLike,
-    rx_half_beamwidth: ArrayLike,
-) -> ArcGeometry:
-    return arc_geometry(
-        tx_xy,
-        tx_heading,
-        rx_xy,
-        rx_heading,
-        path,
-        tx_half_beamwidth=tx_half_beamwidth,
-        rx_half_beamwidth=rx_half_beamwidth,
-    )
-
-
 def arc_samples(
     tx_xy: ArrayLike,
     tx_heading: ArrayLike,
@@ -209,9 +189,10 @@ def arc_samples(
     (5, [0])
     """
     step = _check_step(step_rad)
-    geom = _geometry(
-        tx_xy, tx_heading, rx_xy, rx_heading, path, tx_half_beamwidth, rx_half_beamwidth
-    )
+    geom = arc_geometry(
+        tx_xy, tx_heading, rx_xy, rx_heading, path,
+        tx_half_beamwidth=tx_half_beamwidth, rx_half_beamwidth=rx_half_beamwidth,
+    )  # fmt: skip
     rows, keys = _distinct_cells(geom, step, grid)
     iy, ix = np.divmod(keys, grid.nx)
     return geom.arc[rows].astype(np.intp), iy.astype(np.intp), ix.astype(np.intp)
@@ -248,12 +229,13 @@ def rasterize_arcs_sampled(
     >>> int(c.sum()), int(c.max()), c.dtype.name
     (10, 2, 'uint32')
     """
-    step = _check_step(step_rad)
-    geom = _geometry(
-        tx_xy, tx_heading, rx_xy, rx_heading, path, tx_half_beamwidth, rx_half_beamwidth
+    arc, iy, ix = arc_samples(
+        tx_xy, tx_heading, rx_xy, rx_heading, path,
+        tx_half_beamwidth=tx_half_beamwidth, rx_half_beamwidth=rx_half_beamwidth,
+        step_rad=step_rad, grid=grid,
+    )  # fmt: skip
+    counts = np.bincount(iy * grid.nx + ix, minlength=grid.ny * grid.nx).astype(np.uint32)
+    log.debug(
+        "sampled %d arcs every %.4g rad: %d arc cells", np.unique(arc).size, step_rad, arc.size
     )
-    _rows, keys = _distinct_cells(geom, step, grid)
-    size = grid.ny * grid.nx
-    counts = np.bincount(keys, minlength=size).astype(np.uint32)
-    log.debug("sampled %d arcs every %.4g rad: %d arc cells", len(geom), step, keys.size)
     return counts.reshape(grid.shape)
