@@ -21,6 +21,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from sonard.link import poll_seconds
+from sonarsim.shipped import resolve_shipped
 
 __all__ = [
     "BAUD_RATES",
@@ -368,7 +369,7 @@ def load_plan(path: str | Path) -> Plan:
     Parameters
     ----------
     path : str or Path
-        The YAML plan.
+        The YAML plan, or the name of a shipped plan (``translate``).
 
     Returns
     -------
@@ -388,11 +389,11 @@ def load_plan(path: str | Path) -> Plan:
     >>> load_plan(p).interval
     0.04
     """
-    p = Path(path)
     try:
+        p = resolve_shipped(path, kind="plans")
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
-        raise PlanError(f"{p}: cannot read plan: {exc.strerror or exc}") from None
+        raise PlanError(f"{path}: cannot read plan: {exc.strerror or exc}") from None
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

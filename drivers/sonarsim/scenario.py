@@ -35,6 +35,7 @@ from sonarsim.scenario_spec import (
     Sweep,
     TimingSpec,
 )
+from sonarsim.shipped import resolve_shipped
 from sonarsim.world import (
     World,
     WorldError,
@@ -214,7 +215,7 @@ def scenario_from_dict(
 
 
 def load_scenario(path: str | Path, *, seed: int | None = None) -> Scenario:
-    """Load, validate and build a scenario YAML file.
+    """Load, validate and build a scenario YAML file (or a shipped one by name: ``fig12``).
 
     Raises
     ------
@@ -223,7 +224,7 @@ def load_scenario(path: str | Path, *, seed: int | None = None) -> Scenario:
     FileNotFoundError
         The file does not exist.
     """
-    p = Path(path)
+    p = resolve_shipped(path, kind="scenarios")
     data = load_yaml_mapping(p, "scenario")
     return scenario_from_dict(
         data, base_dir=p.parent, source=str(p), seed=seed,

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from sonarsim.geometry import FloatArray
+from sonarsim.shipped import resolve_shipped
 from sonarsim.surfaces import (
     DEFAULT_RESOLUTION,
     Circle,
@@ -315,7 +316,8 @@ def load_world(path: str | Path) -> World:
     Parameters
     ----------
     path : str or Path
-        The YAML file (see the module docstring for the format).
+        The YAML file (see the module docstring for the format), or the name of a
+        shipped world (``lab``).
 
     Returns
     -------
@@ -328,4 +330,5 @@ def load_world(path: str | Path) -> World:
     FileNotFoundError
         The file does not exist.
     """
+    path = resolve_shipped(path, kind="worlds")
     return world_from_dict(load_yaml_mapping(path, "world"), source=str(path))

@@ -60,7 +60,9 @@ def guarded() -> Iterator[None]:
     except (UsageProblem, SonarLogError, ValueError, KeyError) as err:
         fail(str(err) or type(err).__name__, 2)
     except FileNotFoundError as err:
-        fail(f"{err.filename}: no such file", 2)
+        # Our own resolvers put a fuller sentence in strerror (shipped names to choose from).
+        plain = not err.strerror or err.strerror == "No such file or directory"
+        fail(f"{err.filename}: {'no such file' if plain else err.strerror}", 2)
     except (RuntimeProblem, OSError) as err:
         fail(str(err) or type(err).__name__, 1)
 
