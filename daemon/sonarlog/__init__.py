@@ -5,6 +5,7 @@ writes, a flush + fsync at least every half second); :func:`read_log` validates,
 intact prefix of a damaged file and computes transducer world poses in one vectorised call.
 """
 
+from sonarlog.acoustics import speed_of_sound_at
 from sonarlog.errors import InvalidLogError, SonarLogError
 from sonarlog.reader import SonarLog, TransducerPoses, read_log
 from sonarlog.recover import RecoveryReport, default_recovered_path, recover_log
@@ -42,4 +43,5 @@ __all__ = [
     "empty_readings",
     "read_log",
     "recover_log",
+    "speed_of_sound_at",
 ]
