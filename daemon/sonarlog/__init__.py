@@ -21,6 +21,7 @@ from sonarlog.schema import (
     SENSOR_DTYPE,
     empty_readings,
 )
+from sonarlog.superblock import writer_closed
 from sonarlog.writer import LogWriter
 
 __all__ = [
@@ -44,4 +45,5 @@ __all__ = [
     "read_log",
     "recover_log",
     "speed_of_sound_at",
+    "writer_closed",
 ]

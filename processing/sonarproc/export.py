@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.errors import InputError, ParameterError
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.methods.base import MethodResult
@@ -63,7 +64,7 @@ def parse_formats(text: str) -> list[str]:
     names = list(dict.fromkeys(p.strip().lower() for p in text.split(",") if p.strip()))
     bad = [n for n in names if n not in FORMATS]
     if bad or not names:
-        raise ValueError(f"export format must be one of {', '.join(FORMATS)}, got {text!r}")
+        raise ParameterError("formats", f"must be among {', '.join(FORMATS)}, got {text!r}")
     return names
 
 
@@ -89,7 +90,7 @@ def write_ros_map(result: MethodResult, stem: str | Path) -> tuple[Path, Path]:
     pgm, yml = stem.with_suffix(".pgm"), stem.with_suffix(".yaml")
     header = f"P5\n{g.nx} {g.ny}\n255\n".encode("ascii")
     pgm.write_bytes(header + np.ascontiguousarray(img[::-1]).tobytes())
-    ox, oy = g.x0 - 0.5 * g.cell, g.y0 - 0.5 * g.cell
+    ox, _, oy, _ = g.extent
     yml.write_text(
         f"image: {pgm.name}\n"
         "mode: trinary\n"
@@ -108,11 +109,11 @@ def read_pgm(path: str | Path) -> npt.NDArray[np.uint8]:
     data = Path(path).read_bytes()
     parts = data.split(b"\n", 3)
     if len(parts) < 4 or parts[0] != b"P5" or parts[2] != b"255":
-        raise ValueError(f"{path}: not an 8-bit binary PGM with a plain header")
+        raise InputError(f"{path}: not an 8-bit binary PGM with a plain header")
     w, h = (int(v) for v in parts[1].split())
     pix = np.frombuffer(parts[3], dtype=np.uint8)
     if pix.size != w * h:
-        raise ValueError(f"{path}: expected {w * h} pixels, found {pix.size}")
+        raise InputError(f"{path}: expected {w * h} pixels, found {pix.size}")
     return pix.reshape(h, w)
 
 
@@ -131,7 +132,7 @@ def read_ros_map(yaml_path: str | Path) -> tuple[Grid, npt.NDArray[np.uint8]]:
 
 def geojson_profile(result: MethodResult) -> dict[str, Any]:
     """The fitted profile as a GeoJSON FeatureCollection (one LineString, map frame)."""
-    from sonarproc.report import _clean
+    from sonarproc.report.jsonable import to_jsonable
 
     run = result.run
     props: dict[str, Any] = {
@@ -157,7 +158,9 @@ def geojson_profile(result: MethodResult) -> dict[str, Any]:
         )
     else:
         props["fit_failure"] = run.fit.reason
-    return dict(_clean({"type": "FeatureCollection", "features": features, "properties": props}))
+    return dict(
+        to_jsonable({"type": "FeatureCollection", "features": features, "properties": props})
+    )
 
 
 def write_geojson(result: MethodResult, path: str | Path) -> Path:
@@ -175,8 +178,7 @@ def write_ply(result: MethodResult, path: str | Path) -> Path:
     run = result.run
     ix, iy = np.nonzero(run.processed.T)
     v = np.zeros(ix.size, dtype=PLY_DTYPE)
-    v["x"] = run.grid.x0 + run.grid.cell * ix
-    v["y"] = run.grid.y0 + run.grid.cell * iy
+    v["x"], v["y"] = run.grid.to_world(iy, ix)
     v["evidence"] = run.counts_map[iy, ix]
     header = (
         "ply\nformat binary_little_endian 1.0\n"
@@ -204,5 +206,5 @@ def write_exports(result: MethodResult, out_dir: str | Path, formats: Iterable[s
         elif f == "ply":
             written.append(write_ply(result, stem.with_suffix(".ply")))
         else:
-            raise ValueError(f"unknown export format {f!r}")
+            raise ParameterError("formats", f"must be among {', '.join(FORMATS)}, got {f!r}")
     return written

@@ -184,3 +184,34 @@ class Grid:
         [-1.0, -0.5]
         """
         return self.y0 + self.cell * np.arange(self.ny, dtype=np.float64)
+
+    def to_world(
+        self, iy: ArrayLike, ix: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World coordinates ``(x, y)`` (m) of cell centres; the inverse of :meth:`to_index`.
+
+        Examples
+        --------
+        >>> x, y = Grid(x0=1.0, y0=-1.0, cell=0.5, nx=3, ny=2).to_world([1, 0], [2, 0])
+        >>> x.tolist(), y.tolist()
+        ([2.0, 1.0], [-0.5, -1.0])
+        """
+        ixa = np.asarray(ix, dtype=np.float64)
+        iya = np.asarray(iy, dtype=np.float64)
+        return self.x0 + self.cell * ixa, self.y0 + self.cell * iya
+
+    @property
+    def centre_extent(self) -> tuple[float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax)`` of the cell centres (m): the first and last rows/columns.
+
+        Examples
+        --------
+        >>> Grid(x0=0.0, y0=0.0, cell=0.5, nx=3, ny=2).centre_extent
+        (0.0, 1.0, 0.0, 0.5)
+        """
+        return (
+            self.x0,
+            self.x0 + (self.nx - 1) * self.cell,
+            self.y0,
+            self.y0 + (self.ny - 1) * self.cell,
+        )

@@ -6,6 +6,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
+from sonarproc.errors import ParameterError
 from sonarproc.fit import FitKind
 
 __all__ = ["DEFAULT_ORDER", "RunParams", "parse_bbox", "parse_point"]
@@ -56,9 +57,9 @@ class RunParams:
         Refuse maps larger than this many cells (a guard against a stray reading).
     arc_step : float or None
         ``None`` (default): each arc is a gap-free 8-connected chain of cells
-        (:func:`sonarproc.arcs.rasterize_arcs`). A step (rad, > 0): each arc is drawn
+        (:func:`sonarproc.arcs.rasterize`). A step (rad, > 0): each arc is drawn
         paper-style as samples every ``arc_step`` of angle, one cell per sample
-        (:mod:`sonarproc.arcs_sampled`; ``--arc-step DEG``).
+        (:mod:`sonarproc.arcs._sampled`; ``--arc-step DEG``).
     """
 
     cell: float = 0.01
@@ -77,34 +78,37 @@ class RunParams:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.cell) and self.cell > 0):
-            raise ValueError(f"cell size must be > 0 m, got {self.cell}")
+            raise ParameterError("cell", f"must be > 0 m, got {self.cell}")
         if self.bbox is not None:
             xmin, xmax, ymin, ymax = self.bbox
             if not all(math.isfinite(v) for v in self.bbox) or xmax <= xmin or ymax <= ymin:
-                raise ValueError(
-                    f"bbox must be finite xmin,xmax,ymin,ymax with xmin < xmax and "
-                    f"ymin < ymax, got {','.join(f'{v:g}' for v in self.bbox)}"
+                raise ParameterError(
+                    "bbox",
+                    "must be finite xmin,xmax,ymin,ymax with xmin < xmax and "
+                    f"ymin < ymax, got {','.join(f'{v:g}' for v in self.bbox)}",
                 )
         if self.fit not in FIT_KINDS:
-            raise ValueError(f"fit must be one of {', '.join(FIT_KINDS)}, got {self.fit!r}")
+            raise ParameterError("fit", f"must be one of {', '.join(FIT_KINDS)}, got {self.fit!r}")
         if self.order is not None and not 0 <= self.order <= 60:
-            raise ValueError(f"order must be between 0 and 60, got {self.order}")
+            raise ParameterError("order", f"must be between 0 and 60, got {self.order}")
         if self.smooth is not None and not (math.isfinite(self.smooth) and self.smooth >= 0):
-            raise ValueError(f"smoothing must be >= 0, got {self.smooth}")
+            raise ParameterError("smooth", f"must be >= 0, got {self.smooth}")
         if self.centre is not None and not all(math.isfinite(v) for v in self.centre):
-            raise ValueError("centre must be finite")
+            raise ParameterError("centre", "must be finite")
         if self.robust not in ROBUST_KINDS:
-            raise ValueError(
-                f"robust must be one of {', '.join(ROBUST_KINDS)}, got {self.robust!r}"
+            raise ParameterError(
+                "robust", f"must be one of {', '.join(ROBUST_KINDS)}, got {self.robust!r}"
             )
         if self.arc_step is not None and not (math.isfinite(self.arc_step) and self.arc_step > 0):
-            raise ValueError(f"arc step must be > 0, got {math.degrees(self.arc_step):g} deg")
+            raise ParameterError(
+                "arc_step", f"must be > 0, got {math.degrees(self.arc_step):g} deg"
+            )
         if self.span not in SPANS:
-            raise ValueError(f"span must be one of {', '.join(SPANS)}, got {self.span!r}")
+            raise ParameterError("span", f"must be one of {', '.join(SPANS)}, got {self.span!r}")
         if (self.auto_order or self.robust != "none") and self.fit != "poly":
-            raise ValueError("--order auto and --robust apply to --fit poly only")
+            raise ParameterError("fit", "must be poly for an automatic order or a robust fit")
         if self.span == "points" and self.fit == "polar":
-            raise ValueError("--span points applies to --fit poly or spline")
+            raise ParameterError("span", "points applies to a poly or spline fit, not polar")
 
     @property
     def fit_order(self) -> int:
@@ -129,7 +133,7 @@ def _floats(text: str, count: int, what: str) -> tuple[float, ...]:
     except ValueError:
         values = ()
     if len(values) != count:
-        raise ValueError(f"{what} must be {count} comma-separated numbers, got {text!r}")
+        raise ParameterError(what, f"must be {count} comma-separated numbers, got {text!r}")
     return values
 
 

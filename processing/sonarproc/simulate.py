@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sonarlog import POSE_DTYPE, LogWriter
+from sonarproc.errors import InputError
 from sonarsim import SimResult, load_scenario, simulate
 
 __all__ = ["SimulationSummary", "simulate_to_log", "write_result"]
@@ -104,7 +105,7 @@ def simulate_to_log(
     """
     parent = Path(out).resolve().parent
     if not parent.is_dir():
-        raise ValueError(f"{out}: output directory {parent} does not exist")
+        raise InputError(f"{out}: output directory {parent} does not exist")
     scn = load_scenario(scenario, seed=seed)
     log.info("simulating %s (seed %d)", scn.name, scn.seed)
     result = simulate(scn)

@@ -20,9 +20,9 @@ from collections.abc import Callable
 
 import numpy as np
 import pytest
+from arcs_api import arc_bounds, arc_cells, rasterize_arcs
 from numpy.typing import NDArray
 
-from sonarproc.arcs import arc_bounds, arc_cells, rasterize_arcs
 from sonarproc.grid import Grid
 
 pytestmark = pytest.mark.benchmark

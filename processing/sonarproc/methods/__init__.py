@@ -23,6 +23,7 @@ Examples
 
 from __future__ import annotations
 
+from sonarproc.errors import ParameterError
 from sonarproc.methods.base import Beams, MapMethod, MethodMap, MethodResult, OptionValue
 from sonarproc.methods.line_of_sight import Histogram, LineOfSight
 from sonarproc.methods.morphological import ArcVote, Morphological
@@ -60,8 +61,8 @@ def make_method(name: str, **options: OptionValue) -> MapMethod:
     try:
         cls = METHODS[name]
     except KeyError:
-        raise ValueError(
-            f"unknown method {name!r}; choose from {', '.join(sorted(METHODS))}"
+        raise ParameterError(
+            "method", f"must be one of {', '.join(sorted(METHODS))}, got {name!r}"
         ) from None
     return cls(**options)
 
@@ -76,10 +77,12 @@ def parse_method_list(text: str) -> list[str]:
     """
     names = list(dict.fromkeys(p.strip() for p in text.split(",") if p.strip()))
     if not names:
-        raise ValueError("--methods: no method named")
+        raise ParameterError("methods", "must name at least one method")
     for n in names:
         if n not in METHODS:
-            raise ValueError(f"unknown method {n!r}; choose from {', '.join(sorted(METHODS))}")
+            raise ParameterError(
+                "methods", f"must be one of {', '.join(sorted(METHODS))}, got {n!r}"
+            )
     return names
 
 
@@ -96,8 +99,8 @@ def parse_settings(items: list[str]) -> dict[str, dict[str, str]]:
         key, sep, value = item.partition("=")
         method, dot, option = key.strip().partition(".")
         if not (sep and dot and method and option):
-            raise ValueError(f"--set must be METHOD.OPTION=VALUE, got {item!r}")
+            raise ParameterError("settings", f"must be METHOD.OPTION=VALUE, got {item!r}")
         if method not in METHODS:
-            raise ValueError(f"--set: unknown method {method!r}")
+            raise ParameterError("settings", f"name an unknown method {method!r}")
         out.setdefault(method, {})[option] = value.strip()
     return out

@@ -22,68 +22,25 @@ import time
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
-from sonarlog import SonarLog, TransducerPoses
-from sonarproc.arcs import arc_bounds
-from sonarproc.evaluation import fit_and_measure, make_grid, map_counts
+from sonarlog import SonarLog
+from sonarproc.errors import ParameterError
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
-from sonarproc.pipeline import RunResult, select_readings
+from sonarproc.pipeline.mapping import MethodMap, Stage, map_log
+from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.selection import Beams
 
-__all__ = ["Beams", "MapMethod", "MethodMap", "MethodResult", "OptionValue", "shared_grid"]
+__all__ = ["Beams", "MapMethod", "MethodMap", "MethodResult", "OptionValue"]
 
 log = logging.getLogger(__name__)
 
 OptionValue = float | int | str
 BoolMap = npt.NDArray[np.bool_]
-
-
-@dataclass(frozen=True)
-class Beams:
-    """The readings a method maps, with their geometry (one row per reading)."""
-
-    readings: np.ndarray
-    poses: TransducerPoses
-    path: npt.NDArray[np.float64]
-
-    @property
-    def arcs_args(self) -> tuple[Any, ...]:
-        """Positional arguments of :func:`sonarproc.arcs.rasterize_arcs`."""
-        tp = self.poses
-        return (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, self.path)
-
-    @property
-    def beam_kwargs(self) -> dict[str, Any]:
-        """Keyword half-beamwidths of :func:`sonarproc.arcs.rasterize_arcs`."""
-        tp = self.poses
-        return {
-            "tx_half_beamwidth": tp.tx_half_beamwidth,
-            "rx_half_beamwidth": tp.rx_half_beamwidth,
-        }
-
-
-@dataclass
-class MethodMap:
-    """What a method builds on the grid.
-
-    Attributes
-    ----------
-    processed : ndarray of bool, grid.shape
-        The cells the curve is fitted to (the method's "processed map").
-    evidence : ndarray of unsigned int, grid.shape
-        Per-cell evidence shown in the figures (arc counts, hits, occupied-band counts);
-        its nonzero columns are the f_c denominator when there is no truth profile.
-    probability : ndarray of float, grid.shape, optional
-        p(occupied) of a probabilistic method (0.5 = unknown); the ROS map uses it.
-    """
-
-    processed: BoolMap
-    evidence: npt.NDArray[np.unsignedinteger[Any]]
-    probability: npt.NDArray[np.float64] | None = None
 
 
 @dataclass
@@ -94,25 +51,6 @@ class MethodResult:
     options: dict[str, OptionValue]
     run: RunResult
     probability: npt.NDArray[np.float64] | None = None
-
-
-def shared_grid(log_: SonarLog, params: RunParams, beams: Beams) -> Grid:
-    """The grid ``sonarproc run`` would use: ``params.bbox`` or the arcs' bounding box."""
-    source = str(log_.path)
-    try:
-        bounds = arc_bounds(*beams.arcs_args, **beams.beam_kwargs)
-    except ValueError as err:
-        raise ValueError(f"{source}: {err}") from err
-    return make_grid(params, bounds, source)
-
-
-def select_beams(log_: SonarLog, params: RunParams) -> tuple[Beams, dict[str, int]]:
-    """The readings ``sonarproc run`` keeps, their transducer poses and path lengths."""
-    readings, counts = select_readings(log_, drop_crosstalk=params.drop_crosstalk)
-    return (
-        Beams(readings, log_.transducer_poses(readings), log_.path_lengths(readings)),
-        counts,
-    )
 
 
 class MapMethod(ABC):
@@ -138,7 +76,7 @@ class MapMethod(ABC):
         for key, value in options.items():
             if key not in opts:
                 known = ", ".join(sorted(opts)) or "none"
-                raise ValueError(f"{self.name}: unknown option {key!r} (options: {known})")
+                raise ParameterError(self.name, f"has no option {key!r} (options: {known})")
             opts[key] = _coerce(self.name, key, value, opts[key])
         self.options: dict[str, OptionValue] = opts
         self.validate()
@@ -159,23 +97,19 @@ class MapMethod(ABC):
 
         Raises
         ------
-        ValueError
+        SonarprocError
             Unusable log or parameters (the same cases as ``sonarproc run``).
         """
         cpu0 = time.process_time()
         params = self.params_for(params)
-        timings: dict[str, float] = {}
-        t = time.perf_counter()
-        beams, counts = select_beams(log_, params)
-        grid = shared_grid(log_, params, beams)
-        timings["select"] = time.perf_counter() - t
-        t = time.perf_counter()
-        mmap = self.build(beams, grid, params)
-        timings["map"] = time.perf_counter() - t
-        t = time.perf_counter()
-        result = evaluate(log_, params, grid, beams, counts, mmap, cpu0)
-        timings["fit_metrics"] = time.perf_counter() - t
-        result.timings_s = timings
+
+        def build(beams: Beams, grid: Grid, p: RunParams, stage: Stage | None = None) -> MethodMap:
+            if stage is not None:
+                stage("map")
+            return self.build(beams, grid, p)
+
+        empty = f"{log_.path}: the method left nothing on the map"
+        result, mmap = map_log(log_, params, build, cpu_start=cpu0, empty_message=empty)
         return MethodResult(self.name, dict(self.options), result, mmap.probability)
 
 
@@ -188,46 +122,7 @@ def _coerce(method: str, key: str, value: OptionValue, default: OptionValue) -> 
         if isinstance(default, float):
             return float(value)
     except (TypeError, ValueError):
-        raise ValueError(
-            f"{method}: option {key} must be a {type(default).__name__}, got {value!r}"
+        raise ParameterError(
+            method, f"option {key} must be a {type(default).__name__}, got {value!r}"
         ) from None
     return str(value)
-
-
-def evaluate(
-    log_: SonarLog,
-    params: RunParams,
-    grid: Grid,
-    beams: Beams,
-    counts: dict[str, int],
-    mmap: MethodMap,
-    cpu0: float,
-) -> RunResult:
-    """Fit and measure a method's map the way :func:`sonarproc.pipeline.process` does."""
-    source = str(log_.path)
-    counts = {
-        **counts,
-        **map_counts(mmap.evidence, empty=f"{source}: the method left nothing on the map"),
-    }
-    truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
-    readings = beams.readings
-    ev = fit_and_measure(
-        params,
-        grid,
-        mmap.processed,
-        mmap.evidence,
-        truth=truth,
-        robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
-    )
-    t_cpu = time.process_time() - cpu0
-    return RunResult.of(
-        ev,
-        source=source,
-        params=params,
-        grid=grid,
-        counts_map=mmap.evidence,
-        processed=mmap.processed,
-        truth=truth,
-        counts=counts,
-        t_cpu_s=t_cpu,
-    )

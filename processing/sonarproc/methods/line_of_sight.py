@@ -20,6 +20,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from sonarproc.errors import ParameterError
 from sonarproc.grid import Grid
 from sonarproc.methods.base import Beams, MapMethod, MethodMap, OptionValue
 from sonarproc.methods.geometry import axis_points, ray_cells
@@ -30,7 +31,10 @@ __all__ = ["Histogram", "LineOfSight", "hit_counts"]
 
 def hit_counts(beams: Beams, grid: Grid) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
     """Echo points per cell (``grid.shape``, uint32) and ``(apex, direction, dist)``."""
-    apex, direction, dist = axis_points(*beams.arcs_args)
+    apex, direction, dist = axis_points(
+        beams.poses.tx_xy, beams.poses.tx_heading, beams.poses.rx_xy, beams.poses.rx_heading,
+        beams.path,
+    )  # fmt: skip
     pts = apex + dist[:, None] * direction
     ok = np.isfinite(dist)
     iy, ix = grid.to_index(pts[ok, 0], pts[ok, 1])
@@ -66,9 +70,11 @@ class Histogram(MapMethod):
     def validate(self) -> None:
         o = self.options
         if not (int(o["increment"]) >= 1 and int(o["decrement"]) >= 0 and int(o["cv_max"]) >= 1):
-            raise ValueError("histogram: increment >= 1, decrement >= 0 and cv_max >= 1 needed")
+            raise ParameterError(
+                "histogram", "option increment >= 1, decrement >= 0 and cv_max >= 1 needed"
+            )
         if not 1 <= int(o["threshold"]) <= int(o["cv_max"]):
-            raise ValueError("histogram: threshold must be between 1 and cv_max")
+            raise ParameterError("histogram", "option threshold must be between 1 and cv_max")
 
     def certainty(self, beams: Beams, grid: Grid) -> tuple[np.ndarray, np.ndarray]:
         """Clipped certainty values (int64) and echo hits (uint32) per cell."""

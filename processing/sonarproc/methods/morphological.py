@@ -1,25 +1,23 @@
 """The paper's method as a registry entry, and its count-vote variant.
 
-``morphological`` is ``sonarproc run`` itself (:func:`sonarproc.pipeline.process`): arcs
-rasterised to a count map, the ``--ops`` chain, the fit. ``arc-vote`` is the same
-pipeline with the count-map chain ``vote:auto,ridge`` (:mod:`sonarproc.voting`) instead of
-the paper's binary operations.
+``morphological`` is ``sonarproc run`` itself: the same builder
+(:func:`sonarproc.pipeline.arcmap.build_arc_map`: arcs rasterised to a count map, the
+``ops`` chain) through the same seam. ``arc-vote`` is the same pipeline with the
+count-map chain ``vote:auto,ridge`` (:mod:`sonarproc.morphology`) instead of the paper's
+binary operations.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping
 from dataclasses import replace
 from typing import ClassVar
 
-from sonarlog import SonarLog
-from sonarproc.arcs import rasterize_arcs
 from sonarproc.grid import Grid
-from sonarproc.methods.base import Beams, MapMethod, MethodMap, MethodResult, OptionValue
+from sonarproc.methods.base import Beams, MapMethod, MethodMap, OptionValue
+from sonarproc.morphology import parse_chain
 from sonarproc.params import RunParams
-from sonarproc.pipeline import process
-from sonarproc.voting import apply_chain, parse_chain
+from sonarproc.pipeline.arcmap import build_arc_map
 
 __all__ = ["ArcVote", "Morphological"]
 
@@ -43,13 +41,7 @@ class Morphological(MapMethod):
         return replace(params, ops=ops) if ops else params
 
     def build(self, beams: Beams, grid: Grid, params: RunParams) -> MethodMap:
-        counts = rasterize_arcs(*beams.arcs_args, **beams.beam_kwargs, grid=grid)
-        return MethodMap(apply_chain(counts, parse_chain(params.ops)), counts)
-
-    def run(self, log_: SonarLog, params: RunParams) -> MethodResult:
-        cpu0 = time.process_time()
-        result = process(log_, self.params_for(params), cpu_start=cpu0)
-        return MethodResult(self.name, dict(self.options), result)
+        return build_arc_map(beams, grid, params)
 
 
 class ArcVote(Morphological):

@@ -26,6 +26,7 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.errors import ParameterError
 from sonarproc.grid import Grid
 from sonarproc.methods.base import Beams, MapMethod, MethodMap, OptionValue
 from sonarproc.methods.geometry import axis_points, sector_counts
@@ -61,15 +62,15 @@ class Occupancy(MapMethod):
     def validate(self) -> None:
         o = self.options
         if not 0.5 < float(o["p_occ"]) < 1.0:
-            raise ValueError("occupancy: p_occ must be in (0.5, 1)")
+            raise ParameterError("occupancy", "option p_occ must be in (0.5, 1)")
         if not 0.0 < float(o["p_free"]) < 0.5:
-            raise ValueError("occupancy: p_free must be in (0, 0.5)")
+            raise ParameterError("occupancy", "option p_free must be in (0, 0.5)")
         if not (math.isfinite(float(o["band"])) and float(o["band"]) >= 0):
-            raise ValueError("occupancy: band must be >= 0 m (0: two cells)")
+            raise ParameterError("occupancy", "option band must be >= 0 m (0: two cells)")
         if o["select"] not in ("threshold", "ridge"):
-            raise ValueError("occupancy: select must be threshold or ridge")
+            raise ParameterError("occupancy", "option select must be threshold or ridge")
         if not 0.0 < float(o["p_min"]) < 1.0:
-            raise ValueError("occupancy: p_min must be in (0, 1)")
+            raise ParameterError("occupancy", "option p_min must be in (0, 1)")
 
     def band_width(self, grid: Grid) -> float:
         """Width of the occupied band (m): the ``band`` option or two cells."""
@@ -81,7 +82,10 @@ class Occupancy(MapMethod):
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
         """``(n_occ, n_free)``: readings whose occupied band / free sector covers each cell."""
         tp = beams.poses
-        apex, direction, dist = axis_points(*beams.arcs_args)
+        apex, direction, dist = axis_points(
+        beams.poses.tx_xy, beams.poses.tx_heading, beams.poses.rx_xy, beams.poses.rx_heading,
+        beams.path,
+    )  # fmt: skip
         heading = np.arctan2(direction[:, 1], direction[:, 0])
         half = np.minimum(tp.tx_half_beamwidth, tp.rx_half_beamwidth)
         h = 0.5 * self.band_width(grid)

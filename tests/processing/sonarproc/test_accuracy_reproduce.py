@@ -1,8 +1,8 @@
-"""Tests for sonarproc.reproduce: the paper's values and the generated markdown."""
+"""Tests for sonarproc.studies.reproduce: the paper's values and the generated markdown."""
 
 from __future__ import annotations
 
-from sonarproc.reproduce import PAPER, TABLE1, TABLE2, Outcome, render_markdown
+from sonarproc.studies.reproduce import PAPER, TABLE1, TABLE2, Outcome, render_markdown
 
 
 def _outcome(e: float | None, f_c: float, e1: float | None) -> Outcome:

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from arcs_api import arc_bounds, arc_cells, rasterize_arcs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from sonarproc import arcs_raster
-from sonarproc.arcs import arc_bounds, arc_cells, rasterize_arcs
+from sonarproc.arcs import _raster as arcs_raster
+from sonarproc.arcs import arc_geometry
 from sonarproc.grid import Grid
 
 Reading = dict[str, NDArray[np.float64]]
@@ -440,7 +441,9 @@ def test_float32_path_matches_float64(
                 np.testing.assert_array_equal(got, want)
 
 
-def _f32_values(plan: arcs_raster._Plan, i: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _f32_values(
+    plan: arcs_raster.RasterPlan, i: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Piece i's computed coordinate plus its eps, as the float32 engine makes it and exact."""
     n = int(plan.n[i])
     kind = int(plan.kind[i])
@@ -470,17 +473,16 @@ def _f32_values(plan: arcs_raster._Plan, i: int) -> tuple[NDArray[np.float64], N
     cell=st.sampled_from([0.002, 0.01, 0.05]),
 )
 def test_float32_error_bound_holds(seed: int, max_path: float, cell: float) -> None:
-    from sonarproc.arcs import _plan_for
-
     r = _mixed_readings(seed, 40, spread=1.0, max_path=max_path)
     try:
         grid = Grid.covering(*bounds(r), cell=cell)
     except ValueError:  # no arc at all
         return
-    plan = _plan_for(
+    arcs = arc_geometry(
         r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
-        r["tx_half_beamwidth"], r["rx_half_beamwidth"], grid,
+        tx_half_beamwidth=r["tx_half_beamwidth"], rx_half_beamwidth=r["rx_half_beamwidth"],
     )  # fmt: skip
+    plan = arcs_raster.plan_pieces(arcs, grid)
     for i in np.flatnonzero(plan.n > 0):
         v32, v64 = _f32_values(plan, int(i))
         assert np.abs(v32 - v64).max() <= plan.eps[i]
@@ -499,14 +501,13 @@ def test_counts_beyond_uint16() -> None:
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**31), cell=st.sampled_from([0.005, 0.02]))
 def test_overlap_bound_holds(seed: int, cell: float) -> None:
-    from sonarproc.arcs import _plan_for
-
     r = _mixed_readings(seed, 300, spread=0.3, max_path=1.0)
     grid = Grid.covering(-0.8, 0.8, -0.8, 0.8, cell=cell)  # clips some arcs
-    plan = _plan_for(
+    arcs = arc_geometry(
         r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
-        r["tx_half_beamwidth"], r["rx_half_beamwidth"], grid,
+        tx_half_beamwidth=r["tx_half_beamwidth"], rx_half_beamwidth=r["rx_half_beamwidth"],
     )  # fmt: skip
+    plan = arcs_raster.plan_pieces(arcs, grid)
     assert plan.overlap >= counts(r, grid).max()
 
 

@@ -9,13 +9,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from arcs_api import arc_samples, rasterize_arcs, rasterize_arcs_sampled
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from sonarproc import arcs_sampled
-from sonarproc.arcs import rasterize_arcs
-from sonarproc.arcs_geometry import arc_geometry
-from sonarproc.arcs_sampled import arc_samples, rasterize_arcs_sampled, sample_anomalies
+from sonarproc.arcs import _sampled as arcs_sampled
+from sonarproc.arcs import sample_anomalies
+from sonarproc.arcs._geometry import arc_geometry
 from sonarproc.cli import main
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
@@ -167,7 +167,7 @@ def test_bad_step_is_refused(step: float) -> None:
     with pytest.raises(ValueError, match="arc step must be > 0"):
         arc_samples([[0, 0]], [0.0], [[0, 0]], [0.0], [1.0], tx_half_beamwidth=0.2,
                     rx_half_beamwidth=0.2, step_rad=step, grid=grid)  # fmt: skip
-    with pytest.raises(ValueError, match="arc step must be > 0"):
+    with pytest.raises(ValueError, match="arc_step: must be > 0"):
         RunParams(arc_step=step)
 
 
@@ -213,12 +213,12 @@ def test_cli_arc_step_must_be_positive(
     err = capsys.readouterr().err
     assert rc == 2
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("sonarproc: error: arc step must be > 0")
+    assert len(lines) == 1 and lines[0].startswith("sonarproc: error: --arc-step: must be > 0")
     assert not (tmp_path / "rep").exists()
 
 
 def test_reproduce_renders_the_sampled_section() -> None:
-    from sonarproc.reproduce import PAPER, TABLE1, Outcome, SampledRow, render_markdown
+    from sonarproc.studies.reproduce import PAPER, TABLE1, Outcome, SampledRow, render_markdown
 
     def out(f_c: float) -> Outcome:
         return Outcome(0.1, f_c, 2.0, 0.1, 0.01, 100, True)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from sonarlog import FLAG_NO_ECHO, LogWriter
+from sonarlog.csvlog import read_csv_log, read_truth_csv
 from sonarproc.cli import main
-from sonarproc.csvlog import read_csv_log, read_truth_csv
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
 READINGS = EXAMPLES / "example-readings.csv"
@@ -167,16 +167,16 @@ def test_empty_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--cell", "0"], "cell size must be > 0"),
-        (["--cell", "-0.01"], "cell size must be > 0"),
+        (["--cell", "0"], "cell: must be > 0"),
+        (["--cell", "-0.01"], "cell: must be > 0"),
         (["--bbox", "20,21,20,21"], "no arc touches the bbox"),
         (["--bbox", "1,0,0,1"], "xmin < xmax"),
-        (["--bbox", "1,2,3"], "bbox must be 4 comma-separated numbers"),
+        (["--bbox", "1,2,3"], "bbox: must be 4 comma-separated numbers"),
         (["--ops", "thinning:9"], "thinning:9"),
         (["--ops", "blur"], "unknown morphological operation"),
-        (["--fit", "cubic"], "fit must be one of"),
-        (["--order", "-1"], "order must be between"),
-        (["--centre", "1"], "centre must be 2"),
+        (["--fit", "cubic"], "fit: must be one of"),
+        (["--order", "-1"], "order: must be between"),
+        (["--centre", "1"], "centre: must be 2"),
     ],
 )
 def test_bad_options_exit_2(
@@ -194,7 +194,7 @@ def test_missing_files_and_csv_without_sensors(
     assert main(["run", str(tmp_path / "nope.h5")]) == 2
     assert "no such file" in one_error_line(capsys.readouterr().err)
     assert main(["run", str(READINGS)]) == 2
-    assert "needs --sensors" in one_error_line(capsys.readouterr().err)
+    assert "--sensors: is required for a CSV log" in one_error_line(capsys.readouterr().err)
     assert main(["run", str(READINGS), "--sensors", str(tmp_path / "s.yaml")]) == 2
     assert "no such file" in one_error_line(capsys.readouterr().err)
     notlog = tmp_path / "x.h5"
@@ -216,7 +216,7 @@ def test_delayed_progress_starts_late_and_stops_cleanly() -> None:
     import threading
     import time
 
-    from sonarproc.cli_run import _DelayedProgress
+    from sonarproc.cli.run import _DelayedProgress
 
     off = _DelayedProgress(enabled=False)
     off("read")

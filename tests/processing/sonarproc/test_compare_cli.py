@@ -121,15 +121,15 @@ def test_compare_table_and_subset(
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
-        (["--methods", "foo"], "unknown method 'foo'"),
-        (["--methods", ""], "no method"),
-        (["--set", "occupancy.zzz=1"], "unknown option 'zzz'"),
+        (["--methods", "foo"], "got 'foo'"),
+        (["--methods", ""], "must name at least one method"),
+        (["--set", "occupancy.zzz=1"], "has no option 'zzz'"),
         (["--set", "occupancy.select=ridge", "--methods", "histogram"], "not being run"),
         (["--set", "nonsense"], "METHOD.OPTION=VALUE"),
-        (["--cell", "0"], "cell size"),
+        (["--cell", "0"], "cell: must be > 0"),
         (["--ops", "thinning:0"], "thinning"),
-        (["--export", "shp"], "export format"),
-        (["--fit", "cubic"], "fit must be"),
+        (["--export", "shp"], "--format: must be among"),
+        (["--fit", "cubic"], "fit: must be"),
     ],
 )
 def test_compare_usage_errors(

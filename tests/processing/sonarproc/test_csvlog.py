@@ -1,4 +1,4 @@
-"""Tests for sonarproc.csvlog: readings CSV + sensors YAML from any robot."""
+"""Tests for sonarlog.csvlog: readings CSV + sensors YAML from any robot."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sonarproc.csvlog import load_sensors_yaml, read_csv_log, read_truth_csv
+from sonarlog.csvlog import load_sensors_yaml, read_csv_log, read_truth_csv
 
 SENSORS = """\
 robot: test-bot

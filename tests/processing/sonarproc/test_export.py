@@ -119,7 +119,7 @@ def test_ply_point_cloud(occ: MethodResult, tmp_path: Path) -> None:
 
 def test_parse_formats_and_pgm_errors(tmp_path: Path) -> None:
     assert parse_formats("ply,ros-map,ply") == ["ply", "ros-map"]
-    with pytest.raises(ValueError, match="export format"):
+    with pytest.raises(ValueError, match="formats: must be among"):
         parse_formats("ros-map,pcd")
     bad = tmp_path / "bad.pgm"
     bad.write_bytes(b"P2\n1 1\n255\n0")
@@ -136,8 +136,8 @@ def test_export_cli(fig02_path: Path, tmp_path: Path, capsys: pytest.CaptureFixt
     assert [Path(p).name for p in printed] == names
     assert all((out / n).is_file() for n in names)
     for bad, needle in (
-        (["--format", "kml"], "export format"),
-        (["--method", "a,b"], "unknown method"),
+        (["--format", "kml"], "--format: must be among"),
+        (["--method", "a,b"], "must be one of"),
         (["--method", "occupancy,histogram"], "one method"),
         (["--set", "occupancy.p_occ=2"], "not being run"),
     ):

@@ -9,7 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc import arcs, arcs_geometry, grid, morphology
+from sonarproc import arcs, grid, morphology
+from sonarproc.arcs import _geometry as arcs_geometry
 from sonarproc.grid import Grid
 
 
@@ -30,7 +31,7 @@ def test_fields_shape_and_extent() -> None:
 
 @pytest.mark.parametrize("cell", [0.0, -0.01, float("nan"), float("inf")])
 def test_covering_rejects_bad_cell(cell: float) -> None:
-    with pytest.raises(ValueError, match="cell size"):
+    with pytest.raises(ValueError, match="cell size must be > 0"):
         Grid.covering(0.0, 1.0, 0.0, 1.0, cell=cell)
 
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sonarlog import FLAG_NO_ECHO, LogWriter, SonarLog, read_log
-from sonarproc.live import LiveAccumulator, writer_closed
+from sonarlog import FLAG_NO_ECHO, LogWriter, SonarLog, read_log, writer_closed
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, process
+from sonarproc.pipeline.live import LiveAccumulator
 from sonarproc.simulate import simulate_to_log
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"

@@ -13,15 +13,15 @@ from hypothesis import strategies as st
 from sonarlog import READING_DTYPE, SENSOR_DTYPE, SonarLog, read_log
 from sonarproc.grid import Grid
 from sonarproc.methods import METHODS, make_method, parse_method_list, parse_settings
-from sonarproc.methods.base import MapMethod, MethodMap, select_beams, shared_grid
+from sonarproc.methods.base import MapMethod, MethodMap
 from sonarproc.methods.geometry import axis_points, ray_cells, sector_counts
 from sonarproc.methods.line_of_sight import Histogram
 from sonarproc.methods.morphological import Morphological
 from sonarproc.methods.occupancy import Occupancy, log_odds
 from sonarproc.params import RunParams
-from sonarproc.pipeline import process
-from sonarproc.reproduce import PAPER
+from sonarproc.pipeline import plan_grid, process, select_beams
 from sonarproc.simulate import simulate_to_log
+from sonarproc.studies.reproduce import PAPER
 
 C = 343.3
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
@@ -68,8 +68,8 @@ def test_registry_names_and_options() -> None:
 @pytest.mark.parametrize(
     ("name", "opts", "match"),
     [
-        ("nope", {}, "unknown method"),
-        ("histogram", {"bogus": 1}, "unknown option 'bogus'"),
+        ("nope", {}, "must be one of"),
+        ("histogram", {"bogus": 1}, "has no option 'bogus'"),
         ("histogram", {"threshold": "x"}, "must be a int"),
         ("histogram", {"threshold": 99}, "threshold"),
         ("occupancy", {"p_occ": 0.4}, "p_occ"),
@@ -85,7 +85,7 @@ def test_bad_options(name: str, opts: dict[str, object], match: str) -> None:
 def test_bad_settings() -> None:
     with pytest.raises(ValueError, match=r"METHOD\.OPTION=VALUE"):
         parse_settings(["occupancy=1"])
-    with pytest.raises(ValueError, match="unknown method"):
+    with pytest.raises(ValueError, match="must be one of"):
         parse_method_list("occupancy,foo")
 
 
@@ -222,7 +222,7 @@ def test_each_method_on_fig02(fig02: SonarLog, name: str) -> None:
     assert res.run.t_cpu_s > 0
     # every method maps on the very grid sonarproc run uses
     beams, _ = select_beams(fig02, RunParams())
-    assert res.run.grid == shared_grid(fig02, RunParams(), beams)
+    assert res.run.grid == plan_grid(fig02, RunParams(), beams)
 
 
 def test_occupancy_ridge_keeps_one_cell_per_column(fig02: SonarLog) -> None:

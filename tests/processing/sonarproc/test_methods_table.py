@@ -1,4 +1,4 @@
-"""Tests for sonarproc.methods.table: the generated comparison tables of docs/methods.md."""
+"""Tests for sonarproc.studies.methods_table: the generated comparison tables of docs/methods.md."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from sonarproc.methods.table import END, START, main, render_tables, splice
+from sonarproc.studies.methods_table import END, START, main, render_tables, splice
 
 
 def _row(method: str, e1: float | None, fc: float) -> dict[str, object]:

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.typing import NDArray
 
-from sonarproc import morphology as mo
 from sonarproc.morphology import Op, apply_ops, parse_ops
+from sonarproc.morphology import _binary as mo
 
 Bool = NDArray[np.bool_]
 

@@ -173,7 +173,7 @@ def test_process_bbox(scan: SonarLog) -> None:
 
 
 def test_process_refuses_a_huge_map(scan: SonarLog) -> None:
-    with pytest.raises(ValueError, match="pass a --bbox or a larger --cell"):
+    with pytest.raises(ValueError, match="choose a bbox or a larger cell"):
         process(scan, RunParams(cell=1e-5))
 
 

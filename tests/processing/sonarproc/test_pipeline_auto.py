@@ -83,10 +83,10 @@ def test_cli_options_and_report(
     assert doc["parameters"]["span"] == "points" and doc["fit"]["order"] >= 1
     assert doc["metrics"]["E1_m"] < 0.01
     for args, message in (
-        (["--robust", "tukey"], "robust must be one of none, huber"),
-        (["--span", "all"], "span must be one of truth, points"),
-        (["--order", "many"], "--order must be an integer or 'auto'"),
-        (["--fit", "spline", "--order", "auto"], "apply to --fit poly only"),
+        (["--robust", "tukey"], "--robust: must be one of none, huber"),
+        (["--span", "all"], "--span: must be one of truth, points"),
+        (["--order", "many"], "--order: must be an integer or 'auto'"),
+        (["--fit", "spline", "--order", "auto"], "--fit: must be poly for an automatic order"),
         (["--fit", "polar", "--span", "points"], "--span points applies to"),
         (["--ops", "vote:0"], "K must be >= 1"),
     ):

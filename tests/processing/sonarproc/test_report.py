@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sonarproc.csvlog import read_csv_log, read_truth_csv
+from sonarlog.csvlog import read_csv_log, read_truth_csv
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, process
-from sonarproc.plots import block_max
 from sonarproc.report import REPORT_FILES, default_out_dir, report_dict, write_report
-from sonarproc.report_html import render_html
+from sonarproc.report.html import render_html
+from sonarproc.report.plots import block_max
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
 PNG = b"\x89PNG\r\n\x1a\n"

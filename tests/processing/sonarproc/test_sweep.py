@@ -19,7 +19,7 @@ from sonarproc.sweep import (
     parse_shard,
     shard_indices,
 )
-from sonarproc.sweep_merge import best_rows
+from sonarproc.sweep.merge import best_rows
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
 FIG13 = SCENARIOS / "fig13.yaml"
@@ -77,9 +77,9 @@ def test_parse_grid_valid(spec: str, expected: dict[str, list[Any]]) -> None:
         ("order=4..x", "4..x", "not an integer"),
         ("order=9..4", "9..4", "empty range"),
         ("order=1..3@log3", "1..3@log3", "this key takes integers"),
-        ("order=99", "order=99", "order must be between 0 and 60"),
+        ("order=99", "order=99", "order: must be between 0 and 60"),
         ("cell=0..0.1@log3", "0..0.1@log3", "a log range needs LO > 0"),
-        ("cell=-0.01", "cell=-0.01", "cell size must be > 0"),
+        ("cell=-0.01", "cell=-0.01", "cell: must be > 0"),
         ("fit=cubic", "cubic", "expected one of poly, spline, polar"),
         ("order=4|4", "order=4|4", "a value appears twice"),
         ("order=4;order=5", "order=5", "given twice"),
@@ -92,7 +92,7 @@ def test_parse_grid_invalid(spec: str, token: str, why: str) -> None:
     with pytest.raises(GridSyntaxError) as info:
         parse_grid(spec)
     msg = str(info.value)
-    assert msg.startswith(f"--grid: bad token {token!r}: ")
+    assert msg.startswith(f"grid: bad token {token!r}: ")
     assert why in msg and "syntax: KEY=V1|V2|A..B" in msg and "\n" not in msg
 
 
@@ -109,7 +109,10 @@ def test_invalid_grid_on_the_command_line(
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--grid", "fit=spline;robust=huber"], "is invalid: --order auto and --robust"),
+        (
+            ["--grid", "fit=spline;robust=huber"],
+            "is invalid: fit: must be poly for an automatic order or a robust fit",
+        ),
         (["--grid", "sigma=0.01"], "sigma and seed need a scenario input"),
         (["--grid", "order=4", "--shard", "3/3"], "--shard: bad value '3/3'"),
         (["--grid", "order=4", "--shard", "x"], "expected I/N with 0 <= I < N"),

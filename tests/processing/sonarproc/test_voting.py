@@ -1,4 +1,4 @@
-"""Tests for sonarproc.voting: the count-map operations vote and ridge in the --ops chain."""
+"""The count-map operations vote and ridge in the --ops chain (sonarproc.morphology)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sonarproc.morphology import apply_ops, thinning
-from sonarproc.voting import (
+from sonarproc.morphology._counts import (
     CountOp,
     apply_chain,
     auto_vote_threshold,

@@ -195,7 +195,7 @@ def test_watch_once_on_a_finished_log(
     [
         (["--interval", "0"], "--interval must be > 0 s"),
         (["--ops", "thinning:9"], "thinning"),
-        (["--cell", "-1"], "cell size must be > 0"),
+        (["--cell", "-1"], "cell: must be > 0"),
     ],
 )
 def test_watch_usage_errors(

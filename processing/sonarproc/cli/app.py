@@ -1,0 +1,141 @@
+"""The ``sonarproc`` typer app and its error policy: which errors are the user's.
+
+Each subcommand lives in its own module of this package and registers itself on
+:data:`app`; :mod:`sonarproc.cli.main` imports them all and runs the app.
+
+Exit codes: 0 success, 1 runtime failure, 2 usage or configuration error. Only the
+project's own errors (:class:`sonarproc.errors.SonarprocError`, the log format's
+:class:`sonarlog.SonarLogError`, the simulator's world and scenario errors) and
+``OSError`` become one line and an exit code; anything else is a bug and keeps its
+traceback (exit 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import NoReturn
+
+import typer
+
+from sonarproc import __version__
+from sonarproc.errors import FitError, ParameterError, SonarprocError
+
+__all__ = ["PARAMETER_FLAGS", "RuntimeProblem", "app", "fail", "guarded", "version_callback"]
+
+app = typer.Typer(
+    name="sonarproc",
+    help="Turn sonar time-of-flight logs into arc maps, morphologically processed maps "
+    "and fitted surface profiles.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+#: The command-line flag of each library parameter named in a :class:`ParameterError`.
+PARAMETER_FLAGS = {
+    "cell": "--cell",
+    "bbox": "--bbox",
+    "ops": "--ops",
+    "fit": "--fit",
+    "order": "--order",
+    "smooth": "--smooth",
+    "centre": "--centre",
+    "robust": "--robust",
+    "span": "--span",
+    "arc_step": "--arc-step",
+    "sensors": "--sensors",
+    "truth": "--truth",
+    "formats": "--format",
+    "method": "--method",
+    "methods": "--methods",
+    "settings": "--set",
+    "grid": "--grid",
+    "shard": "--shard",
+    "seed": "--seed",
+    "out": "--out",
+    "jobs": "--jobs",
+}
+
+
+def version_callback(value: bool) -> None:
+    """Print the version and exit (``--version``)."""
+    if value:
+        typer.echo(f"sonarproc (sonarmorph) {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: bool = typer.Option(
+        False, "--version", callback=version_callback, is_eager=True, help="Print the version."
+    ),
+) -> None:
+    """Sonar time-of-flight logs to arc maps, processed maps and fitted surface profiles."""
+
+
+class RuntimeProblem(SonarprocError):
+    """A failure of a command that is not the user's fault: exit code 1, one line."""
+
+
+def fail(message: str, code: int = 2) -> NoReturn:
+    """Print ``sonarproc: error: <message>`` on stderr and exit with ``code``."""
+    typer.echo(f"sonarproc: error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def flag_message(err: ParameterError) -> str:
+    """The error's message with the library parameter replaced by its flag.
+
+    Examples
+    --------
+    >>> flag_message(ParameterError("cell", "must be > 0 m, got -1"))
+    '--cell: must be > 0 m, got -1'
+    """
+    flag = PARAMETER_FLAGS.get(err.parameter)
+    if flag is None and err.parameter.replace("-", "").isalpha():
+        flag = f"--set {err.parameter}.OPTION"  # a method's own option (histogram, ...)
+    return f"{flag or err.parameter}: {err.problem}"
+
+
+def os_message(err: OSError) -> str:
+    """One line for an OS error: the file, then what went wrong, without ``[Errno N]``."""
+    name = err.filename if err.filename is not None else ""
+    if isinstance(err, FileNotFoundError):
+        # Our own resolvers put a fuller sentence in strerror (shipped names to choose from).
+        plain = not err.strerror or err.strerror == "No such file or directory"
+        return f"{name}: {'no such file' if plain else err.strerror}"
+    what = (err.strerror or str(err)).rstrip(".").lower() if err.strerror else str(err)
+    if err.filename2 is not None:
+        return f"{name} -> {err.filename2}: {what}"
+    return f"{name}: {what}" if name else what
+
+
+@contextmanager
+def guarded() -> Iterator[None]:
+    """Turn the project's own errors and ``OSError`` into one line and an exit code.
+
+    Parameter and input errors, log-format errors and simulator world/scenario errors are
+    usage or configuration errors (2); a missing input file is too. Fit errors, other
+    ``OSError`` and :class:`RuntimeProblem` are runtime failures (1). Any other exception
+    is a bug: it propagates with its traceback.
+    """
+    from sonarlog import SonarLogError
+    from sonarsim import ScenarioError, WorldError
+
+    try:
+        yield
+    except typer.Exit:
+        raise
+    except ParameterError as err:
+        fail(flag_message(err), 2)
+    except (FitError, RuntimeProblem) as err:
+        fail(str(err) or type(err).__name__, 1)
+    except (SonarprocError, SonarLogError, WorldError, ScenarioError) as err:
+        fail(str(err) or type(err).__name__, 2)
+    except FileNotFoundError as err:
+        fail(os_message(err), 2)
+    except IsADirectoryError as err:
+        fail(f"{err.filename}: is a directory", 2)
+    except OSError as err:
+        fail(os_message(err), 1)

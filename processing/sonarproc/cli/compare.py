@@ -1,0 +1,145 @@
+"""``sonarproc compare``: several map-building methods on one log, side by side.
+
+Thin: the options become :class:`~sonarproc.params.RunParams` and method instances
+(:mod:`sonarproc.methods`), the log is read once, :func:`~sonarproc.methods.compare.compare`
+runs each method and :func:`~sonarproc.methods.compare.write_comparison` writes the files.
+Errors become one line and an exit code through :func:`sonarproc.cli.guarded`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+from sonarproc.cli.app import app, guarded
+from sonarproc.cli.options import (
+    BboxOption,
+    CellOption,
+    DropCrosstalkOption,
+    FitOption,
+    SensorsOption,
+    TruthOption,
+    build_run_params,
+)
+from sonarproc.errors import ParameterError
+
+if TYPE_CHECKING:
+    from sonarproc.methods import MapMethod
+
+__all__ = ["build_methods", "compare_command"]
+
+SetOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set",
+        help="A method option METHOD.OPTION=VALUE, e.g. occupancy.select=ridge (repeatable).",
+    ),
+]
+
+
+def build_methods(names: list[str], settings: list[str] | None) -> list[MapMethod]:
+    """Instances of ``names`` with their ``--set`` options (unused settings are an error)."""
+    from sonarproc.methods import make_method, parse_settings
+
+    opts = parse_settings(settings or [])
+    extra = sorted(set(opts) - set(names))
+    if extra:
+        raise ParameterError("settings", f"names a method not being run: {', '.join(extra)}")
+    return [make_method(n, **opts.get(n, {})) for n in names]
+
+
+def _table(doc: dict[str, Any], out: Path) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    def fmt(v: Any, spec: str = ".4g") -> str:
+        return "—" if v is None else format(v, spec)
+
+    table = Table(title=f"sonarproc compare: {doc['source']}")
+    for col in ("method", "e", "f_c", "E1 (cm)", "E2", "t_cpu (s)", "points", "fit"):
+        table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
+    for r in doc["methods"]:
+        e1 = None if r["E1_m"] is None else 100 * r["E1_m"]
+        table.add_row(
+            r["method"],
+            fmt(r["e"]),
+            fmt(r["f_c"]),
+            fmt(e1),
+            fmt(r["E2"]),
+            f"{r['t_cpu_s']:.3f}",
+            str(r["points"]),
+            f"order {r['fit_order']}" if r["fit_ok"] else "FAILED",
+        )
+    console = Console()
+    console.width = max(console.width, 100)
+    console.print(table)
+    console.print(f"written to {out}")
+
+
+@app.command("compare")
+def compare_command(
+    log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
+    methods: Annotated[
+        str | None,
+        typer.Option(
+            help="Comma-separated methods (default: morphological, arc-vote, "
+            "line-of-sight, histogram, occupancy)."
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Output directory (default: LOG_compare/).")
+    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
+    ops: Annotated[
+        str, typer.Option(help="Morphological operations of the 'morphological' method.")
+    ] = "thinning:3",
+    fit: FitOption = "poly",
+    order: Annotated[
+        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
+    ] = None,
+    sensors: SensorsOption = None,
+    truth: TruthOption = None,
+    drop_crosstalk: DropCrosstalkOption = False,
+    settings: SetOption = None,
+    export: Annotated[
+        str | None,
+        typer.Option(
+            help="Also export each method's map: ros-map, geojson, ply (comma-separated)."
+        ),
+    ] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print compare.json to stdout instead of a table.")
+    ] = False,
+) -> None:
+    """Run several map-building methods on one log with the same grid, fit and metrics."""
+    from sonarproc.export import parse_formats, write_exports
+    from sonarproc.methods import DEFAULT_METHODS, parse_method_list
+    from sonarproc.methods.compare import compare
+    from sonarproc.pipeline import load_log
+    from sonarproc.report.comparison import write_comparison
+
+    with guarded():
+        params = build_run_params(
+            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, drop_crosstalk=drop_crosstalk
+        )
+        names = parse_method_list(methods) if methods is not None else list(DEFAULT_METHODS)
+        instances = build_methods(names, settings)
+        formats = parse_formats(export) if export is not None else []
+        lg = load_log(log, sensors=sensors, truth=truth)
+        out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
+        results = compare(lg, params, instances)
+        doc = write_comparison(str(log), params, results, out_dir)
+        for r, row in zip(results, doc["methods"], strict=True):
+            if formats:
+                write_exports(r, out_dir / "export", formats)
+            if not row["fit_ok"]:
+                reason = getattr(r.run.fit, "reason", "")
+                typer.echo(f"sonarproc: warning: {r.method}: fit failed: {reason}", err=True)
+    if as_json:
+        typer.echo(json.dumps(doc, indent=2))
+    else:
+        _table(doc, out_dir)

@@ -1,0 +1,77 @@
+"""``sonarproc export``: one method's map of a log as files robotics tools read.
+
+Formats (:mod:`sonarproc.export`): ``ros-map`` (map_server PGM + YAML), ``geojson`` (the
+fitted profile as a LineString in the map frame), ``ply`` (the processed cells as a
+point cloud). ``sonarproc compare --export ...`` writes the same files for every method.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sonarproc.cli.app import app, guarded
+from sonarproc.cli.compare import SetOption, build_methods
+from sonarproc.cli.options import (
+    BboxOption,
+    CellOption,
+    DropCrosstalkOption,
+    FitOption,
+    SensorsOption,
+    build_run_params,
+)
+from sonarproc.errors import ParameterError
+
+__all__ = ["export_command"]
+
+
+@app.command("export")
+def export_command(
+    log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
+    fmt: Annotated[
+        str, typer.Option("--format", help="ros-map, geojson, ply (comma-separated).")
+    ] = "ros-map,geojson",
+    method: Annotated[str, typer.Option(help="Map-building method.")] = "morphological",
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Output directory (default: LOG_export/).")
+    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
+    ops: Annotated[
+        str, typer.Option(help="Morphological operations of the 'morphological' method.")
+    ] = "thinning:3",
+    fit: FitOption = "poly",
+    order: Annotated[
+        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
+    ] = None,
+    sensors: SensorsOption = None,
+    truth: Annotated[
+        Path | None, typer.Option(help="True profile CSV (x,y), for the metrics in the GeoJSON.")
+    ] = None,
+    drop_crosstalk: DropCrosstalkOption = False,
+    settings: SetOption = None,
+) -> None:
+    """Export one method's map of a log: ROS map_server map, GeoJSON profile, PLY cloud."""
+    from sonarproc.export import parse_formats, write_exports
+    from sonarproc.methods import parse_method_list
+    from sonarproc.pipeline import load_log
+
+    with guarded():
+        params = build_run_params(
+            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, drop_crosstalk=drop_crosstalk
+        )
+        names = parse_method_list(method)
+        if len(names) != 1:
+            raise ParameterError(
+                "method", "takes one method (use sonarproc compare --export for more)"
+            )
+        (instance,) = build_methods(names, settings)
+        formats = parse_formats(fmt)
+        lg = load_log(log, sensors=sensors, truth=truth)
+        out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
+        result = instance.run(lg, params)
+        paths = write_exports(result, out_dir, formats)
+    for p in paths:
+        typer.echo(str(p))

@@ -1,0 +1,138 @@
+"""Command-line options shared by ``run``, ``watch``, ``compare`` and ``export``.
+
+One definition per option (typer ``Annotated`` aliases) so that the commands describe and
+parse the map and fit parameters the same way, and one place turning them into
+:class:`~sonarproc.params.RunParams`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+from sonarproc.errors import ParameterError
+
+if TYPE_CHECKING:
+    from sonarproc.params import RunParams
+
+__all__ = [
+    "ArcStepOption",
+    "BboxOption",
+    "CellOption",
+    "CentreOption",
+    "DropCrosstalkOption",
+    "FitOption",
+    "OrderOption",
+    "RobustOption",
+    "SensorsOption",
+    "SmoothOption",
+    "SpanOption",
+    "TruthOption",
+    "build_run_params",
+]
+
+CellOption = Annotated[float, typer.Option(help="Grid cell size (m).")]
+BboxOption = Annotated[
+    str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
+]
+FitOption = Annotated[str, typer.Option(help="Fit: poly, spline or polar.")]
+OrderOption = Annotated[
+    str | None,
+    typer.Option(
+        help="Polynomial order m (default 9) or polar harmonics (16); 'auto': choose m "
+        "by cross-validation on the points (poly)."
+    ),
+]
+SmoothOption = Annotated[
+    float | None, typer.Option(help="Spline smoothing; default: cross-validation.")
+]
+CentreOption = Annotated[
+    str | None, typer.Option(help="Polar fit centre 'x,y' (m); default: mean robot position.")
+]
+SensorsOption = Annotated[Path | None, typer.Option(help="Sensors YAML, for a readings CSV log.")]
+TruthOption = Annotated[
+    Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
+]
+DropCrosstalkOption = Annotated[
+    bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
+]
+RobustOption = Annotated[
+    str,
+    typer.Option(
+        help="Polynomial fit: 'none' (the paper's least squares) or 'huber' (robust, "
+        "over the points, weighted by their arc counts)."
+    ),
+]
+SpanOption = Annotated[
+    str,
+    typer.Option(
+        help="Metric columns: 'truth' (all the truth spans in the map, the paper) or "
+        "'points' (only between the first and last column with points)."
+    ),
+]
+
+ArcStepOption = Annotated[
+    float | None,
+    typer.Option(
+        "--arc-step",
+        metavar="DEG",
+        help="Draw each arc paper-style as samples every DEG degrees (one cell per "
+        "sample, gaps allowed); default: gap-free 8-connected arcs.",
+    ),
+]
+
+
+def _parse_order(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise ParameterError("order", f"must be an integer or 'auto', got {text!r}") from None
+
+
+def build_run_params(
+    *,
+    cell: float,
+    bbox: str | None,
+    ops: str,
+    fit: str,
+    order: str | int | None,
+    smooth: float | None = None,
+    centre: str | None = None,
+    drop_crosstalk: bool = False,
+    robust: str = "none",
+    span: str = "truth",
+    arc_step_deg: float | None = None,
+) -> RunParams:
+    """Validated run parameters from option values as typed on the command line.
+
+    Raises
+    ------
+    ValueError
+        A malformed bbox, centre or order, or a value :class:`RunParams` refuses
+        (e.g. ``arc_step_deg <= 0``).
+    """
+    import math
+
+    from sonarproc.params import RunParams, parse_bbox, parse_point
+
+    auto_order = isinstance(order, str) and order.strip().lower() == "auto"
+    if order is None or auto_order:
+        order_value = None
+    else:
+        order_value = order if isinstance(order, int) else _parse_order(order)
+    return RunParams(
+        cell=cell,
+        bbox=parse_bbox(bbox) if bbox is not None else None,
+        ops=ops,
+        fit=fit,  # type: ignore[arg-type]  # validated by RunParams
+        order=order_value,
+        smooth=smooth,
+        centre=parse_point(centre) if centre is not None else None,
+        drop_crosstalk=drop_crosstalk,
+        auto_order=auto_order,
+        robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
+        span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
+        arc_step=None if arc_step_deg is None else math.radians(arc_step_deg),
+    )

@@ -1,0 +1,161 @@
+"""``sonarproc run``: a log in, a report directory out (DESIGN.md Contract 2).
+
+Thin: parse options into :class:`~sonarproc.params.RunParams`, call
+:func:`~sonarproc.pipeline.run_file` and :func:`~sonarproc.report.write_report`, print a
+summary (or the JSON with ``--json``). Errors become one line and an exit code through
+:func:`sonarproc.cli.guarded`.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from sonarproc.cli.app import app, guarded
+from sonarproc.cli.options import (
+    ArcStepOption,
+    BboxOption,
+    CellOption,
+    CentreOption,
+    DropCrosstalkOption,
+    FitOption,
+    OrderOption,
+    RobustOption,
+    SensorsOption,
+    SmoothOption,
+    SpanOption,
+    TruthOption,
+    build_run_params,
+)
+
+__all__ = ["run_command"]
+
+_STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics", "report")
+
+
+class _DelayedProgress:
+    """A transient rich progress bar on stderr that appears only after ``delay`` seconds."""
+
+    def __init__(self, enabled: bool, delay: float = 1.0) -> None:
+        self._progress: Any = None
+        self._timer: threading.Timer | None = None
+        self._lock = threading.Lock()
+        self._started = False
+        if not enabled:
+            return
+        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+        self._progress = Progress(
+            TextColumn("{task.description:<12}"),
+            BarColumn(),
+            TimeElapsedColumn(),
+            console=Console(stderr=True),
+            transient=True,
+        )
+        self._task = self._progress.add_task("read", total=len(_STAGES))
+        self._timer = threading.Timer(delay, self._start)
+        self._timer.daemon = True
+        self._timer.start()
+
+    def _start(self) -> None:
+        with self._lock:
+            if self._progress is not None and not self._started:
+                self._progress.start()
+                self._started = True
+
+    def __call__(self, stage: str) -> None:
+        if self._progress is not None and stage in _STAGES:
+            self._progress.update(self._task, completed=_STAGES.index(stage), description=stage)
+
+    def close(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer.join(timeout=1.0)
+        with self._lock:
+            if self._started:
+                self._progress.stop()
+            self._progress = None
+
+
+def _summary(doc: dict[str, Any], out: Path) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    def fmt(v: Any, spec: str = ".4g") -> str:
+        return "—" if v is None else format(v, spec)
+
+    m, c, g, fit = doc["metrics"], doc["counts"], doc["grid"], doc["fit"]
+    table = Table(title=f"sonarproc run: {doc['source']}", show_header=False)
+    table.add_column(style="bold")
+    table.add_column()
+    table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
+    table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
+    table.add_row("map", f"{g['nx']} x {g['ny']} cells of {g['cell']:g} m")
+    table.add_row("operations", str(doc["parameters"]["ops"]))
+    fit_text = f"{fit['kind']}, order {fit['order']}"
+    table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
+    table.add_row("e", fmt(m["e"]))
+    table.add_row("f_c", fmt(m["f_c"]))
+    if "E1_m" in m:
+        table.add_row("E1", "—" if m["E1_m"] is None else f"{100 * m['E1_m']:.3g} cm")
+        table.add_row("E2", fmt(m["E2"]))
+    table.add_row("t_cpu", f"{m['t_cpu_s']:.3f} s")
+    table.add_row("report", str(out))
+    Console().print(table)
+
+
+@app.command("run")
+def run_command(
+    log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Report directory (default: LOG_report/).")
+    ] = None,
+    cell: CellOption = 0.01,
+    bbox: BboxOption = None,
+    ops: Annotated[
+        str, typer.Option(help="Morphological operations, e.g. 'closing,thinning:3'.")
+    ] = "thinning:3",
+    fit: FitOption = "poly",
+    order: OrderOption = None,
+    smooth: SmoothOption = None,
+    centre: CentreOption = None,
+    sensors: SensorsOption = None,
+    truth: TruthOption = None,
+    drop_crosstalk: DropCrosstalkOption = False,
+    robust: RobustOption = "none",
+    span: SpanOption = "truth",
+    arc_step: ArcStepOption = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
+    ] = False,
+) -> None:
+    """Turn a sonar log into an arc map, a processed map, a fitted profile and a report."""
+    from sonarproc.fit import FitFailure
+    from sonarproc.pipeline import run_file
+    from sonarproc.report import default_out_dir, write_report
+
+    with guarded():
+        params = build_run_params(
+            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
+        )  # fmt: skip
+        out_dir = out if out is not None else default_out_dir(log)
+        progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
+        try:
+            result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)
+            progress("report")
+            doc = write_report(result, out_dir)
+        finally:
+            progress.close()
+        if isinstance(result.fit, FitFailure):
+            typer.echo(f"sonarproc: warning: fit failed: {result.fit.reason}", err=True)
+    if as_json:
+        typer.echo(json.dumps(doc, indent=2))
+    else:
+        _summary(doc, out_dir)

@@ -1,0 +1,133 @@
+"""``sonarproc sweep`` and ``sonarproc sweep-merge``: parameter sweeps, local or sharded.
+
+Thin: :mod:`sonarproc.sweep` holds the grid parsing, the sharding, the runs and the
+merge; this module parses options, prints a summary and maps errors to exit codes
+(:func:`sonarproc.cli.guarded`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from sonarproc.cli.app import RuntimeProblem, app, guarded
+from sonarproc.errors import ParameterError
+
+__all__ = ["sweep_command", "sweep_merge_command"]
+
+
+def _fmt(v: Any) -> str:
+    return "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
+
+
+@app.command("sweep")
+def sweep_command(
+    inputs: Annotated[
+        list[Path], typer.Argument(help="Sonarlog files (.h5) and/or scenario YAML files.")
+    ],
+    grid: Annotated[
+        str,
+        typer.Option(
+            help="Parameter grid, e.g. 'ops=thinning:1..8;order=4..12;sigma=0.001..0.1@log5'."
+        ),
+    ],
+    jobs: Annotated[int, typer.Option(help="Worker processes (0: one per CPU).")] = 1,
+    shard: Annotated[
+        str, typer.Option(help="Run every N-th combination from I: 'I/N' (0 <= I < N).")
+    ] = "0/1",
+    out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("sweep"),
+) -> None:
+    """Run a grid of processing parameters (and noise/seeds for scenarios); write a table."""
+    from sonarproc.sweep import parse_shard, run_sweep, write_sweep
+
+    with guarded():
+        part = parse_shard(shard)
+        if jobs < 0:
+            raise ParameterError("jobs", f"must be >= 0, got {jobs}")
+        n_jobs = jobs or (os.cpu_count() or 1)
+        result = run_sweep([str(p) for p in inputs], grid, jobs=n_jobs, shard=part)
+        csv_path = write_sweep(result, out)
+    failed = sum(1 for r in result.rows if not r["ok"])
+    typer.echo(
+        f"sonarproc sweep: {len(result.rows)} of {result.total} combinations "
+        f"(shard {part[0]}/{part[1]}) in {result.wall_s:.2f} s with {n_jobs} job(s)"
+        + (f", {failed} refused (see the error column)" if failed else "")
+        + f"; table: {csv_path}"
+    )
+
+
+@app.command("sweep-merge")
+def sweep_merge_command(
+    dirs: Annotated[list[Path], typer.Argument(help="Directories holding shard outputs.")],
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Where to write (default: the first DIR).")
+    ] = None,
+) -> None:
+    """Merge shard tables; report missing/duplicate combinations; pick the best parameters."""
+    from sonarproc.sweep import write_table
+    from sonarproc.sweep.merge import best_rows, merge_shards
+
+    with guarded():
+        merged = merge_shards(dirs)
+        out_dir = out if out is not None else dirs[0]
+        csv_path, _ = write_table(merged.rows, out_dir, "merged")
+        best = best_rows(merged.rows)
+        summary = {
+            "total": merged.total,
+            "rows": len(merged.rows),
+            "missing": merged.missing,
+            "duplicates": merged.duplicates,
+            "conflicting": merged.conflicting,
+            "shards": [str(p) for p in merged.manifests],
+            "best": best,
+        }
+        (out_dir / "best.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+        for inp, b in best.items():
+            r = b["row"]
+            params = ", ".join(
+                f"{k}={r[k]}"
+                for k in ("ops", "order", "cell", "fit", "robust", "sigma", "seed")
+                if r.get(k) is not None
+            )
+            typer.echo(
+                f"best for {inp} ({b['criterion']}): {params}: e={_fmt(r['e'])} "
+                f"f_c={_fmt(r['f_c'])} E1={_fmt(r['E1_m'])} E2={_fmt(r['E2'])}"
+            )
+        if merged.duplicates:
+            typer.echo(
+                f"sonarproc: warning: {len(merged.duplicates)} combination(s) ran more than "
+                f"once, kept once: {_ranges(merged.duplicates)}"
+                + (
+                    f"; results differ for {_ranges(merged.conflicting)}"
+                    if merged.conflicting
+                    else ""
+                ),
+                err=True,
+            )
+        typer.echo(
+            f"sonarproc sweep-merge: {len(merged.rows)} of {merged.total} combinations from "
+            f"{len(merged.manifests)} shard(s); table: {csv_path}; best: {out_dir / 'best.json'}"
+        )
+        if merged.missing:
+            raise RuntimeProblem(
+                f"{len(merged.missing)} of {merged.total} combinations missing: "
+                f"{_ranges(merged.missing)}"
+            )
+
+
+def _ranges(indices: list[int]) -> str:
+    """``[0, 1, 2, 5]`` -> ``"0-2,5"``."""
+    parts: list[str] = []
+    start = prev = None
+    for i in [*indices, None]:
+        if start is not None and (i is None or i != prev + 1):  # type: ignore[operator]
+            parts.append(str(start) if start == prev else f"{start}-{prev}")
+            start = None
+        if i is not None and start is None:
+            start = i
+        prev = i
+    return ",".join(parts)

@@ -1,0 +1,191 @@
+"""The one seam every map goes through: select, grid, build, then fit and measure.
+
+A *builder* turns the selected readings (:class:`~sonarproc.pipeline.selection.Beams`)
+into a :class:`MethodMap` on a grid: the paper's arcs and morphology
+(:func:`sonarproc.pipeline.arcmap.build_arc_map`), or any method of
+:mod:`sonarproc.methods`. :func:`map_log` runs one builder on a log;
+:func:`evaluate_map` fits and measures a map, and is also what the live accumulator
+(:mod:`sonarproc.pipeline.live`) calls on its incrementally built count map. So every
+map is judged the same way: same selection, same grid, same fit, same metrics.
+
+``t_cpu_s`` is the process CPU time from ``cpu_start`` (default: when :func:`map_log`
+began) to the metrics.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarlog import SonarLog
+from sonarproc.grid import Grid
+from sonarproc.params import RunParams
+from sonarproc.pipeline.evaluation import fit_and_measure, map_counts, no_arc_message
+from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
+
+__all__ = ["STAGES", "MapBuilder", "MethodMap", "evaluate_map", "map_log"]
+
+#: Stage names reported to a progress callback, in order.
+STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics")
+
+Stage = Callable[[str], None]
+
+
+@dataclass
+class MethodMap:
+    """What a builder makes on the grid.
+
+    Attributes
+    ----------
+    processed : ndarray of bool, grid.shape
+        The cells the surface is fitted to (the "processed map").
+    evidence : ndarray of unsigned int, grid.shape
+        Per-cell evidence (arc counts, hits, occupied-band counts): the figures show it, a
+        robust fit weighs by it, and its nonzero columns are the f_c denominator when
+        there is no truth profile.
+    probability : ndarray of float, grid.shape, optional
+        p(occupied) of a probabilistic method (0.5 = unknown); the ROS map uses it.
+    """
+
+    processed: npt.NDArray[np.bool_]
+    evidence: npt.NDArray[np.unsignedinteger[Any]]
+    probability: npt.NDArray[np.float64] | None = None
+
+
+#: A method's map builder: ``build(beams, grid, params, stage) -> MethodMap``; it may
+#: report its own stages (``"rasterise"``, ``"morphology"``) through ``stage``.
+MapBuilder = Callable[[Beams, Grid, RunParams, "Stage | None"], MethodMap]
+
+
+def evaluate_map(
+    log_: SonarLog,
+    params: RunParams,
+    grid: Grid,
+    mmap: MethodMap,
+    *,
+    robot_xy: npt.NDArray[np.float64],
+    counts: dict[str, int],
+    cpu_start: float,
+    stage: Stage | None = None,
+    timings: dict[str, float] | None = None,
+    empty_message: str | None = None,
+) -> RunResult:
+    """Fit and measure a map; the record of the run.
+
+    Parameters
+    ----------
+    log_ : sonarlog.SonarLog
+        The log (its path names the source; its truth profile, if any, gives E1, E2).
+    params : RunParams
+        The fit and metric options.
+    grid : Grid
+        The grid of ``mmap``.
+    mmap : MethodMap
+        The processed map and its evidence.
+    robot_xy : ndarray, (N, 2)
+        Robot positions of the mapped readings (a polar fit's default centre; figures).
+    counts : dict
+        Reading counts from the selection; the map's counts are added.
+    cpu_start : float
+        ``time.process_time()`` at the start of the run.
+    stage : callable, optional
+        Told ``"fit"`` and ``"metrics"``.
+    timings : dict, optional
+        Wall times of earlier stages, kept in the record.
+    empty_message : str, optional
+        The error when the map is empty (default: no arc touches the map or bbox).
+
+    Raises
+    ------
+    NothingToMapError
+        The map has no cell set.
+    """
+    source = str(log_.path)
+    empty = empty_message or no_arc_message(source, params.bbox)
+    counts = {**counts, **map_counts(mmap.evidence, empty=empty)}
+    if stage is not None:
+        stage("fit")
+    truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
+    ev = fit_and_measure(
+        params, grid, mmap.processed, mmap.evidence, truth=truth, robot_xy=robot_xy, stage=stage
+    )
+    t_cpu = time.process_time() - cpu_start
+    return RunResult.of(
+        ev,
+        source=source,
+        params=params,
+        grid=grid,
+        counts_map=mmap.evidence,
+        processed=mmap.processed,
+        truth=truth,
+        counts=counts,
+        t_cpu_s=t_cpu,
+        timings_s=timings,
+    )
+
+
+def map_log(
+    log_: SonarLog,
+    params: RunParams,
+    build: MapBuilder,
+    *,
+    progress: Stage | None = None,
+    cpu_start: float | None = None,
+    empty_message: str | None = None,
+) -> tuple[RunResult, MethodMap]:
+    """Select the readings, lay the grid, build the map with ``build``, fit and measure.
+
+    Parameters
+    ----------
+    log_ : sonarlog.SonarLog
+        The log in memory.
+    params : RunParams
+        The run's parameters.
+    build : MapBuilder
+        The method's map builder.
+    progress : callable, optional
+        Called with each stage name of :data:`STAGES` as it starts.
+    cpu_start : float, optional
+        ``time.process_time()`` when the run began (default: now).
+    empty_message : str, optional
+        The error when the built map is empty (default: no arc touches the map or bbox).
+
+    Returns
+    -------
+    result : RunResult
+    mmap : MethodMap
+        The builder's map (with its probability layer, if any).
+    """
+    cpu0 = time.process_time() if cpu_start is None else cpu_start
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def stage(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        if timings:
+            timings[next(reversed(timings))] += now - clock
+        timings[name] = 0.0
+        clock = now
+        if progress is not None and name in STAGES:
+            progress(name)
+
+    stage("select")
+    beams, counts = select_beams(log_, params)
+    stage("grid")
+    grid = plan_grid(log_, params, beams)
+    mmap = build(beams, grid, params, stage)
+    result = evaluate_map(
+        log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
+        stage=stage, timings=timings, empty_message=empty_message,
+    )  # fmt: skip
+    stage("done")
+    timings.pop("done")
+    result.timings_s = timings
+    return result, mmap

@@ -1,0 +1,130 @@
+"""Write a run's report directory: report.json, profile.csv, three PNGs and report.html.
+
+:func:`report_dict` is the single source of every number the files show; the writers only
+format it. The file set is documented in docs/formats.md.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc import __version__
+from sonarproc.fit import FitFailure
+from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.run import METHOD
+from sonarproc.report.jsonable import to_jsonable
+
+__all__ = [
+    "REPORT_FILES",
+    "default_out_dir",
+    "profile_points",
+    "report_dict",
+    "write_profile_csv",
+    "write_report",
+]
+
+log = logging.getLogger(__name__)
+
+REPORT_FILES = (
+    "report.json",
+    "profile.csv",
+    "arcmap.png",
+    "processed.png",
+    "fit.png",
+    "report.html",
+)
+
+
+def default_out_dir(log_path: str | Path) -> Path:
+    """``LOG_report/`` beside the log (``scan.h5`` -> ``scan_report/``)."""
+    p = Path(log_path)
+    return p.with_name(f"{p.stem}_report")
+
+
+def report_dict(result: RunResult) -> dict[str, Any]:
+    """The content of ``report.json``.
+
+    Keys: ``format``, ``version``, ``software``, ``source``, ``method``, ``parameters``,
+    ``grid``, ``counts``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
+    and, when the log has a truth profile, ``E1_m``, ``E2``, ``sigma_y_m``), ``truth``,
+    ``timings_s``.
+    """
+    g = result.grid
+    m = result.metrics.to_json()
+    metrics: dict[str, Any] = {
+        "e": m["e"],
+        "f_c": m["f_c"],
+        "t_cpu_s": result.t_cpu_s,
+        "N": m["N"],
+        "N_k": m["N_k"],
+    }
+    if result.truth is not None:
+        metrics.update(E1_m=m["E1_m"], E2=m["E2"], sigma_y_m=m["sigma_y_m"])
+    fit = result.fit.to_json()
+    if result.centre is not None:
+        fit.setdefault("centre", list(result.centre))
+    doc = {
+        "format": "sonarproc-report",
+        "version": 1,
+        "software": {"sonarmorph": __version__},
+        "source": result.source,
+        "method": METHOD,
+        "parameters": result.params.to_json(),
+        "grid": {
+            "x0": g.x0,
+            "y0": g.y0,
+            "cell": g.cell,
+            "nx": g.nx,
+            "ny": g.ny,
+            "extent": list(g.centre_extent),
+        },
+        "counts": dict(result.counts),
+        "fit": fit,
+        "metrics": metrics,
+        "truth": result.truth is not None,
+        "timings_s": {k: round(v, 6) for k, v in result.timings_s.items()},
+    }
+    return dict(to_jsonable(doc))
+
+
+def profile_points(result: RunResult) -> npt.NDArray[np.float64]:
+    """The fitted profile sampled every cell: sorted by x, or a closed polyline (polar)."""
+    if isinstance(result.fit, FitFailure):
+        return np.zeros((0, 2))
+    return result.fit.sample(result.grid.cell)
+
+
+def write_profile_csv(path: Path, points: npt.NDArray[np.float64]) -> None:
+    """Write ``x,y`` rows (m) with a header; an empty body when the fit failed."""
+    with path.open("w", encoding="utf-8", newline="") as fh:
+        fh.write("x,y\n")
+        if points.size:
+            np.savetxt(fh, points, delimiter=",", fmt="%.6f")
+
+
+def write_report(result: RunResult, out_dir: str | Path) -> dict[str, Any]:
+    """Write every file of :data:`REPORT_FILES` into ``out_dir``; return the report dict."""
+    from sonarproc.report import plots
+    from sonarproc.report.html import render_html
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = report_dict(result)
+    (out / "report.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_profile_csv(out / "profile.csv", profile_points(result))
+    images = {
+        "arcmap.png": plots.render_arcmap(result),
+        "processed.png": plots.render_processed(result),
+        "fit.png": plots.render_fit(result),
+    }
+    for name, data in images.items():
+        (out / name).write_bytes(data)
+    (out / "report.html").write_text(render_html(doc, images), encoding="utf-8")
+    log.info("wrote report to %s", out)
+    return doc

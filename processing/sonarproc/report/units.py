@@ -1,0 +1,61 @@
+"""How people read numbers: lengths in cm with their unit, 3 significant figures.
+
+JSON stays SI with unit-suffixed keys (``E1_m``, ``t_cpu_s``); everything a person reads
+(the terminal, the HTML report, figure labels) goes through these formatters, so a length
+never shows as a bare float or in two units.
+
+>>> length_cm(0.03298680091298159)
+'3.30 cm'
+>>> length_cm(None)
+'—'
+>>> number(0.86123)
+'0.861'
+>>> seconds(0.2567)
+'0.257 s'
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+__all__ = ["MISSING", "length_cm", "metric", "number", "seconds", "sig3"]
+
+#: Shown where a value is absent (no truth, a failed fit).
+MISSING = "—"
+
+
+def sig3(value: float) -> str:
+    """``value`` with 3 significant figures, keeping trailing zeros (``3.30``, ``0.0412``)."""
+    if value == 0 or not math.isfinite(value):
+        return f"{value:g}"
+    digits = max(0, 2 - math.floor(math.log10(abs(value))))
+    return f"{value:.{digits}f}"
+
+
+def length_cm(metres: float | None) -> str:
+    """A length given in metres, shown in cm: ``'3.30 cm'``."""
+    return MISSING if metres is None else f"{sig3(100.0 * metres)} cm"
+
+
+def seconds(value: float | None) -> str:
+    """A duration in seconds: ``'0.257 s'``."""
+    return MISSING if value is None else f"{sig3(value)} s"
+
+
+def number(value: float | None) -> str:
+    """A dimensionless measure (e, f_c, E2) with 3 significant figures."""
+    return MISSING if value is None else sig3(float(value))
+
+
+def metric(key: str, value: Any) -> str:
+    """Format a ``report.json`` metric by its key's unit suffix (``_m``, ``_s``, none)."""
+    if value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+        return MISSING if value is None else str(value)
+    if key.endswith("_m"):
+        return length_cm(float(value))
+    if key.endswith("_s"):
+        return seconds(float(value))
+    if isinstance(value, int):
+        return str(value)
+    return number(float(value))

@@ -1,0 +1,124 @@
+"""Merging the shards of a parameter sweep, and choosing the best parameters.
+
+Shards written by :func:`sonarproc.sweep.write_sweep` (on one machine or on a cluster, one
+array task each) come back together here: :func:`merge_shards` checks that they are of one
+sweep and reports missing, repeated and conflicting combinations; :func:`best_rows` picks
+the best parameters per input, by E1 with a truth profile and without ground truth
+otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sonarproc.errors import InputError
+
+__all__ = ["MergeResult", "best_rows", "merge_shards"]
+
+
+@dataclass
+class MergeResult:
+    """Merged shards: the rows by index, and what is missing or repeated."""
+
+    rows: list[dict[str, Any]]
+    total: int
+    missing: list[int]
+    duplicates: list[int]
+    conflicting: list[int]
+    manifests: list[Path]
+
+
+def merge_shards(dirs: Sequence[Path]) -> MergeResult:
+    """Merge the shard outputs found in ``dirs`` into one table.
+
+    Every ``results*.json`` manifest names its table; all must come from the same grid
+    and inputs. Rows repeated across shards are kept once (``duplicates``; those whose
+    metrics differ are listed in ``conflicting`` too); indices no shard ran are
+    ``missing``.
+
+    Raises
+    ------
+    ValueError
+        No manifest found, or manifests of different sweeps.
+    """
+    manifests = sorted(
+        {p for d in dirs for p in Path(d).glob("results*.json") if p.name != "results.merged.json"}
+    )
+    if not manifests:
+        raise InputError(f"no sweep outputs (results*.json) in {', '.join(map(str, dirs))}")
+    ref: dict[str, Any] | None = None
+    by_index: dict[int, dict[str, Any]] = {}
+    duplicates: set[int] = set()
+    conflicting: set[int] = set()
+    for mpath in manifests:
+        try:
+            man = json.loads(mpath.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as err:
+            raise InputError(f"{mpath}: unreadable sweep manifest ({err})") from None
+        ident = {k: man.get(k) for k in ("grid", "inputs", "total")}
+        if ref is None:
+            ref = ident
+        elif ident != ref:
+            raise InputError(f"{mpath}: from a different sweep (grid, inputs or size differ)")
+        table = mpath.with_name(str(man.get("table", "")))
+        with table.open(encoding="utf-8") as fh:
+            for line in fh:
+                if not line.strip():
+                    continue
+                row = json.loads(line)
+                i = int(row["index"])
+                if i in by_index:
+                    duplicates.add(i)
+                    a = {k: v for k, v in by_index[i].items() if k != "t_cpu_s"}
+                    b = {k: v for k, v in row.items() if k != "t_cpu_s"}
+                    if a != b:
+                        conflicting.add(i)
+                    continue
+                by_index[i] = row
+    assert ref is not None
+    total = int(ref["total"])
+    missing = sorted(set(range(total)) - set(by_index))
+    rows = [by_index[i] for i in sorted(by_index)]
+    return MergeResult(rows, total, missing, sorted(duplicates), sorted(conflicting), manifests)
+
+
+def best_rows(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """The best parameters for each input.
+
+    With a truth profile: the smallest ``E1_m``. Without: among the runs that keep at
+    least 90 % of the best coverage ``f_c``, the smallest ``cv_score`` (the 5-fold
+    cross-validated held-out loss of the fitted order on the run's own points, from
+    :func:`sonarproc.fit.select_order_cv`: no ground truth); if no run has one, the
+    largest ``f_c``.
+
+    Returns
+    -------
+    dict
+        ``{input: {"criterion": ..., "row": row}}``.
+    """
+    out: dict[str, dict[str, Any]] = {}
+    for inp in dict.fromkeys(r["input"] for r in rows):
+        good = [r for r in rows if r["input"] == inp and r.get("ok") and r.get("fit_ok")]
+        with_e1 = [r for r in good if r.get("E1_m") is not None]
+        if with_e1:
+            best = min(with_e1, key=lambda r: (r["E1_m"], r["index"]))
+            out[inp] = {"criterion": "min E1_m (truth)", "row": best}
+            continue
+        cover = [r for r in good if r.get("f_c") is not None]
+        if not cover:
+            continue
+        top = max(r["f_c"] for r in cover)
+        near = [r for r in cover if r["f_c"] >= 0.9 * top]
+        scored = [r for r in near if r.get("cv_score") is not None]
+        if scored:
+            best = min(scored, key=lambda r: (r["cv_score"], r["index"]))
+            crit = "min cv_score among f_c >= 0.9 max f_c (no truth)"
+        else:
+            best = max(cover, key=lambda r: (r["f_c"], -r["index"]))
+            crit = "max f_c (no truth)"
+        out[inp] = {"criterion": crit, "row": best}
+    return out
