@@ -87,7 +87,7 @@ def test_cli_options_and_report(
         (["--span", "all"], "--span: must be one of truth, points"),
         (["--order", "many"], "--order: must be an integer or 'auto'"),
         (["--fit", "spline", "--order", "auto"], "--fit: must be poly for an automatic order"),
-        (["--fit", "polar", "--span", "points"], "--span points applies to"),
+        (["--fit", "polar", "--span", "points"], "--span: points applies to"),
         (["--ops", "vote:0"], "K must be >= 1"),
     ):
         assert main(["run", str(fig10c), "--out", str(tmp_path / "x"), *args]) == 2
