@@ -1,6 +1,6 @@
 """sonarlog v1: the HDF5 log of pose-tagged sonar time-of-flight readings.
 
-The format is DESIGN.md's Contract 1. :class:`LogWriter` appends crash-safely (SWMR, batched
+The format is sonarlog v1 (docs/formats.md). :class:`LogWriter` appends crash-safely (SWMR, batched
 writes, a flush + fsync at least every half second); :func:`read_log` validates, recovers the
 intact prefix of a damaged file and computes transducer world poses in one vectorised call.
 """

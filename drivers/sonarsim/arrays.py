@@ -3,7 +3,7 @@
 A :class:`SensorArray` holds one row per transducer. Where the array stands and which way
 it faces is a pose (see :mod:`sonarsim.paths`); a sensor's world pose is
 ``position = (x, y) + R(turret) @ (mount_x, mount_y)`` and
-``heading = turret + mount_heading`` (DESIGN.md Contract 1). An array that never moves
+``heading = turret + mount_heading`` (the sonarlog v1 convention). An array that never moves
 uses pose ``(0, 0, 0, 0)``, so its mounts are world coordinates.
 """
 

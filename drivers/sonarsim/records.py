@@ -2,7 +2,7 @@
 
 ``sonarsim`` sits below ``sonarlog`` in the dependency order (drivers <- daemon <-
 processing), so it cannot import the log format; these dtypes repeat sonarlog v1's
-``SENSOR_DTYPE`` and ``READING_DTYPE`` field for field (DESIGN.md Contract 1), and a test
+``SENSOR_DTYPE`` and ``READING_DTYPE`` field for field (the sonarlog v1 format), and a test
 checks that they stay equal.
 """
 

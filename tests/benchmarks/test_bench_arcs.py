@@ -2,7 +2,7 @@
 
 Run with ./scripts/bench. Prints million arc cells per second and the ratio of our time to
 the floor (one ``np.bincount`` of the same flat cell indices, measured in the same run),
-the scatter issue 3 names (about 220-280 M cells/s on this kind of machine).
+the scatter speed a map of this size needs (about 220-280 M cells/s on this kind of machine).
 
 For reference it also prints two other single scatters of the same cells: a fancy
 assignment (which sets but cannot count) and ``np.add.at`` into a uint16 map, the scatter

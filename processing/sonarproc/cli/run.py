@@ -1,4 +1,4 @@
-"""``sonarproc run``: a log in, a report directory out (DESIGN.md Contract 2).
+"""``sonarproc run``: a log in, a report directory out (the report files of docs/formats.md).
 
 Thin: parse options into :class:`~sonarproc.params.RunParams`, call
 :func:`~sonarproc.pipeline.run_file` and :func:`~sonarproc.report.write_report`, print a

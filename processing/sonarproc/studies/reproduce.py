@@ -164,7 +164,7 @@ DISCUSSION: tuple[str, ...] = (
     "   0.57-0.78 after n = 2-6 means its binary maps were much sparser: fewer arcs (its",
     "   t_CPU grows 1.5x from 100 to 150 sensors and is 0.51 s for 400, which 16x the",
     "   pairs would hardly give) or arcs drawn as separate samples rather than our",
-    "   gap-free 8-connected chains (issue 3; with chains pruning and n = 2 remove almost",
+    "   gap-free 8-connected chains (no arc has holes; with chains pruning and n = 2 remove almost",
     "   nothing, f_c = 1 in Table 1). The paper says neither. The last section tests the",
     "   samples (`--arc-step`): every 1-2 deg (3.5-7 cm apart on fig02's 2 m arcs) the",
     "   Fig. 2 map thins like the paper's Table 1 (f_c at n = 1, 2, 3: 0.82, 0.64, 0.53 at",
@@ -395,7 +395,7 @@ def _sampled_section(
         "The paper's method (its n and m, as in the first table) on the same logs, with each "
         "arc drawn as separate samples every S degrees of eccentric anomaly (the polar angle "
         "about the sensor for a circle), one cell per sample (`sonarproc run --arc-step S`), "
-        "instead of our gap-free 8-connected chains (the default, issue 3). Each cell: "
+        "instead of our gap-free 8-connected chains (the default, so no arc has holes). Each cell: "
         f"*{order}*; '—' where the paper reports nothing or nothing is left to fit. The "
         "last column counts the cells of the binary arc map (count >= 1), connected / "
         f"{_steps_text(steps)}: the sparser the map, the more thinning removes.",

@@ -17,7 +17,7 @@ C = 343.3
 
 
 def world_poses(res: SimResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Transmitter and receiver world positions by DESIGN.md Contract 1."""
+    """Transmitter and receiver world positions by the sonarlog v1 convention."""
     r, s = res.readings, res.sensors
     row = {int(i): k for k, i in enumerate(s["id"])}
 
