@@ -12,9 +12,9 @@ from procs import stop_process
 
 from nomad200 import BAUD_RATES, Client, StateMask
 from nomad200.emulator_cli import main
-from nomad200.protocol_nomad import URL_KEYS
+from nomad200.protocol_nomad import URL_KEYS, parse_url
 
-from .conftest import start_emulator
+from .conftest import nomad_url, start_emulator
 
 
 def test_bad_world_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -141,3 +141,17 @@ def test_shipped_world_by_name(tmp_path: Path) -> None:
             assert (st.x, st.y) == (0.0, 0.0)
     finally:
         stop_process(proc)
+
+
+def test_url_takes_a_shipped_world_and_refuses_other_speeds() -> None:
+    assert parse_url("nomad://?world=lab&fast=1")[1].world == "lab"
+    with pytest.raises(ValueError, match="allowed 4800, 9600, 19200, 38400"):
+        parse_url("nomad://?baud=1234")
+    url = nomad_url(world="lab", fast=True, baud=38400)
+    with Client(url, baud=38400) as c:
+        c.configure_mask(StateMask(sonars=frozenset(range(16))))
+        c.configure_sonars(range(16), 0.04)
+        seen = set()
+        for _ in range(60):  # ~1 s of robot time
+            seen |= {i for i, r in c.get_state().sonar.items() if r is not None}
+    assert len(seen) >= 4  # the lab's walls answer; an empty world would not
