@@ -20,6 +20,7 @@ from typing import Annotated, Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from nomad200 import BAUD_RATES, BaudRate, ring
 from sonard.link import poll_seconds
 from sonarsim.shipped import resolve_shipped
 
@@ -40,7 +41,6 @@ __all__ = [
     "parse_plan",
 ]
 
-BAUD_RATES = (4800, 9600, 19200, 38400)
 #: the sensor board counts the firing interval in 4 ms ticks (CONF_SN rate byte 1..255)
 INTERVAL_TICK_S = 0.004
 #: physical limits of the Nomad 200 (translation 0.6 m/s, rotation 60 deg/s)
@@ -180,10 +180,13 @@ class Plan(BaseModel):
     sonars: list[int] = Field(min_length=1, max_length=16, description="firing order, ids 0..15")
     interval: float = Field(0.040, ge=0.004, le=1.02, description="firing interval, s")
     max_range: float = Field(
-        6.5, ge=0.2, le=10.7, description="farthest echo awaited before the next firing, m"
+        6.5,
+        ge=0.2,
+        le=ring.MAX_RANGE,
+        description="farthest echo awaited before the next firing, m",
     )
     force: bool = False
-    baud: Literal[4800, 9600, 19200, 38400] = 9600
+    baud: BaudRate = 9600
     speed_of_sound: float = Field(343.3, ge=300.0, le=400.0)
     pose_attachments: bool | Literal["auto"] = "auto"
     watchdog: int = Field(2, ge=0, le=255, description="robot motion watchdog, s (0 = off)")

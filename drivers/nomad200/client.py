@@ -53,19 +53,9 @@ from nomad200.errors import (
     NomadTimeout,
     TruncatedPacketError,
 )
-from nomad200.state import (
-    DEG10,
-    IN10,
-    Configuration,
-    SonarScan,
-    State,
-    StateLayout,
-    StateMask,
-    decode_get_rc,
-    decode_get_rv,
-    decode_get_sn,
-    layout_for,
-)
+from nomad200.mask import StateMask
+from nomad200.replies import Configuration, SonarScan, decode_get_rc, decode_get_rv, decode_get_sn
+from nomad200.state import DEG10, IN10, State, StateLayout, layout_for
 from nomad200.stream import StreamDecoder
 
 __all__ = ["ZR_TIMEOUT", "Client", "open_clients"]

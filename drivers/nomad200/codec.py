@@ -21,7 +21,7 @@ from __future__ import annotations
 import enum
 import struct
 from dataclasses import dataclass
-from typing import Final, NamedTuple
+from typing import Final, Literal, NamedTuple, get_args
 
 from nomad200.errors import (
     ChecksumError,
@@ -33,9 +33,11 @@ from nomad200.errors import (
 )
 
 __all__ = [
+    "BAUD_RATES",
     "END",
     "MAX_LENGTH",
     "START",
+    "BaudRate",
     "Cmd",
     "Command",
     "MvMode",
@@ -51,6 +53,10 @@ __all__ = [
     "to_sm32",
 ]
 
+#: A line speed the robot's serial port supports (8N1, no flow control).
+BaudRate = Literal[4800, 9600, 19200, 38400]
+#: Every supported line speed, slowest first (Ndirect falls back to 38400 for others).
+BAUD_RATES: Final[tuple[int, ...]] = get_args(BaudRate)
 START: Final = 0x01
 END: Final = 0x5C
 #: Largest ``len`` field the decoders accept (a full state reply with every attachment is

@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import signal
 import sys
 import threading
 from collections.abc import Sequence
+from importlib import metadata
 from typing import IO, NoReturn
 
+from nomad200.codec import BAUD_RATES
 from nomad200.emulator.device import EmulatorOptions, build_link
 from nomad200.emulator.pty_server import PtyServer
 from nomad200.emulator.rx import GAP_TIMEOUT
@@ -26,10 +29,58 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+DESCRIPTION = """\
+An emulated Nomad 200 robot on a pseudo-terminal. Prints the pty path as the first line on
+stdout, then answers the Nomad 200 serial protocol on it until SIGTERM or SIGINT.
+Exit codes: 0 stopped, 1 runtime failure, 2 bad option or world."""
+
+EPILOG = """\
+in-process robot (no pty): the nomad:// pyserial URL
+  Any program that opens its port with pyserial's serial_for_url (nomad200.Client, sonard
+  --port) can use an emulated robot inside its own process instead of a device path:
+
+    nomad://[NAME]?KEY=VALUE&KEY=VALUE...
+
+  NAME tells robots apart (the same URL finds the same robot again). Query keys:
+    world=NAME|PATH        shipped world name (lab, ...) or world YAML; none: no echoes
+    baud=N                 line speed: 4800, 9600, 19200 or 38400 (default: the port's)
+    fast=1                 virtual time: no real waiting
+    seed=N                 seed of the fault generators
+    garble=P, drop=P       per reply byte (robot to host) faults
+    garble_rx=P, drop_rx=P per request byte (host to robot) faults
+    stall=P, stall_for=S   per reply delay of S seconds
+    unplug_at=S, unplug_for=S  the port vanishes S seconds after the robot is created
+    trace=PATH             JSON lines of commands and firings with the TRUE pose
+
+  example:  sonard --port 'nomad://?world=lab&fast=1&baud=38400' --plan translate"""
+
+
+def _version() -> str:
+    try:
+        return metadata.version("sonarmorph")
+    except metadata.PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="nomad-emulator", description=__doc__.splitlines()[0] if __doc__ else None)
-    p.add_argument("--world", required=True, help="sonarsim world YAML")
-    p.add_argument("--baud", type=int, default=9600, help="line speed for timing (9600)")
+    p = _Parser(
+        prog="nomad-emulator",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    p.add_argument(
+        "--world", required=True, help="shipped world name (lab, ...) or sonarsim world YAML"
+    )
+    p.add_argument(
+        "--baud",
+        type=int,
+        default=9600,
+        choices=BAUD_RATES,
+        metavar="N",
+        help=f"line speed for timing: {', '.join(map(str, BAUD_RATES))} (9600)",
+    )
     p.add_argument("--fast", action="store_true", help="no real waiting; virtual time")
     p.add_argument("--link", metavar="PATH", help="keep a symlink to the current pty here")
     p.add_argument("--trace", metavar="FILE", help="JSON lines: commands, firings, TRUE poses")
@@ -72,6 +123,24 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _message(err: Exception) -> str:
+    """One line for ``err``, without the ``[Errno N]`` prefix of OS errors."""
+    if isinstance(err, OSError) and err.strerror:
+        return f"{err.filename}: {err.strerror}" if err.filename else err.strerror
+    return str(err)
+
+
+def _check_link(path: str) -> None:
+    """Refuse a ``--link`` path whose folder cannot hold the symlink (one-line message)."""
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise ValueError(f"--link {path}: folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"--link {path}: folder {folder} is not writable")
+    if os.path.isdir(path) and not os.path.islink(path):
+        raise ValueError(f"--link {path}: is a folder, expected a path for the symlink")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the emulator; return the exit code."""
     args = _parser().parse_args(argv)
@@ -97,11 +166,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     trace: IO[str] | None = None
     try:
         opts.validate()
+        if args.link:
+            _check_link(args.link)
         if args.trace:
-            trace = open(args.trace, "w", encoding="utf-8", buffering=1)  # noqa: SIM115
+            try:
+                trace = open(args.trace, "w", encoding="utf-8", buffering=1)  # noqa: SIM115
+            except OSError as err:
+                raise ValueError(f"--trace {args.trace}: {err.strerror}") from err
         link = build_link(opts, trace=trace)
     except (ValueError, OSError) as err:
-        print(f"nomad-emulator: error: {err}", file=sys.stderr)
+        if trace is not None:
+            trace.close()
+        print(f"nomad-emulator: error: {_message(err)}", file=sys.stderr)
         return 2
     stop = threading.Event()
 
@@ -122,7 +198,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(path, flush=True)
         server.serve(stop)
     except OSError as err:
-        print(f"nomad-emulator: error: {err}", file=sys.stderr)
+        print(f"nomad-emulator: error: {_message(err)}", file=sys.stderr)
         return 1
     finally:
         server.close()

@@ -1,7 +1,7 @@
 """pyserial URL handler ``nomad://``: an emulated Nomad 200 inside this process.
 
 Importing :mod:`nomad200` adds the package to ``serial.protocol_handler_packages``, so
-``serial.serial_for_url("nomad://?world=configs/worlds/lab.yaml&fast=1")`` (and therefore
+``serial.serial_for_url("nomad://?world=lab&fast=1")`` (and therefore
 ``nomad200.Client`` and ``sonard --port``) talks to an emulated robot.
 
 URL: ``nomad://[NAME]?option=value&...``. The robot lives as long as the process (or until
@@ -11,10 +11,12 @@ separate robots.
 
 Query options
 -------------
-world=PATH
-    sonarsim world YAML (``start_pose`` sets the power-on pose). Without it: no echoes.
+world=NAME or world=PATH
+    A shipped world name (``lab``) or a sonarsim world YAML (``start_pose`` sets the
+    power-on pose). Without it: no echoes.
 baud=N
-    Line speed for timing (default: the port's baud rate when first opened).
+    Line speed for timing: 4800, 9600, 19200 or 38400 (default: the port's baud rate when
+    first opened).
 fast=1
     No real waiting: simulated time is virtual and advances by the wire time of each
     byte (and by the host's timeouts), so the robot moves and fires plausibly.
@@ -41,7 +43,7 @@ from __future__ import annotations
 import threading
 import time
 import weakref
-from typing import IO, Any
+from typing import IO, Any, Final
 from urllib.parse import parse_qs, urlparse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
@@ -49,7 +51,7 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 from nomad200.emulator.device import EmulatorOptions, build_link
 from nomad200.emulator.link import Delivery, Link
 
-__all__ = ["Serial", "open_ports", "parse_url", "reset_devices"]
+__all__ = ["URL_KEYS", "Serial", "open_ports", "parse_url", "reset_devices"]
 
 _FLOATS = (
     "garble",
@@ -62,6 +64,8 @@ _FLOATS = (
     "unplug_for",
 )
 _INTS = ("baud", "seed")
+#: Every query key a ``nomad://`` URL accepts.
+URL_KEYS: Final = ("world", "baud", "fast", "seed", *_FLOATS, "trace")
 
 
 def parse_url(url: str) -> tuple[str, EmulatorOptions, bool]:

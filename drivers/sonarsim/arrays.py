@@ -15,14 +15,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nomad200 import ring
 from sonarsim.geometry import FloatArray, rotate, wrap_angle
 from sonarsim.records import SENSOR_DTYPE
 from sonarsim.search import HALF_BEAMWIDTH, MAX_RANGE, MIN_RANGE
 from sonarsim.specular import Sensors
 
-NOMAD_RING_COUNT = 16
+NOMAD_RING_COUNT = ring.N_SONARS
 """Sonars on the Nomad 200 ring."""
-NOMAD_RING_RADIUS = 0.22
+NOMAD_RING_RADIUS = ring.RADIUS
 """Ring radius (m)."""
 NOMAD_FRONT_FIVE = (14, 15, 0, 1, 2)
 """The five sonars facing forward (-45 .. +45 degrees), as used in the paper."""

@@ -8,9 +8,12 @@ metres, times in seconds, angles in degrees (keys end in ``_deg``). See
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from nomad200 import ring
 
 Point = tuple[float, float]
 
@@ -22,9 +25,9 @@ class _Model(BaseModel):
 class SensorDefaults(_Model):
     """Beam and range of every transducer (default: Polaroid 6500 on the Nomad)."""
 
-    half_beamwidth_deg: float = Field(default=12.5, gt=0, lt=90)
-    min_range: float = Field(default=0.15, ge=0, le=100)
-    max_range: float = Field(default=10.7, gt=0, le=100)
+    half_beamwidth_deg: float = Field(default=math.degrees(ring.HALF_BEAMWIDTH), gt=0, lt=90)
+    min_range: float = Field(default=ring.MIN_RANGE, ge=0, le=100)
+    max_range: float = Field(default=ring.MAX_RANGE, gt=0, le=100)
 
     @model_validator(mode="after")
     def _ranges(self) -> SensorDefaults:
@@ -48,8 +51,8 @@ class CircularArray(_Model):
     """A ring; sensor ``i`` at ``i * step_deg`` CCW from the array heading, facing out."""
 
     type: Literal["circular"]
-    count: int = Field(default=16, ge=1, le=360)
-    radius: float = Field(default=0.22, gt=0)
+    count: int = Field(default=ring.N_SONARS, ge=1, le=360)
+    radius: float = Field(default=ring.RADIUS, gt=0)
     step_deg: float | None = None
 
 

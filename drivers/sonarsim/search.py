@@ -13,18 +13,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nomad200 import ring
 from sonarsim.geometry import FloatArray
 from sonarsim.images import image_order, sequences
 from sonarsim.occlusion import blocked
 from sonarsim.specular import Hits, IntArray, Sensors, Tables, first_order, sensor_tables
 from sonarsim.world import World
 
-HALF_BEAMWIDTH = float(np.deg2rad(12.5))
-"""Polaroid 6500 half beam width (rad)."""
-MIN_RANGE = 0.15
-"""Default minimum range (m)."""
-MAX_RANGE = 10.7
-"""Default maximum range (m)."""
+HALF_BEAMWIDTH = ring.HALF_BEAMWIDTH
+"""Polaroid 6500 half beam width (rad), the Nomad 200's."""
+MIN_RANGE = ring.MIN_RANGE
+"""Default minimum range (m), the Nomad 200's."""
+MAX_RANGE = ring.MAX_RANGE
+"""Default maximum range (m), the Nomad 200's."""
 
 _TABLE_ELEMENTS = 3_000_000
 _CHUNK_ELEMENTS = 4_000_000

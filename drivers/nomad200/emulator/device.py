@@ -6,14 +6,13 @@ import math
 from dataclasses import dataclass
 from typing import IO
 
+from nomad200.codec import BAUD_RATES
 from nomad200.emulator.clock import Clock, MonotonicClock, VirtualClock
 from nomad200.emulator.link import Faults, Link
 from nomad200.emulator.model import NomadModel
 from nomad200.emulator.sonar import EchoFn, echo_fn_for_world
 
 __all__ = ["EmulatorOptions", "build_link", "load_world_echo"]
-
-BAUDS = (4800, 9600, 19200, 38400)
 
 
 @dataclass
@@ -36,8 +35,9 @@ class EmulatorOptions:
 
     def validate(self) -> None:
         """Raise ValueError with a one-line message for impossible options."""
-        if self.baud <= 0:
-            raise ValueError(f"baud must be positive, got {self.baud}")
+        if self.baud not in BAUD_RATES:
+            allowed = ", ".join(str(b) for b in BAUD_RATES)
+            raise ValueError(f"baud {self.baud} is not a Nomad 200 line speed (allowed {allowed})")
         for name in ("garble", "drop", "stall", "garble_rx", "drop_rx"):
             p = getattr(self, name)
             if not (math.isfinite(p) and 0.0 <= p <= 1.0):

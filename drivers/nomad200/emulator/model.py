@@ -8,10 +8,29 @@ clock (real monotonic time, or a :class:`~nomad200.emulator.clock.VirtualClock`)
 
 Host packets are parsed as the robot's firmware does (:class:`~nomad200.emulator.rx.HostParser`):
 a damaged packet (bad checksum or end byte) and a refused one (a payload of the wrong size,
-an unsupported command or mask) are answered with exactly one NAK and have no effect; stray
+an unsupported command) are answered with exactly one NAK and have no effect; stray
 bytes outside packets are ignored; a packet left incomplete (a byte lost on the line) is
 dropped without a reply when the line stays quiet for the inter-byte timeout
 (:data:`~nomad200.emulator.rx.GAP_TIMEOUT`).
+
+Sensor mask (CT)
+----------------
+Every pattern of the seven CT mask bytes is accepted, as by the real robot, and each state
+reply carries exactly the fields the mask asks for, in the order of
+:mod:`nomad200.state`. Where the firmware's behaviour is not documented the emulator
+assumes:
+
+- **Laser.** The emulated robot has no laser. The laser bit still gets its field: a point
+  count of 0 and no points (2 bytes), followed, if the laser pose attachment is asked
+  for, by a 36-byte attachment of zeros. (Nomadic's ``connect_robot`` asks for the laser
+  on every robot, and the host library then reads the count and the points that follow.)
+- **Partial groups.** x, y, steering and turret angle, and the three velocities, are
+  independent bits: a mask of x and y alone gets 4 bytes of pose. (The host library's
+  ``ct()`` takes the turret-velocity bit from the sonar 13 entry of its mask, so partial
+  velocity groups happen with ordinary masks.)
+- **Idle sensors.** Infrared readings are 15 (nothing near), the bumper 0 (not pressed),
+  the compass 0; their pose attachments carry the odometry pose and clock of the reply.
+- **Unused bits** (CT byte 5 bits 1-7, byte 6 bits 6-7) are ignored.
 """
 
 from __future__ import annotations
@@ -35,17 +54,9 @@ from nomad200.errors import (
     PayloadError,
     TruncatedPacketError,
 )
-from nomad200.state import (
-    DEG10,
-    IN10,
-    NO_ECHO,
-    RawState,
-    StateMask,
-    encode_get_rc,
-    encode_get_rv,
-    encode_get_sn,
-    layout_for,
-)
+from nomad200.mask import StateMask
+from nomad200.replies import encode_get_rc, encode_get_rv, encode_get_sn
+from nomad200.state import DEG10, IN10, NO_ECHO, RawState, layout_for
 
 __all__ = ["NomadModel"]
 
@@ -383,13 +394,16 @@ class NomadModel:
         d = self.drive
         m = self.mask
         ids = sorted(m.sonars)
+        now = self._odom_att(self.t)  # idle sensors are read "now"
         return RawState(
             ir=(15,) * len(m.irs),
-            ir_att=((0,) * 9,) * len(m.irs) if m.ir_pose_attachment else (),
+            ir_att=(now,) * len(m.irs) if m.ir_pose_attachment else (),
             sonar=tuple(self.sonar_raw[i] for i in ids),
             sonar_att=tuple(self.sonar_att[i] for i in ids) if m.sonar_pose_attachment else (),
+            bumper_att=now,
             pose=(_clip16(d.x), _clip16(d.y), _angle10(d.steer.pos), _angle10(d.turret.pos)),
             vel=(_clip16(d.trans.vel), _clip16(d.steer.vel), _clip16(d.turret.vel)),
+            compass_att=now,
             motor_status=d.motor_status(),
             clock_ms=self.clock_ms(),
             cpu_voltage=self.cpu_v,

@@ -82,10 +82,17 @@ class PtyServer:
         self.path = os.ttyname(slave)
         if self.link_path:
             tmp = f"{self.link_path}.{os.getpid()}.tmp"
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
-            os.symlink(self.path, tmp)
-            os.replace(tmp, self.link_path)
+            try:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(tmp)
+                os.symlink(self.path, tmp)
+                os.replace(tmp, self.link_path)
+            except OSError as err:
+                self.close()
+                # OSError's own text names both paths of the symlink: say which one failed
+                raise OSError(
+                    err.errno, f"cannot create the link {self.link_path}: {err.strerror}"
+                ) from err
         logger.info("serving on %s", self.path)
         return self.path
 

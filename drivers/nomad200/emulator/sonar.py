@@ -1,6 +1,6 @@
 """The emulated Sensus 200 sonar ring: 16 Polaroid transducers fired one at a time.
 
-Sonar ``i`` sits on a ring of radius :data:`RING_RADIUS` round the turret centre and looks
+Sonar ``i`` sits on the ring of :mod:`nomad200.ring` round the turret centre and looks
 along ``turret + i * 22.5 deg``. One ranging module serves the ring, so each firing listens
 until the next one starts. A reading is the FIRST echo heard in that window, in whole inches
 from the transducer face (255: none). If the previous firing's pulse comes back late, into
@@ -19,6 +19,8 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
+from nomad200 import ring
+
 __all__ = [
     "HALF_BEAMWIDTH",
     "MAX_RANGE",
@@ -32,11 +34,11 @@ __all__ = [
     "simulate_firings",
 ]
 
-RING_RADIUS: Final = 0.22
+RING_RADIUS: Final = ring.RADIUS
 SPEED_OF_SOUND: Final = 343.3
-HALF_BEAMWIDTH: Final = float(np.deg2rad(12.5))
-MIN_RANGE: Final = 0.15
-MAX_RANGE: Final = 10.7
+HALF_BEAMWIDTH: Final = ring.HALF_BEAMWIDTH
+MIN_RANGE: Final = ring.MIN_RANGE
+MAX_RANGE: Final = ring.MAX_RANGE
 _INCH: Final = 0.0254
 
 Array = NDArray[np.float64]
@@ -83,7 +85,7 @@ def ring_geometry(xy: Array, turret: Array, sonar: NDArray[np.int_]) -> tuple[Ar
     pos : (N, 2) array
     heading : (N,) array
     """
-    heading = turret + sonar * (np.pi / 8)
+    heading = turret + ring.HEADINGS[sonar]
     pos = xy + RING_RADIUS * np.column_stack((np.cos(heading), np.sin(heading)))
     return pos, heading
 

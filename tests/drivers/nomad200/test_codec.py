@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import cast
 
 import pytest
 from hypothesis import given, settings
@@ -30,17 +31,16 @@ from nomad200.errors import (
     PayloadError,
     TruncatedPacketError,
 )
-from nomad200.state import (
-    RawState,
-    StateMask,
+from nomad200.mask import POSE_FIELDS, VELOCITY_FIELDS, StateMask
+from nomad200.replies import (
     decode_get_rc,
     decode_get_rv,
     decode_get_sn,
     encode_get_rc,
     encode_get_rv,
     encode_get_sn,
-    layout_for,
 )
+from nomad200.state import RawState, layout_for
 
 
 def h(s: str) -> bytes:
@@ -109,10 +109,22 @@ def test_ct_mask_bytes() -> None:
     )
     assert m.ct_args() == (0, 0, 0b11, 0x80, 0b11111110, 0, 0b100)
     assert StateMask.from_ct_args(m.ct_args()) == m
-    with pytest.raises(ValueError, match="laser"):
-        StateMask.from_ct_args((0, 0, 0, 0, 0, 1, 0))
-    with pytest.raises(ValueError, match="groups"):
-        StateMask.from_ct_args((0, 0, 0, 0, 0b10, 0, 0))
+
+
+def test_ct_mask_takes_laser_and_partial_groups() -> None:
+    laser = StateMask.from_ct_args((0, 0, 0, 0, 0, 1, 0b10000))
+    assert laser.laser and laser.laser_pose_attachment and not laser.compass
+    xy = StateMask.from_ct_args((0, 0, 0, 0, 0b110, 0, 0))
+    assert xy.pose_order == ("x", "y") and not xy.pose and not xy.velocity_fields
+    tv_sv = StateMask.from_ct_args((0, 0, 0, 0, 0b01100000, 0, 0))
+    assert tv_sv.velocity_order == ("trans_vel", "steer_vel") and not tv_sv.velocities
+    assert tv_sv.ct_args() == (0, 0, 0, 0, 0b01100000, 0, 0)
+    # unused bits are ignored
+    assert StateMask.from_ct_args((0, 0, 0, 0, 0, 0xFE, 0xC0)) == StateMask()
+    with pytest.raises(ValueError, match="7 mask bytes"):
+        StateMask.from_ct_args((0,) * 6)
+    with pytest.raises(ValueError, match="unknown pose fields"):
+        StateMask(pose_fields=frozenset({"z"}))  # type: ignore[arg-type]
 
 
 def test_state_reply_by_hand() -> None:
@@ -233,22 +245,23 @@ ids = st.frozensets(st.integers(0, 15))
 att = st.tuples(*[st.integers(-(2**31) + 1, 2**31 - 1)] * 7, *[st.integers(0, 2**32 - 1)] * 2)
 
 
+P4 = tuple[int, int, int, int]
+V3 = tuple[int, int, int]
+
+
+def keep(vals: tuple[int, ...], names: tuple[str, ...], chosen: frozenset[str]) -> tuple[int, ...]:
+    """The values of the chosen fields; 0 for the others (as a decoded reply gives back)."""
+    return tuple(v if f in chosen else 0 for v, f in zip(vals, names, strict=True))
+
+
 @st.composite
 def mask_and_raw(draw: st.DrawFn) -> tuple[StateMask, RawState]:
-    m = StateMask(
-        sonars=draw(ids),
-        pose=draw(st.booleans()),
-        velocities=draw(st.booleans()),
-        sonar_pose_attachment=draw(st.booleans()),
-        irs=draw(ids),
-        ir_pose_attachment=draw(st.booleans()),
-        bumper=draw(st.booleans()),
-        bumper_pose_attachment=draw(st.booleans()),
-        compass=draw(st.booleans()),
-        compass_pose_attachment=draw(st.booleans()),
-    )
+    m = StateMask.from_ct_args(draw(st.tuples(*[u8] * 7)))
     n_ir, n_so = len(m.irs), len(m.sonars)
-    raw = RawState(
+    pose, vel = draw(st.tuples(s16, s16, s16, s16)), draw(st.tuples(s16, s16, s16))
+    n_laser = draw(st.integers(0, 5)) if m.laser else 0
+    n_words = n_laser * (4 if draw(st.booleans()) else 1)  # line or point mode
+    return m, RawState(
         ir=tuple(draw(st.lists(st.integers(0, 15), min_size=n_ir, max_size=n_ir))),
         ir_att=tuple(draw(st.lists(att, min_size=n_ir, max_size=n_ir)))
         if m.ir_pose_attachment
@@ -259,16 +272,18 @@ def mask_and_raw(draw: st.DrawFn) -> tuple[StateMask, RawState]:
         else (),
         bumper=draw(st.integers(0, 2**24 - 1)) if m.bumper else 0,
         bumper_att=draw(att) if m.bumper and m.bumper_pose_attachment else None,
-        pose=draw(st.tuples(s16, s16, s16, s16)) if m.pose else (0, 0, 0, 0),
-        vel=draw(st.tuples(s16, s16, s16)) if m.velocities else (0, 0, 0),
+        pose=cast(P4, keep(pose, POSE_FIELDS, m.pose_fields)),
+        vel=cast(V3, keep(vel, VELOCITY_FIELDS, m.velocity_fields)),
         compass=draw(s16) if m.compass else 0,
         compass_att=draw(att) if m.compass and m.compass_pose_attachment else None,
+        laser=tuple(draw(st.lists(u16, min_size=n_words, max_size=n_words))),
+        laser_count=n_laser if m.laser else None,
+        laser_att=draw(att) if m.laser and m.laser_pose_attachment else None,
         motor_status=draw(st.integers(0, 7)),
         clock_ms=draw(st.integers(0, 2**32 - 1)),
         cpu_voltage=draw(u8),
         motor_voltage=draw(u8),
     )
-    return m, raw
 
 
 @settings(max_examples=150, deadline=None)
@@ -278,9 +293,11 @@ def test_state_round_trip(case: tuple[StateMask, RawState]) -> None:
     assert StateMask.from_ct_args(mask.ct_args()) == mask
     lay = layout_for(mask)
     frame = lay.encode_frame(Cmd.GS, raw)
-    assert len(frame) == lay.frame_size
+    assert len(frame) == lay.frame_size + 2 * len(raw.laser)
     pkt = decode_frame(frame)
     st_ = lay.decode(pkt.payload)
     assert set(st_.sonar) == mask.sonars
-    assert (st_.x is None) == (not mask.pose)
+    assert (st_.x is None) == ("x" not in mask.pose_fields)
+    assert (st_.turret_vel is None) == ("turret_vel" not in mask.velocity_fields)
+    assert (st_.laser_count is None) == (not mask.laser)
     assert lay.raw_from_state(st_) == raw

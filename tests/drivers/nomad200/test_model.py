@@ -103,7 +103,8 @@ def test_nak_for_damaged_or_refused_packets() -> None:
     nak = encode_command(Cmd.GS)[:0] + bytes.fromhex("01 02 00 08 0b 5c")
     assert [r for _, r in m.feed(bytes(bad))] == [nak]
     assert [r for _, r in m.feed(b"\x01\x03\x00\x07\x00\x0b\x5c")] == [nak]  # GS with a payload
-    assert [r for _, r in m.feed(encode_command(Cmd.CT, 0, 0, 0, 0, 0, 1, 0))] == [nak]  # laser
+    refused = encode_command(Cmd.CONF_SN, 10, 16, *([255] * 15))  # there is no sonar 16
+    assert [r for _, r in m.feed(refused)] == [nak]
     assert [r for _, r in m.feed(b"\xff\xfe")] == []  # stray bytes are ignored
     assert m.naks == 3 and len(records(trace, "nak")) == 3
     assert decode_frame(m.feed(encode_command(Cmd.GS))[0][1]).type == Cmd.GS
