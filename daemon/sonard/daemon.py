@@ -159,6 +159,7 @@ def run(
     finally:
         notifier.stopping(reason)
         stopped = acq.stop_robot() if client.is_open else False
+        acq.drain()
         sink.event("stop", f"{reason}; robot {'stopped' if stopped else 'not answering'}")
         try:
             client.close()
