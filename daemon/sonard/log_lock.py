@@ -5,9 +5,9 @@ A second sonard given the same ``--out`` finds it held and learns the holder's P
 ``/proc/locks``; a crashed sonard's lock vanishes with its process, which is how the
 start-up scan (:mod:`sonard.crashed_logs`) tells a crashed log from a live one.
 
-The file is opened with ``O_CREAT`` but without ``O_EXCL`` and the lock decides: whoever
-holds it owns the file, and an owner that finds bytes in it refuses to overwrite them. Two
-sonards racing for a new name therefore end with one running and one refused, never two
+The file is created with ``O_EXCL``, so of two sonards racing for a new name exactly one
+creates it; the other finds it locked (waiting a moment for the winner to take the lock)
+and names the winner, or finds an unlocked file and refuses to overwrite it. Never two
 writers truncating each other.
 """
 
@@ -16,10 +16,15 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import time
 from pathlib import Path
 from types import TracebackType
 
 __all__ = ["LockBusy", "LogExists", "LogLock", "flock_holders", "is_locked"]
+
+
+#: how long an existing, unlocked log may still be a sonard's that is about to lock it (s)
+CREATE_GRACE_S = 0.3
 
 
 class LockBusy(BlockingIOError):
@@ -97,21 +102,34 @@ class LogLock:
 
     def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = Path(path)
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o640)
         try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            os.close(fd)
-            holders = flock_holders(self.path)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, 0o640)
+        except FileExistsError as err:
+            holders = self._wait_for_holder()
+            if holders is None:
+                raise LogExists(f"{self.path} exists; refusing to overwrite") from err
             who = f"PID {', '.join(map(str, holders))}" if holders else "another process"
             raise LockBusy(
                 f"{self.path} is being written by {who} (another sonard on the same log)",
                 holders,
             ) from err
-        if os.fstat(fd).st_size:
-            os.close(fd)
-            raise LogExists(f"{self.path} exists; refusing to overwrite")
+        # the file is new and ours: a sonard that lost the race to create it waits for this
+        fcntl.flock(fd, fcntl.LOCK_EX)
         self._fd: int | None = fd
+
+    def _wait_for_holder(self) -> tuple[int, ...] | None:
+        """The PIDs holding the existing file's lock, or None when no one does.
+
+        A sonard that has just created the file takes its lock a moment later, so an
+        unlocked file is looked at again for up to :data:`CREATE_GRACE_S`.
+        """
+        deadline = time.monotonic() + CREATE_GRACE_S
+        while True:
+            if is_locked(self.path):
+                return flock_holders(self.path)
+            if time.monotonic() > deadline:
+                return None
+            time.sleep(0.01)
 
     def release(self, *, remove: bool = False) -> None:
         """Drop the lock (idempotent); with ``remove``, delete the file first.

@@ -138,10 +138,9 @@ class PortLock:
                 holders = device_holders(self.device)
                 who = f"PID {', '.join(map(str, holders))}" if holders else "another process"
                 raise LockBusy(f"{self.port} is held exclusively by {who}", holders) from err
-            reason = err.strerror or str(err)
-            raise PortUnavailable(
-                err.errno, f"cannot open robot port {self.port}: {reason}"
-            ) from err
+            failure = PortUnavailable(f"cannot open robot port {self.port}: {err.strerror or err}")
+            failure.errno = err.errno
+            raise failure from err
         os.close(fd)
 
     def _take_lock_file(self, path: Path) -> None:
