@@ -136,6 +136,8 @@ class Acquisition:
             interval=plan.interval,
             attachments=plan.use_attachments,
         )
+        self.gap_s = max(len(plan.sonars) - 1, 1) * plan.interval
+        self._last_reply_t: float | None = None
         # two firing intervals: the latest a reply can report a firing (see sonard.ordering)
         self.order = TimeOrder(hold=2.0 * plan.interval)
         self.poll_period = max(
@@ -183,6 +185,20 @@ class Acquisition:
                 self.check_stop()
         raise AssertionError("unreachable")
 
+    def _note_gap(self, now: float) -> None:
+        """Record a ``gap`` event when good replies were too far apart to see every firing.
+
+        A reply shows each sonar's latest firing only; replies closer than one firing cycle
+        minus one interval cannot miss one. Further apart (garbled or lost replies, a
+        stall, a reconnect), firings between them may be missing from the log: the event
+        (at the last good reply, detail ``until T``) says where.
+        """
+        prev, self._last_reply_t = self._last_reply_t, now
+        if self.recording and prev is not None and now - prev > self.gap_s:
+            self.sink.event(
+                "gap", f"until {now:.6f}: {now - prev:.3f} s without a good reply", prev
+            )
+
     def drain(self) -> None:
         """Queue the readings still held for time ordering (the run is ending)."""
         self.sink.readings(self.order.drain())
@@ -211,6 +227,7 @@ class Acquisition:
         rows, pose = self.tagger.feed(state, time.time())
         if self.tagger.offset != offset:
             self.sink.event("clock", f"robot clock 0 is UNIX time {self.tagger.offset:.6f}")
+        self._note_gap(self.tagger.time_of(float(state.clock)))
         if self.recording:
             if len(rows):
                 rows = rows[rows["t"] - (self.tagger.offset or 0.0) >= self._frame_clock]

@@ -7,7 +7,8 @@ and rewrites each crashed sonard log in place with :func:`sonarlog.finalise_cras
 every intact reading is kept, the torn tail is dropped and counted, and the file keeps the
 mark ``crashed_run`` so readers still report it. A log whose ``flock`` is held belongs to
 a live sonard and is left alone; a crashed log without a single reading is removed (a run
-that failed before its first reading leaves no log).
+that failed before its first reading leaves no log), and so is an unreadable stub smaller
+than :data:`STUB_BYTES` (a sonard killed between creating the file and writing its layout).
 """
 
 from __future__ import annotations
@@ -58,12 +59,20 @@ def _locked(path: Path) -> Iterator[bool]:
         os.close(fd)
 
 
+#: a sonard log holds its layout (about 25 KiB) once created; an unreadable file smaller
+#: than this that no one holds is a sonard killed while creating it
+STUB_BYTES = 64 * 1024
+
+
 def _needs_finalising(path: Path) -> bool:
     try:
         info = read_superblock(path)
+        size = path.stat().st_size
     except OSError:
         return False
-    return info is not None and (info.open_for_write or info.cut)
+    if info is None:
+        return size < STUB_BYTES  # empty or half-written header
+    return info.open_for_write or info.cut
 
 
 def finalise_crashed_logs(directory: Path, *, skip: Path | None = None) -> list[Finalised]:
@@ -101,6 +110,13 @@ def _finalise_one(path: Path) -> Finalised | None:
     try:
         content = read_log(path)
     except InvalidLogError as err:
+        size = path.stat().st_size
+        if size < STUB_BYTES:
+            path.unlink()
+            log.warning(
+                "removed %s (%d bytes): its sonard was killed while creating it", path, size
+            )
+            return Finalised(path, "removed", detail=str(err))
         log.warning("crashed log %s cannot be finalised: %s", path, err)
         return Finalised(path, "unreadable", detail=str(err))
     if content.attrs.get("acquired_by") != "sonard":

@@ -8,7 +8,11 @@ Two mechanisms, because programs honour different ones:
   ``$SONARD_LOCK_DIR`` when set (tests), else the first writable of ``/run/lock`` and
   ``/var/lock``; when none is writable (a hardened service) this part is skipped;
 * **TIOCEXCL** on the tty: once set, the kernel refuses every further ``open`` of the
-  device (EBUSY) whatever the program, except for root.
+  device (EBUSY) whatever the program, except for root. The flag lasts until the last
+  handle on the tty closes: an emulator keeping its own handle on a pty keeps it set after
+  a crashed sonard, which then blocks a non-root restart;
+* the ``flock`` pyserial takes with ``exclusive=True`` (sonard's own client does) is
+  checked too, so a pyserial program holding the port is named even for root.
 
 :meth:`PortLock.acquire` checks both before sonard opens the port (so a refused sonard
 never sends a byte), and :meth:`PortLock.hold_exclusive` sets TIOCEXCL once sonard's own
@@ -28,7 +32,7 @@ import termios
 from pathlib import Path
 from typing import Any
 
-from sonard.log_lock import LockBusy
+from sonard.log_lock import LockBusy, flock_holders
 
 __all__ = ["ExclusiveClient", "PortLock", "PortUnavailable", "device_holders", "lock_dir"]
 
@@ -130,18 +134,27 @@ class PortLock:
             raise
 
     def _probe(self) -> None:
+        """Open the device once: EBUSY means exclusive mode, a held flock a pyserial owner."""
         assert self.device is not None
         try:
             fd = os.open(self.device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK | os.O_CLOEXEC)
         except OSError as err:
             if err.errno == errno.EBUSY:
-                holders = device_holders(self.device)
-                who = f"PID {', '.join(map(str, holders))}" if holders else "another process"
-                raise LockBusy(f"{self.port} is held exclusively by {who}", holders) from err
+                raise self._busy("is held exclusively by", device_holders(self.device)) from err
             failure = PortUnavailable(f"cannot open robot port {self.port}: {err.strerror or err}")
             failure.errno = err.errno
             raise failure from err
-        os.close(fd)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            holders = flock_holders(self.device) or device_holders(self.device)
+            raise self._busy("is locked by", holders) from err
+        finally:
+            os.close(fd)
+
+    def _busy(self, what: str, holders: tuple[int, ...]) -> LockBusy:
+        who = f"PID {', '.join(map(str, holders))}" if holders else "another process"
+        return LockBusy(f"{self.port} {what} {who}", holders)
 
     def _take_lock_file(self, path: Path) -> None:
         me = os.getpid()
