@@ -117,6 +117,46 @@ def run(
     OSError
         ``out`` cannot be created.
     """
+    stop = stop or threading.Event()
+    # handlers first: a SIGTERM during start-up (finalising old logs) still unlocks cleanly
+    old_handlers = _install_signal_handlers(stop) if install_signals else {}
+    try:
+        return _run_with_locks(
+            port,
+            plan,
+            out,
+            plan_text=plan_text,
+            baud=baud,
+            fault_timeout_s=fault_timeout_s,
+            stop=stop,
+            notifier=notifier,
+            truth=truth,
+        )
+    finally:
+        for signum, handler in old_handlers.items():
+            signal.signal(signum, handler)
+
+
+def _install_signal_handlers(stop: threading.Event) -> dict[int, Any]:
+    def _on_signal(signum: int, frame: FrameType | None) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    return {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
+
+
+def _run_with_locks(
+    port: str,
+    plan: Plan,
+    out: Path,
+    *,
+    plan_text: str,
+    baud: int | None,
+    fault_timeout_s: float | None,
+    stop: threading.Event,
+    notifier: Notifier | None,
+    truth: np.ndarray | None,
+) -> RunResult:
     log_lock = LogLock(out)
     try:
         finalise_crashed_logs(out.parent, skip=out)
@@ -127,6 +167,8 @@ def run(
         raise
     result = None
     try:
+        if stop.is_set():
+            raise Stopped
         result = _run_locked(
             port,
             plan,
@@ -137,14 +179,15 @@ def run(
             fault_timeout_s=fault_timeout_s,
             stop=stop,
             notifier=notifier,
-            install_signals=install_signals,
             truth=truth,
         )
+    except Stopped:
+        pass  # stopped during start-up: nothing was written
     finally:
         port_lock.release()
         # a run that failed before its first reading leaves no log to trip the next one
         log_lock.release(remove=result is None or (result.code != 0 and result.readings == 0))
-    return result
+    return result or RunResult(0, 0, 0, "stop requested")
 
 
 def _run_locked(
@@ -156,25 +199,14 @@ def _run_locked(
     plan_text: str,
     baud: int | None,
     fault_timeout_s: float | None,
-    stop: threading.Event | None,
+    stop: threading.Event,
     notifier: Notifier | None,
-    install_signals: bool,
     truth: np.ndarray | None,
 ) -> RunResult:
-    stop = stop or threading.Event()
     notifier = notifier or Notifier()
     baud = baud or plan.baud
     if baud != plan.baud:
         plan = plan.model_copy(update={"baud": baud})
-    old_handlers: dict[int, Any] = {}
-    if install_signals:
-
-        def _on_signal(signum: int, frame: FrameType | None) -> None:
-            log.info("signal %d: stopping", signum)
-            stop.set()
-
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            old_handlers[sig] = signal.signal(sig, _on_signal)
 
     attrs: dict[str, str | int | float | bool] = {
         "plan": plan_text,
@@ -241,8 +273,6 @@ def _run_locked(
             sink.close()
         except Exception as exc:
             code, reason = 1, f"log write failed: {exc}"
-        for signum, handler in old_handlers.items():
-            signal.signal(signum, handler)
         notifier.close()
     if code == 0 or sink.n_readings:
         log.info(
