@@ -34,6 +34,7 @@ from serial import SerialException
 from nomad200 import NomadDisconnected, NomadError
 from sonard.link import poll_seconds
 from sonard.notify import Notifier
+from sonard.ordering import TimeOrder
 from sonard.plan import Plan
 from sonard.tagging import Tagger
 from sonard.writer_thread import LogSink
@@ -62,8 +63,6 @@ def is_link_error(exc: BaseException) -> bool:
 
 #: attempts for a configuration command on a noisy line
 CONFIG_TRIES = 20
-#: commands that redefine the odometry frame
-FRAME_COMMANDS = frozenset({"zero", "define_position", "define_angles"})
 #: motor status bits: translating, steering, turret
 MOVING = 0b111
 
@@ -137,6 +136,10 @@ class Acquisition:
             interval=plan.interval,
             attachments=plan.use_attachments,
         )
+        self.gap_s = max(len(plan.sonars) - 1, 1) * plan.interval
+        self._last_reply_t: float | None = None
+        # two firing intervals: the latest a reply can report a firing (see sonard.ordering)
+        self.order = TimeOrder(hold=2.0 * plan.interval)
         self.poll_period = max(
             plan.interval, poll_seconds(len(plan.sonars), plan.use_attachments, plan.baud)
         )
@@ -182,6 +185,26 @@ class Acquisition:
                 self.check_stop()
         raise AssertionError("unreachable")
 
+    def _note_gap(self, now: float) -> None:
+        """Record a ``gap`` event when good replies were too far apart to see every firing.
+
+        A reply shows each sonar's latest firing only; replies closer than one firing cycle
+        minus one interval cannot miss one. Further apart (garbled or lost replies, a
+        stall, a reconnect), firings between them may be missing from the log: the event
+        (at the last good reply, detail ``until T``) says where.
+        """
+        prev, self._last_reply_t = self._last_reply_t, now
+        if self.recording and prev is not None and now - prev > self.gap_s:
+            self.sink.event(
+                "gap", f"until {now:.6f}: {now - prev:.3f} s without a good reply", prev
+            )
+
+    def drain(self) -> None:
+        """Queue the readings still held for time ordering (the run is ending)."""
+        self.sink.readings(self.order.drain())
+        if self.order.late:
+            self.sink.event("late", f"{self.order.late} out-of-order readings dropped")
+
     def stop_robot(self) -> bool:
         """Send ST (best effort: the client retries once); return whether it was answered."""
         try:
@@ -204,10 +227,11 @@ class Acquisition:
         rows, pose = self.tagger.feed(state, time.time())
         if self.tagger.offset != offset:
             self.sink.event("clock", f"robot clock 0 is UNIX time {self.tagger.offset:.6f}")
+        self._note_gap(self.tagger.time_of(float(state.clock)))
         if self.recording:
             if len(rows):
                 rows = rows[rows["t"] - (self.tagger.offset or 0.0) >= self._frame_clock]
-            self.sink.readings(rows)
+            self.sink.readings(self.order.push(rows, self.tagger.time_of(float(state.clock))))
             self.sink.poses(pose)
         else:
             rows = rows[:0]
@@ -222,32 +246,64 @@ class Acquisition:
         if self.stop_event.is_set():
             raise Stopped
 
-    # -- serial calls -----------------------------------------------------------------
-    def command(self, name: str, *args: Any, idempotent: bool = True) -> Any:
-        """Call a client method and feed its reply.
+    # -- robot commands (typed; every reply is a state and is fed like a poll) -------------
+    def set_speed(self, trans: float, steer: float, turret: float) -> Any:
+        """SP: speed limits of later moves (m/s, rad/s, rad/s); safe to repeat."""
+        return self._send(self.client.set_speed, trans, steer, turret)
+
+    def move_relative(self, trans: float, steer: float, turret: float) -> Any:
+        """PR: move by (m, rad, rad); re-sent only when the robot refused it (NAK)."""
+        return self._send(self.client.move_relative, trans, steer, turret, idempotent=False)
+
+    def move_velocity(self, v: float, w_steer: float, w_turret: float) -> Any:
+        """VM: drive at (m/s, rad/s, rad/s) until the next command; safe to repeat."""
+        return self._send(self.client.move_velocity, v, w_steer, w_turret)
+
+    def stop(self) -> Any:
+        """ST: stop every motor; safe to repeat."""
+        return self._send(self.client.stop)
+
+    def zero(self) -> Any:
+        """ZR: zero the odometry frame; not repeated once the robot may have run it."""
+        return self._send(self.client.zero, idempotent=False, new_frame=True)
+
+    def define_position(self, x: float, y: float) -> Any:
+        """DP: declare the robot position (m); starts a new odometry frame."""
+        return self._send(self.client.define_position, x, y, new_frame=True)
+
+    def define_angles(self, steer: float, turret: float) -> Any:
+        """DA: declare base and turret headings (rad); starts a new odometry frame."""
+        return self._send(self.client.define_angles, steer, turret, new_frame=True)
+
+    def _send(
+        self,
+        fn: Callable[..., Any],
+        *args: float,
+        idempotent: bool = True,
+        new_frame: bool = False,
+    ) -> Any:
+        """Call a client command and feed its reply; return the state, or None.
 
         A timeout or garbled reply is retried when ``idempotent`` (twice). A command that
         is not idempotent is re-sent only when the robot refused it (NAK: it did nothing),
         otherwise this returns None (the caller's closed loop checks the outcome on the next
-        poll). A lost link goes through :meth:`recover`.
+        poll). A lost link goes through :meth:`recover`. A ``new_frame`` command's reply
+        starts the logging: readings fired before it are in the old frame and dropped.
         """
         self.check_stop()
         tries = 3
         for i in range(tries):
             try:
-                reply = getattr(self.client, name)(*args)
-                if name in FRAME_COMMANDS and reply is not None:
-                    # a new odometry frame: readings fired before this reply are in the old
-                    # one and are dropped; from here on everything is logged
+                reply = fn(*args)
+                if new_frame and reply is not None:
                     self.tagger.forget_pose()
                     self._frame_clock = reply.clock
                     self.recording = True
-                st = self.feed(reply)
-                return st
+                return self.feed(reply)
             except NomadError as exc:
                 if is_link_error(exc):
                     self.recover(exc)
-                log.debug("%s failed (%d/%d): %s", name, i + 1, tries, exc)
+                log.debug("%s failed (%d/%d): %s", fn.__name__, i + 1, tries, exc)
                 if time.monotonic() - self._last_good > LINK_LOST_S:
                     self.recover(exc)
                 self.check_stop()

@@ -3,11 +3,12 @@
 Usage::
 
     sonard --port PORT --plan PLAN.yaml [--out LOG.h5] [--baud N] [--fault-timeout S]
-           [--truth WORLD.yaml] [-v]
+           [--truth WORLD.yaml] [-v] [--version]
 
-Exit codes: 0 the plan completed (or a stop was requested), 1 runtime failure, 2 usage or
-configuration error. Messages go to stderr through :mod:`logging`; under systemd
-(``$JOURNAL_STREAM`` set) they carry no timestamps, journald adds its own.
+Exit codes: 0 the plan completed (or a stop was requested), 1 runtime failure (including
+a log or port held by another process, named by PID), 2 usage or configuration error.
+Messages go to stderr through :mod:`logging`; under systemd (``$JOURNAL_STREAM`` set)
+they carry no timestamps, journald adds its own.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from sonard.plan import BAUD_RATES, PlanError, load_plan
+from sonarsim.shipped import resolve_shipped
 
 __all__ = ["default_out", "main"]
 
@@ -69,7 +71,17 @@ def _parser() -> argparse.ArgumentParser:
         "sonarproc report E1/E2)",
     )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv debug)")
+    p.add_argument("--version", action="version", version=f"sonard {_version()}")
     return p
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("sonarmorph")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
 
 
 def _setup_logging(verbose: int) -> None:
@@ -113,9 +125,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("sonard: --fault-timeout: must be 0 s or more", file=sys.stderr)
         return 2
     out: Path = args.out or default_out()
-    if out.exists():
-        print(f"sonard: --out: {out} exists; refusing to overwrite", file=sys.stderr)
-        return 2
     if not out.parent.is_dir():
         print(f"sonard: --out: directory {out.parent} does not exist", file=sys.stderr)
         return 2
@@ -130,23 +139,32 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"sonard: --truth: {exc}", file=sys.stderr)
             return 2
 
-    from sonard.daemon import run  # imports h5py and the driver: keep --help fast
+    # imports h5py and the driver: keep --help fast
+    from sonard.daemon import run
+    from sonard.log_lock import LockBusy, LogExists
+    from sonard.port_lock import PortUnavailable
 
     try:
         result = run(
             args.port,
             plan,
             out,
-            plan_text=args.plan.read_text(encoding="utf-8"),
+            plan_text=resolve_shipped(args.plan, kind="plans").read_text(encoding="utf-8"),
             baud=args.baud,
             fault_timeout_s=args.fault_timeout,
             truth=truth,
         )
+    except LogExists as exc:
+        print(f"sonard: --out: {exc}", file=sys.stderr)
+        return 2
+    except (LockBusy, PortUnavailable) as exc:
+        log.error("%s", exc)
+        return 1
     except OSError as exc:  # the log file could not be created
-        print(f"sonard: cannot create {out}: {exc.strerror or exc}", file=sys.stderr)
+        log.error("cannot create %s: %s", out, exc.strerror or exc)
         return 1
     if result.code:
-        print(f"sonard: {result.reason}", file=sys.stderr)
+        log.error("%s", result.reason)
     return result.code
 
 

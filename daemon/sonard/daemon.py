@@ -1,15 +1,19 @@
 """One acquisition run from start to exit: log, port, signals, plan, stop, close.
 
-Order of events: open the log (attributes carry the plan text, port, baud, software
-version), open and configure the robot, tell systemd ``READY=1``, run the plan, and in
-every case send ST, tell systemd ``STOPPING=1``, drain the writer thread and close the
-log. SIGTERM and SIGINT only set an event; every wait in the loop wakes on it, so the
-daemon stops the robot and exits 0 well within two seconds.
+Order of events: lock the log file (:mod:`sonard.log_lock`), finalise crashed logs of
+earlier runs in its directory (:mod:`sonard.crashed_logs`), lock the robot port
+(:mod:`sonard.port_lock`): all before a byte goes to the robot. Then open the log
+(attributes carry the plan text, port, baud, temperature, software version), open and
+configure the robot, tell systemd ``READY=1``, run the plan, and in every case send ST,
+tell systemd ``STOPPING=1``, drain the writer thread and close the log. A run that fails
+before its first reading removes its log. SIGTERM and SIGINT only set an event; every
+wait in the loop wakes on it, so the daemon stops the robot and exits 0 well within two seconds.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import threading
 import time
@@ -21,9 +25,12 @@ from typing import Any
 import numpy as np
 
 from sonard.acquisition import Acquisition, FaultAbort, Stopped
+from sonard.crashed_logs import finalise_crashed_logs
+from sonard.log_lock import LogLock
 from sonard.motion import MotionError
 from sonard.notify import Notifier
 from sonard.plan import Plan
+from sonard.port_lock import ExclusiveClient, PortLock
 from sonard.ring import ring_sensors
 from sonard.steps import run_plan
 from sonard.writer_thread import LogSink
@@ -97,21 +104,109 @@ def run(
     -------
     RunResult
         ``code`` 0 when the plan completed or a stop was requested, 1 on a runtime failure.
+
+    Raises
+    ------
+    sonard.log_lock.LockBusy
+        Another sonard writes ``out``, or another process holds the port (the message
+        names its PID); nothing was sent to the robot.
+    sonard.log_lock.LogExists
+        ``out`` already holds data.
+    sonard.port_lock.PortUnavailable
+        The port's device cannot be opened (missing, no permission).
+    OSError
+        ``out`` cannot be created.
     """
     stop = stop or threading.Event()
+    # handlers first: a SIGTERM during start-up (finalising old logs) still unlocks cleanly
+    old_handlers = _install_signal_handlers(stop) if install_signals else {}
+    try:
+        return _run_with_locks(
+            port,
+            plan,
+            out,
+            plan_text=plan_text,
+            baud=baud,
+            fault_timeout_s=fault_timeout_s,
+            stop=stop,
+            notifier=notifier,
+            truth=truth,
+        )
+    finally:
+        for signum, handler in old_handlers.items():
+            signal.signal(signum, handler)
+
+
+def _install_signal_handlers(stop: threading.Event) -> dict[int, Any]:
+    def _on_signal(signum: int, frame: FrameType | None) -> None:
+        log.info("signal %d: stopping", signum)
+        stop.set()
+
+    return {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGTERM, signal.SIGINT)}
+
+
+def _run_with_locks(
+    port: str,
+    plan: Plan,
+    out: Path,
+    *,
+    plan_text: str,
+    baud: int | None,
+    fault_timeout_s: float | None,
+    stop: threading.Event,
+    notifier: Notifier | None,
+    truth: np.ndarray | None,
+) -> RunResult:
+    log_lock = LogLock(out)
+    try:
+        finalise_crashed_logs(out.parent, skip=out)
+        port_lock = PortLock(port)
+        port_lock.acquire()
+    except BaseException:
+        log_lock.release(remove=True)
+        raise
+    result = None
+    try:
+        if stop.is_set():
+            raise Stopped
+        result = _run_locked(
+            port,
+            plan,
+            out,
+            ExclusiveClient(_client(port, baud or plan.baud), port_lock),
+            plan_text=plan_text,
+            baud=baud,
+            fault_timeout_s=fault_timeout_s,
+            stop=stop,
+            notifier=notifier,
+            truth=truth,
+        )
+    except Stopped:
+        pass  # stopped during start-up: nothing was written
+    finally:
+        port_lock.release()
+        # a run that failed before its first reading leaves no log to trip the next one
+        log_lock.release(remove=result is None or (result.code != 0 and result.readings == 0))
+    return result or RunResult(0, 0, 0, "stop requested")
+
+
+def _run_locked(
+    port: str,
+    plan: Plan,
+    out: Path,
+    client: Any,
+    *,
+    plan_text: str,
+    baud: int | None,
+    fault_timeout_s: float | None,
+    stop: threading.Event,
+    notifier: Notifier | None,
+    truth: np.ndarray | None,
+) -> RunResult:
     notifier = notifier or Notifier()
     baud = baud or plan.baud
     if baud != plan.baud:
         plan = plan.model_copy(update={"baud": baud})
-    old_handlers: dict[int, Any] = {}
-    if install_signals:
-
-        def _on_signal(signum: int, frame: FrameType | None) -> None:
-            log.info("signal %d: stopping", signum)
-            stop.set()
-
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            old_handlers[sig] = signal.signal(sig, _on_signal)
 
     attrs: dict[str, str | int | float | bool] = {
         "plan": plan_text,
@@ -122,6 +217,8 @@ def run(
         "pose_attachments": plan.use_attachments,
         "acquired_by": "sonard",
     }
+    if plan.temperature_c is not None:
+        attrs["temperature_c"] = plan.temperature_c
     writer = LogWriter(
         out,
         ring_sensors(),
@@ -132,7 +229,6 @@ def run(
         truth=truth,
     )
     sink = LogSink(writer)
-    client = _client(port, baud)
     acq = Acquisition(
         client, plan, sink, stop=stop, notifier=notifier, fault_timeout_s=fault_timeout_s
     )
@@ -140,7 +236,12 @@ def run(
     t0 = time.monotonic()
     sink.event("start", f"plan={plan.name} port={port} baud={baud}")
     try:
-        _start(acq, stop)
+        try:
+            _start(acq, stop)
+        except Exception as exc:
+            if not _is_nomad_error(exc):
+                raise
+            raise _PortFailure(f"cannot reach the robot on {port}: {_os_reason(exc)}") from exc
         notifier.ready(f"running plan {plan.name or out.name}")
         log.info("running plan %s on %s at %d baud -> %s", plan.name, port, baud, out)
         run_plan(acq, plan)
@@ -148,6 +249,9 @@ def run(
         reason = "stop requested"
     except FaultAbort as exc:
         code, reason = 1, str(exc)
+    except _PortFailure as exc:
+        code, reason = 1, str(exc)
+        sink.event("error", reason[:200])
     except MotionError as exc:
         code, reason = 1, f"motion failed: {exc}"
         sink.event("error", reason[:200])
@@ -159,6 +263,7 @@ def run(
     finally:
         notifier.stopping(reason)
         stopped = acq.stop_robot() if client.is_open else False
+        acq.drain()
         sink.event("stop", f"{reason}; robot {'stopped' if stopped else 'not answering'}")
         try:
             client.close()
@@ -168,16 +273,15 @@ def run(
             sink.close()
         except Exception as exc:
             code, reason = 1, f"log write failed: {exc}"
-        for signum, handler in old_handlers.items():
-            signal.signal(signum, handler)
         notifier.close()
-    log.info(
-        "%s: %d readings, %d faults, %.1f s",
-        reason,
-        sink.n_readings,
-        acq.n_faults,
-        time.monotonic() - t0,
-    )
+    if code == 0 or sink.n_readings:
+        log.info(
+            "%s: %d readings, %d faults, %.1f s",
+            reason,
+            sink.n_readings,
+            acq.n_faults,
+            time.monotonic() - t0,
+        )
     return RunResult(code, sink.n_readings, acq.n_faults, reason)
 
 
@@ -185,6 +289,25 @@ def _start(acq: Acquisition, stop: threading.Event) -> None:
     """Open and configure the robot; a failure here ends the run (systemd restarts it)."""
     acq.start()
     acq.poll()
+
+
+class _PortFailure(RuntimeError):
+    """The robot port could not be opened or the robot never answered."""
+
+
+def _os_reason(exc: BaseException) -> str:
+    """The operating system's words for why ``exc`` happened, without nested wrappers."""
+    chain: list[BaseException] = []
+    seen: BaseException | None = exc
+    while seen is not None and seen not in chain:
+        chain.append(seen)
+        seen = seen.__cause__ or seen.__context__
+    codes = [e.errno for e in chain if isinstance(e, OSError) and isinstance(e.errno, int)]
+    if codes:
+        return os.strerror(codes[-1])
+    if isinstance(exc, TimeoutError):
+        return "the robot does not answer"
+    return str(exc)
 
 
 def _is_nomad_error(exc: BaseException) -> bool:

@@ -83,7 +83,7 @@ def settle(
                 return
             if time.monotonic() - last_cmd > GRACE_S:
                 cmd = [e if abs(e) > t else 0.0 for e, t in zip(err, tol, strict=True)]
-                acq.command("move_relative", *cmd, idempotent=False)
+                acq.move_relative(*cmd)
                 last_cmd = time.monotonic()
         if time.monotonic() > deadline:
             raise MotionError(f"target not reached in {timeout_s:.0f} s (still {err})")

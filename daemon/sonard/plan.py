@@ -22,6 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from nomad200 import BAUD_RATES, BaudRate, ring
 from sonard.link import poll_seconds
+from sonarlog import speed_of_sound_at
+from sonarlog.acoustics import TEMPERATURE_RANGE_C
 from sonarsim.shipped import resolve_shipped
 
 __all__ = [
@@ -188,13 +190,32 @@ class Plan(BaseModel):
     force: bool = False
     baud: BaudRate = 9600
     speed_of_sound: float = Field(343.3, ge=300.0, le=400.0)
+    temperature_c: float | None = Field(
+        None,
+        ge=TEMPERATURE_RANGE_C[0],
+        le=TEMPERATURE_RANGE_C[1],
+        description="air temperature, °C; sets speed_of_sound",
+    )
     pose_attachments: bool | Literal["auto"] = "auto"
     watchdog: int = Field(2, ge=0, le=255, description="robot motion watchdog, s (0 = off)")
     fault_timeout_s: float = Field(30.0, ge=0.0, le=86400.0)
     steps: list[Step] = Field(min_length=1)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _one_speed_source(cls, data: Any) -> Any:
+        if isinstance(data, dict) and {"speed_of_sound", "temperature_c"} <= data.keys():
+            raise ValueError(
+                "temperature_c: give either temperature_c (°C, sets the speed of sound) "
+                "or speed_of_sound (m/s), not both"
+            )
+        return data
+
     @model_validator(mode="after")
     def _check(self) -> Plan:
+        if self.temperature_c is not None:
+            # frozen model: set the derived field once, during validation
+            object.__setattr__(self, "speed_of_sound", speed_of_sound_at(self.temperature_c))
         for s in self.sonars:
             if not 0 <= s <= 15:
                 raise ValueError(f"sonars: id {s} out of range (0 to 15)")

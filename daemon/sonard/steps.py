@@ -69,7 +69,7 @@ class ZeroRun(StepRun):
             if n.watchdog_period:  # ZR blocks up to 120 s: widen the systemd watchdog meanwhile
                 n.send(f"WATCHDOG_USEC={int(ZR_WATCHDOG_S * 1e6)}")
             try:
-                reply = acq.command("zero", idempotent=False)
+                reply = acq.zero()
             finally:
                 if n.watchdog_period:
                     n.send(f"WATCHDOG_USEC={int(n.watchdog_period * 2e6)}")
@@ -88,8 +88,8 @@ class DefinePoseRun(StepRun):
     def run(self, acq: Acquisition) -> None:
         s: DefinePose = self.step
         turret = s.theta if s.turret is None else s.turret
-        acq.command("define_position", s.x, s.y)
-        acq.command("define_angles", s.theta, turret)
+        acq.define_position(s.x, s.y)
+        acq.define_angles(s.theta, turret)
         acq.poll()
 
 
@@ -116,7 +116,7 @@ class TranslateRun(StepRun):
                     sign * min(k * s.step, abs(s.distance)) for k in range(1, n + 1)
                 ]
             self.started = True
-        acq.command("set_speed", s.speed, DEFAULT_TURN, DEFAULT_TURN)
+        acq.set_speed(s.speed, DEFAULT_TURN, DEFAULT_TURN)
         while self.reached < len(self.targets):
             translate_to(acq, self.origin, self.heading, self.targets[self.reached], s.speed)
             if s.mode == "stop-and-fire":
@@ -141,7 +141,7 @@ class RotateRun(StepRun):
                 turret = wrap(st.turret + a) if s.turret == "follow" else st.turret
                 self.legs.append((wrap(st.steer + a), turret))
             self.started = True
-        acq.command("set_speed", 0.1, s.speed, s.speed)
+        acq.set_speed(0.1, s.speed, s.speed)
         while self.reached < len(self.legs):
             turn_to(acq, *self.legs[self.reached], speed=s.speed)
             self.reached += 1
@@ -163,7 +163,7 @@ class TurretSweepRun(StepRun):
             sign = math.copysign(1.0, span) if span else 1.0
             self.targets = [wrap(base + s.from_ + sign * k * s.step) for k in range(n + 1)]
             self.started = True
-        acq.command("set_speed", 0.1, s.speed, s.speed)
+        acq.set_speed(0.1, s.speed, s.speed)
         while self.reached < len(self.targets):
             turn_to(acq, None, self.targets[self.reached], speed=s.speed)
             self.fire_at_stop(acq, s.cycles)
@@ -178,7 +178,7 @@ class GotoRun(StepRun):
 
     def run(self, acq: Acquisition) -> None:
         s: Goto = self.step
-        acq.command("set_speed", s.speed, s.turn_speed, s.turn_speed)
+        acq.set_speed(s.speed, s.turn_speed, s.turn_speed)
         st = acq.poll()
         offset = wrap(st.turret - st.steer)
         while self.phase < 3:
@@ -260,4 +260,4 @@ def run_plan(acq: Acquisition, plan: Plan) -> None:
         # A link drop during this ST raises Resume from recover(), which has already
         # stopped the robot on reconnecting: the step is done either way.
         with contextlib.suppress(Resume):
-            acq.command("stop")
+            acq.stop()

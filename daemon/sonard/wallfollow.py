@@ -108,7 +108,7 @@ class WallFollower:
         st = acq.poll()
         # the side sonar must look square to the path: turret along the steering
         if abs(wrap(st.turret - st.steer)) > math.radians(0.5):
-            acq.command("set_speed", s.speed, s.turn_speed, s.turn_speed)
+            acq.set_speed(s.speed, s.turn_speed, s.turn_speed)
             turn_to(acq, None, st.steer, s.turn_speed)
         self._last_xy = None
         self.points.clear()
@@ -122,8 +122,8 @@ class WallFollower:
             if self.wall_dir is None:
                 self.wall_dir = st.steer
             if min(self._ahead.values(), default=math.inf) < s.distance + CORNER_MARGIN:
-                acq.command("stop")
-                acq.command("set_speed", s.speed, s.turn_speed, s.turn_speed)
+                acq.stop()
+                acq.set_speed(s.speed, s.turn_speed, s.turn_speed)
                 turn = wrap(st.steer - self.sign * math.pi / 2)
                 turn_to(acq, turn, wrap(turn + st.turret - st.steer), s.turn_speed)
                 self.points.clear()
@@ -142,6 +142,6 @@ class WallFollower:
             cmd = (s.speed, round(w, 3))
             now = st.clock  # robot time: an emulator in fast mode runs it ahead of ours
             if cmd != last_cmd or now - last_sent > RESEND_S:
-                acq.command("move_velocity", s.speed, w, w)
+                acq.move_velocity(s.speed, w, w)
                 last_cmd, last_sent = cmd, now
-        acq.command("stop")
+        acq.stop()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import logging
 import os
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ from sonarlog.schema import (
     REQUIRED_SENSOR_FIELDS,
     SENSOR_DTYPE,
 )
+from sonarlog.state import CRASHED_ATTR, LogState, integrity_warning, read_superblock
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +76,25 @@ class SonarLog:
     poses, events : numpy.ndarray or None
         The optional pose stream and event list.
     dropped_rows : int
-        Torn rows at the end of ``/readings`` that were dropped.
+        Torn rows at the end of ``/readings`` that were dropped (0 for a closed log).
+    log_state : {"closed", "crashed", "cut"}
+        How the file ended: ``"closed"`` by its writer; ``"crashed"`` when the writer died
+        with the file open (still flagged open, or finalised by sonard afterwards, root
+        attribute ``crashed_run``); ``"cut"`` when the file is shorter than HDF5 recorded
+        (a copy that stopped early, a full disk). A log a live sonard is still writing
+        reads as ``"crashed"`` with :attr:`live` set.
+    live : bool
+        A sonard holds the file's lock: it is being written now, the tail will grow.
+    backward_steps : int
+        How many times ``t`` goes back from one reading to the next (0 in a log that keeps
+        the contract's non-decreasing order).
+
+    Notes
+    -----
+    Callers that process a log (``sonarproc run``) should print :meth:`integrity_warning`
+    when it is not None and store it with :attr:`intact_rows` and :attr:`dropped_rows` in
+    their report: a crashed or cut log is read, but silently processing it would hide that
+    readings are missing.
     """
 
     path: Path
@@ -85,6 +105,45 @@ class SonarLog:
     poses: np.ndarray | None = None
     events: np.ndarray | None = None
     dropped_rows: int = 0
+    log_state: LogState = "closed"
+    live: bool = False
+    backward_steps: int = 0
+
+    @property
+    def intact_rows(self) -> int:
+        """Readings kept: the intact prefix of ``/readings`` (``len(self.readings)``)."""
+        return len(self.readings)
+
+    @property
+    def time_ordered(self) -> bool:
+        """Whether ``t`` never goes back from one reading to the next."""
+        return self.backward_steps == 0
+
+    def integrity_warning(self) -> str | None:
+        """One line for a crashed or cut log, None for a closed one.
+
+        It names the file, the intact and dropped row counts and, unless sonard already
+        finalised the log, the repair command ``sonarproc recover LOG``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from sonarlog import READING_DTYPE, SENSOR_DTYPE
+        >>> log = SonarLog(Path("run.h5"), {}, np.zeros(1, SENSOR_DTYPE),
+        ...                np.zeros(5, READING_DTYPE), dropped_rows=2, log_state="crashed")
+        >>> print(log.integrity_warning().replace("; ", ";\\n"))
+        run.h5: its writer crashed: 5 intact readings, 2 torn rows dropped;
+        to write a clean copy: sonarproc recover run.h5
+        """
+        if self.live:
+            return f"{self.path}: still being written by sonard: {self.intact_rows} readings so far"
+        return integrity_warning(
+            self.path,
+            self.log_state,
+            intact=self.intact_rows,
+            dropped=self.dropped_rows,
+            finalised=bool(self.attrs.get(CRASHED_ATTR, False)),
+        )
 
     @property
     def speed_of_sound(self) -> float:
@@ -258,6 +317,7 @@ def read_log(path: str | os.PathLike[str]) -> SonarLog:
         ``format_version``, missing attribute, dataset or field.
     """
     p = Path(path)
+    state, live = _state_before_opening(p)
     with open_log_file(p) as f:
         try:
             attrs = {k: _attr(v) for k, v in f.attrs.items()}
@@ -283,8 +343,18 @@ def read_log(path: str | os.PathLike[str]) -> SonarLog:
         except (OSError, RuntimeError, KeyError, TypeError) as err:
             first = (str(err).strip().splitlines() or [type(err).__name__])[0]
             raise InvalidLogError(f"{p}: unreadable sonarlog ({first})") from err
+    if state == "cut":
+        # the cut file was salvaged through a clean copy, which counted what it dropped
+        attrs.pop("recovered_from", None)
+        dropped += int(attrs.pop("recovered_dropped_rows", 0))
+    elif attrs.get(CRASHED_ATTR):
+        state = "crashed"  # finalised by sonard: the clean copy counted what it dropped
+        dropped += int(attrs.get("recovered_dropped_rows", 0))
     if dropped:
         log.warning("%s: dropped %d torn row(s) at the end of /readings", p, dropped)
+    backward = int(np.count_nonzero(np.diff(readings["t"]) < 0))
+    if backward:
+        log.warning("%s: t goes back %d time(s): readings are not in time order", p, backward)
     return SonarLog(
         path=p,
         attrs=attrs,
@@ -294,4 +364,38 @@ def read_log(path: str | os.PathLike[str]) -> SonarLog:
         poses=poses,
         events=events,
         dropped_rows=int(dropped),
+        log_state=state,
+        live=live,
+        backward_steps=backward,
     )
+
+
+def _state_before_opening(path: Path) -> tuple[LogState, bool]:
+    """(state from the superblock, whether a live sonard holds the file's lock)."""
+    try:
+        info = read_superblock(path)
+    except OSError:
+        return "closed", False  # open_log_file reports the file itself
+    if info is None:
+        return "closed", False
+    if info.cut:
+        return "cut", False
+    if not info.open_for_write:
+        return "closed", False
+    return "crashed", _locked_by_writer(path)
+
+
+def _locked_by_writer(path: Path) -> bool:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(fd)  # closing drops the shared lock if we took it
+    return False

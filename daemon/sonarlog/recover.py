@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sonarlog.reader import read_log
-from sonarlog.writer import LogWriter
+from sonarlog.state import CRASHED_ATTR
+from sonarlog.writer import AttrValue, LogWriter
 
 _WRITER_OWNED = {"format", "format_version", "speed_of_sound", "robot"}
 
@@ -57,10 +58,43 @@ def recover_log(
     dst = Path(destination) if destination is not None else default_recovered_path(src)
     if dst.exists() and dst.resolve() == src.resolve():
         raise ValueError(f"{dst}: the recovered copy must not overwrite the source log")
+    return _copy_intact(src, dst, {})
+
+
+def finalise_crashed_log(path: str | os.PathLike[str]) -> RecoveryReport:
+    """Rewrite a log whose writer crashed as a cleanly closed file, in place.
+
+    Every intact reading, pose and event is kept; torn rows are dropped and counted in the
+    root attribute ``recovered_dropped_rows``. The result carries ``crashed_run = True``,
+    so :func:`sonarlog.read_log` still reports ``log_state == "crashed"``, while plain HDF5
+    tools (``h5py.File(path, "r")``, h5dump) open it. The original is replaced atomically
+    only once the copy is complete; a crash during finalisation leaves the original.
+
+    Parameters
+    ----------
+    path : path-like
+        The crashed log (the caller makes sure no live writer holds it).
+
+    Returns
+    -------
+    RecoveryReport
+        ``destination`` is ``path`` itself.
+
+    Raises
+    ------
+    InvalidLogError
+        If nothing of ``path`` can be read as a sonarlog.
+    """
+    p = Path(path)
+    return _copy_intact(p, p, {CRASHED_ATTR: True})
+
+
+def _copy_intact(src: Path, dst: Path, more: dict[str, AttrValue]) -> RecoveryReport:
     log = read_log(src)
     extra = {k: v for k, v in log.attrs.items() if k not in _WRITER_OWNED}
     extra["recovered_from"] = str(src)
     extra["recovered_dropped_rows"] = int(log.dropped_rows)
+    extra.update(more)
     tmp = dst.with_name(dst.name + ".partial")
     with LogWriter(
         tmp,
@@ -76,6 +110,8 @@ def recover_log(
             writer.append_poses(log.poses)
         if log.events is not None:
             writer.append_events(log.events)
+    with open(tmp, "rb") as fh:
+        os.fsync(fh.fileno())
     os.replace(tmp, dst)
     return RecoveryReport(
         source=src,

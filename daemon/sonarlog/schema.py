@@ -1,4 +1,4 @@
-"""sonarlog v1 schema: the record layouts and attribute names of the sonarlog v1 format (docs/formats.md).
+"""sonarlog v1 schema: the record layouts and attribute names (docs/formats.md).
 
 All quantities are SI (m, s, rad). The required fields are fixed by the contract; this
 writer adds two integrity fields to every reading, ``seq`` and ``check``, which readers use

@@ -136,7 +136,9 @@ class LogWriter:
         self._n_written = 0
         self._closed = False
 
-        self._file = h5py.File(self.path, "w", libver=LIBVER)
+        # HDF5's own file lock would clash with the flock sonard holds on the log for the
+        # whole run (flock locks belong to open files, not processes): the owner locks.
+        self._file = h5py.File(self.path, "w", libver=LIBVER, locking=False)
         try:
             self._create_layout(table, speed_of_sound, robot, attrs or {}, truth)
             self._file.swmr_mode = True

@@ -88,9 +88,29 @@ def test_unreachable_port_is_a_runtime_failure(
     out = tmp_path / "b.h5"
     assert main(["--port", str(tmp_path / "ttyGONE"), "--plan", str(plan), "--out", str(out)]) == 1
     err = capsys.readouterr().err.strip().splitlines()
-    assert "ttyGONE" in err[-1] and "Traceback" not in "\n".join(err)
-    kinds = [e["kind"] for e in read_log(out).events]
-    assert kinds[0] == b"start" and kinds[-1] == b"stop"
+    # one ERROR line: what failed, which port, the OS reason
+    assert len(err) == 1 and " ERROR sonard: cannot open robot port " in err[0]
+    assert err[0].endswith(f"{tmp_path / 'ttyGONE'}: No such file or directory")
+    # a run that failed before its first reading leaves no log: the retry is not refused
+    assert not out.exists()
+    assert main(["--port", str(tmp_path / "ttyGONE"), "--plan", str(plan), "--out", str(out)]) == 1
+    assert "refusing" not in capsys.readouterr().err
+
+
+def test_unreachable_url_is_one_error_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plan = _plan(tmp_path, [{"dwell": {"seconds": 0.1}}])
+    out = tmp_path / "u.h5"
+    assert main(["--port", "nomad://?world=gone.yaml", "--plan", str(plan), "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "ERROR sonard: cannot reach the robot on nomad://" in err[0]
+    assert not out.exists()
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("sonard ")
 
 
 def test_fault_timeout_aborts_cleanly(tmp_path: Path) -> None:

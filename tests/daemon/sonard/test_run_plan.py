@@ -32,10 +32,16 @@ class ScriptedAcquisition:
             self.resume_on[name] -= 1
             raise Resume
 
-    def command(self, name: str, *args: Any, **kwargs: Any) -> Any:
+    def _command(self, name: str) -> Any:
         self.calls.append(name)
         self._maybe_resume(name)
         return self.state
+
+    def stop(self) -> Any:
+        return self._command("stop")
+
+    def zero(self) -> Any:
+        return self._command("zero")
 
     def poll(self) -> Any:
         self.calls.append("poll")
@@ -79,7 +85,7 @@ def test_zero_that_is_never_acknowledged_fails_the_plan(monkeypatch: pytest.Monk
     from sonard.motion import MotionError
 
     acq = ScriptedAcquisition({})
-    monkeypatch.setattr(acq, "command", lambda name, *a, **k: None if name == "zero" else acq.state)
+    monkeypatch.setattr(acq, "zero", lambda: None)
     with pytest.raises(MotionError, match="ZR was not acknowledged"):
         run_plan(acq, _plan(["zero", {"dwell": {"seconds": 0.08}}]))  # type: ignore[arg-type]
 
@@ -133,5 +139,5 @@ def test_non_idempotent_commands_are_resent_only_after_a_refusal(
     client = _FlakyClient(errors)
     sink = SimpleNamespace(event=lambda *_a, **_k: None)
     acq = Acquisition(client, _plan([{"dwell": {"seconds": 1}}]), sink, stop=threading.Event())  # type: ignore[arg-type]
-    acq.command("move_relative", 0.1, 0.0, 0.0, idempotent=False)
+    acq.move_relative(0.1, 0.0, 0.0)
     assert client.sent == sent

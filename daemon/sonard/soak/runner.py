@@ -1,0 +1,400 @@
+"""``scripts/soak DURATION``: run sonard against a faulty emulator and check what it logged.
+
+Usage::
+
+    scripts/soak DURATION [--fault-every S] [--kill-trials N] [--dir DIR] [--keep]
+
+``DURATION`` is ``90s``, ``5m``, ``1h`` (or plain seconds). One sonard runs a dwell plan for
+``DURATION`` on the emulator (:mod:`sonard.soak.emulator`: a fault every ``--fault-every``
+seconds, 60 by default, garbled, dropped, stalled and unplugged in turn), its RSS and open
+file descriptors sampled meanwhile; it is stopped with SIGTERM. Then ``--kill-trials``
+sonards are started one after the other and SIGKILLed at a random moment; each start
+finalises the previous one's log.
+
+Checks (exit 1 when one fails, 2 on bad arguments):
+
+* every firing in the emulator's trace is in the log or inside a logged outage;
+* no reading without a firing, and ``t`` never goes back;
+* sonard's open file descriptors end where they started (after warm-up), and (runs of
+  30 minutes or more) its RSS grows less than 1 MiB per hour;
+* every killed log opens with plain ``h5py.File(path, "r")`` after the next start, reads as
+  ``crashed``, and lost at most 1 s of readings before the kill.
+
+A rich progress display is shown when stdout is a terminal; otherwise only the summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from sonard.soak.accounting import account_firings, load_firings, slope_per_hour
+
+__all__ = ["Sample", "SoakResult", "main", "parse_duration"]
+
+INTERVAL = 0.04
+SONARS = (14, 15, 0, 1, 2)
+#: RSS and fd samples before this are warm-up (s, or 10 % of the run if longer)
+WARMUP_S = 60.0
+RSS_LIMIT_MIB_PER_H = 1.0
+RSS_CHECK_MIN_S = 1800.0
+MAX_LOSS_S = 1.0
+
+
+def parse_duration(text: str) -> float:
+    """Seconds in ``"90"``, ``"90s"``, ``"5m"``, ``"1h"``, ``"1h30m"``.
+
+    Examples
+    --------
+    >>> parse_duration("1h30m"), parse_duration("45s"), parse_duration("2")
+    (5400.0, 45.0, 2.0)
+    """
+    parts = re.fullmatch(r"(?:(\d+(?:\.\d+)?)h)?(?:(\d+(?:\.\d+)?)m)?(?:(\d+(?:\.\d+)?)s?)?", text)
+    if not text or parts is None or not any(parts.groups()):
+        raise ValueError(f"DURATION: {text!r} is not a duration (e.g. 90s, 5m, 1h)")
+    h, m, s = (float(g) if g else 0.0 for g in parts.groups())
+    return h * 3600 + m * 60 + s
+
+
+@dataclass
+class Sample:
+    """One look at the sonard process."""
+
+    t: float
+    rss_kib: int
+    fds: int
+
+
+@dataclass
+class SoakResult:
+    """Figures and verdicts of one soak."""
+
+    duration_s: float
+    faults: int = 0
+    figures: dict[str, Any] = field(default_factory=dict)
+    failures: list[str] = field(default_factory=list)
+
+
+def _plan(path: Path, seconds: float) -> None:
+    chunks = []
+    left = seconds + 120.0  # sonard is stopped by SIGTERM before the plan ends
+    while left > 0:
+        chunks.append(f"  - dwell: {{seconds: {min(left, 3600.0):.1f}}}\n")
+        left -= 3600.0
+    path.write_text(
+        f"name: soak\nsonars: {list(SONARS)}\ninterval: {INTERVAL}\nbaud: 38400\n"
+        "pose_attachments: true\nfault_timeout_s: 120\nsteps:\n" + "".join(chunks),
+        encoding="utf-8",
+    )
+
+
+def _sample(pid: int) -> Sample | None:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text(encoding="ascii")
+        fds = len(os.listdir(f"/proc/{pid}/fd"))
+    except OSError:
+        return None
+    m = re.search(r"VmRSS:\s+(\d+)", status)
+    return Sample(time.monotonic(), int(m.group(1)) if m else 0, fds)
+
+
+class _Procs:
+    """The emulator and sonard processes of one soak, with the paths they share."""
+
+    def __init__(self, work: Path, fault_every: float) -> None:
+        self.work = work
+        self.link = work / "robot-tty"
+        self.trace = work / "trace.jsonl"
+        self.faults = work / "faults.jsonl"
+        self.plan = work / "plan.yaml"
+        self.env = {k: v for k, v in os.environ.items() if k not in ("NOTIFY_SOCKET",)}
+        self.env["SONARD_LOCK_DIR"] = str(work / "lock")
+        (work / "lock").mkdir(exist_ok=True)
+        (work / "logs").mkdir(exist_ok=True)
+        from sonarsim.shipped import resolve_shipped
+
+        world = resolve_shipped("lab", kind="worlds")
+        self.emulator = subprocess.Popen(
+            [
+                *(sys.executable, "-m", "sonard.soak.emulator", "--world", str(world)),
+                *("--link", str(self.link), "--trace", str(self.trace)),
+                *("--faults", str(self.faults), "--every", str(fault_every)),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=open(work / "emulator.err", "w"),  # noqa: SIM115 - lives as long as it
+            text=True,
+            env=self.env,
+        )
+        assert self.emulator.stdout is not None
+        if not self.emulator.stdout.readline().strip():
+            raise RuntimeError(f"emulator did not start (see {work / 'emulator.err'})")
+
+    def sonard(self, out: Path, err: IO[str]) -> subprocess.Popen[str]:
+        return subprocess.Popen(
+            [
+                *(sys.executable, "-m", "sonard", "--port", str(self.link)),
+                *("--plan", str(self.plan), "--out", str(out)),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            text=True,
+            env=self.env,
+        )
+
+    def close(self) -> None:
+        if self.emulator.poll() is None:
+            self.emulator.send_signal(signal.SIGTERM)
+            try:
+                self.emulator.wait(10)
+            except subprocess.TimeoutExpired:
+                self.emulator.kill()
+                self.emulator.wait()
+
+
+def _progress(tty: bool, duration: float) -> Any:
+    if not tty:
+        return None
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    bar = Progress(
+        TextColumn("[bold]soak[/]"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeRemainingColumn(),
+        TextColumn("{task.fields[info]}"),
+    )
+    bar.start()
+    bar.add_task("soak", total=duration, info="")
+    return bar
+
+
+def _long_run(procs: _Procs, duration: float, result: SoakResult, tty: bool) -> Path:
+    out = procs.work / "logs" / "soak.h5"
+    samples: list[Sample] = []
+    period = 2.0 if duration < 600 else 10.0
+    with open(procs.work / "sonard.err", "w", encoding="utf-8") as err:
+        proc = procs.sonard(out, err)
+        bar = _progress(tty, duration)
+        start = time.monotonic()
+        try:
+            while (elapsed := time.monotonic() - start) < duration:
+                if proc.poll() is not None:
+                    result.failures.append(f"sonard exited early with {proc.returncode}")
+                    break
+                s = _sample(proc.pid)
+                if s is not None:
+                    samples.append(s)
+                    if bar is not None:
+                        info = f"RSS {s.rss_kib / 1024:.1f} MiB, {s.fds} fds"
+                        bar.update(0, completed=elapsed, info=info)
+                time.sleep(min(period, max(0.0, duration - elapsed)))
+        finally:
+            if bar is not None:
+                bar.stop()
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
+            code = proc.wait(30)
+    if code != 0:
+        result.failures.append(f"sonard exited {code} on SIGTERM (see {procs.work}/sonard.err)")
+    _resources(samples, duration, result)
+    return out
+
+
+def _resources(samples: list[Sample], duration: float, result: SoakResult) -> None:
+    if len(samples) < 3:
+        result.failures.append("too few samples of sonard's RSS and fds")
+        return
+    t = np.array([s.t for s in samples]) - samples[0].t
+    warm = t >= min(max(WARMUP_S, 0.1 * duration), 0.5 * t[-1])
+    rss = np.array([s.rss_kib for s in samples], dtype=float) / 1024.0
+    fds = np.array([s.fds for s in samples], dtype=float)
+    rss_slope = slope_per_hour(t[warm], rss[warm])
+    fd_slope = slope_per_hour(t[warm], fds[warm])
+    result.figures.update(
+        rss_start_mib=round(float(rss[warm][0]), 2),
+        rss_end_mib=round(float(rss[-1]), 2),
+        rss_slope_mib_per_h=round(rss_slope, 3),
+        fds_start=int(fds[warm][0]),
+        fds_end=int(fds[-1]),
+        fds_max=int(fds.max()),
+        fd_slope_per_h=round(fd_slope, 2),
+    )
+    if fds[-1] > fds[warm][0] + 2:
+        result.failures.append(f"open fds grew from {fds[warm][0]:.0f} to {fds[-1]:.0f}")
+    if duration >= RSS_CHECK_MIN_S and rss_slope >= RSS_LIMIT_MIB_PER_H:
+        result.failures.append(f"RSS grows {rss_slope:.2f} MiB/h (limit {RSS_LIMIT_MIB_PER_H})")
+
+
+def _check_log(procs: _Procs, out: Path, result: SoakResult) -> None:
+    from sonarlog import read_log
+
+    log = read_log(out)
+    fire_t, fire_sonar = load_firings(procs.trace)
+    acc = account_firings(fire_t, fire_sonar, log, interval=INTERVAL)
+    kinds = [bytes(k).decode() for k in log.events["kind"]] if log.events is not None else []
+    result.faults = len(procs.faults.read_text(encoding="utf-8").splitlines())
+    result.figures.update(
+        readings=len(log.readings),
+        firings=acc.firings,
+        firings_logged=acc.logged,
+        firings_in_outage=acc.in_outage,
+        firings_unaccounted=acc.unaccounted,
+        extra_readings=acc.extra_readings,
+        gap_events=kinds.count("gap"),
+        fault_events=kinds.count("fault"),
+        reconnects=kinds.count("reconnect"),
+        backward_steps=log.backward_steps,
+        log_state=log.log_state,
+    )
+    if acc.unaccounted:
+        result.failures.append(
+            f"{acc.unaccounted} firings neither logged nor in an outage (e.g. {acc.examples})"
+        )
+    if acc.extra_readings:
+        result.failures.append(f"{acc.extra_readings} readings match no firing")
+    if log.backward_steps:
+        result.failures.append(f"t goes back {log.backward_steps} times")
+    if log.log_state != "closed":
+        result.failures.append(f"log state {log.log_state} after SIGTERM")
+    if acc.firings == 0:
+        result.failures.append("no firings in the run")
+
+
+def _wait_finalised(path: Path | None, proc: subprocess.Popen[str]) -> None:
+    from sonarlog import read_superblock
+
+    deadline = time.monotonic() + 30.0
+    while path is not None and time.monotonic() < deadline and proc.poll() is None:
+        try:
+            info = read_superblock(path)
+        except FileNotFoundError:
+            return  # removed: it had no reading
+        if info is not None and not info.open_for_write:
+            return
+        time.sleep(0.1)
+
+
+def _kill_trials(procs: _Procs, n: int, seed: int, result: SoakResult) -> None:
+    """Start sonard, SIGKILL it at a random moment, repeat; the next start finalises."""
+    import h5py
+
+    from sonarlog import read_log
+
+    rng = np.random.default_rng(seed)
+    killed: list[tuple[Path, float]] = []
+    with open(procs.work / "kills.err", "w", encoding="utf-8") as err:
+        for i in range(n + 1):
+            out = procs.work / "logs" / f"kill-{i:03d}.h5"
+            proc = procs.sonard(out, err)
+            if i == n:  # the last start only finalises the last killed log
+                _wait_finalised(killed[-1][0] if killed else None, proc)
+                proc.send_signal(signal.SIGTERM)
+                proc.wait(30)
+                break
+            time.sleep(float(rng.uniform(1.5, 4.0)))  # start-up (~1 s) plus a random run
+            kill_t = time.time()
+            proc.kill()
+            proc.wait(10)
+            killed.append((out, kill_t))
+    worst = 0.0
+    for path, kill_t in killed:
+        if not path.exists():
+            continue  # killed before its first reading: the next start removed it
+        try:
+            with h5py.File(path, "r") as f:
+                n_rows = f["readings"].shape[0]
+        except OSError as exc:
+            result.failures.append(f"{path.name}: plain h5py cannot open it ({exc})")
+            continue
+        log = read_log(path)
+        if log.log_state != "crashed" or n_rows != len(log.readings):
+            result.failures.append(f"{path.name}: state {log.log_state}, {n_rows} rows")
+        if len(log.readings):
+            worst = max(worst, kill_t - float(log.readings["t"].max()))
+    result.figures.update(kill_trials=len(killed), worst_loss_s=round(worst, 3))
+    if worst > MAX_LOSS_S:
+        result.failures.append(f"a kill lost {worst:.2f} s of readings (limit {MAX_LOSS_S} s)")
+
+
+def soak(
+    duration: float,
+    *,
+    fault_every: float,
+    kill_trials: int,
+    work: Path,
+    seed: int = 0,
+    tty: bool = False,
+) -> SoakResult:
+    """Run the soak in ``work``; return its figures and failures."""
+    result = SoakResult(duration)
+    _plan(work / "plan.yaml", duration)
+    procs = _Procs(work, fault_every)
+    try:
+        out = _long_run(procs, duration, result, tty)
+        if kill_trials:
+            _kill_trials(procs, kill_trials, seed, result)
+    finally:
+        procs.close()
+    _check_log(procs, out, result)
+    return result
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="soak",
+        description="Soak sonard against the emulator with a fault every minute; check the log.",
+    )
+    p.add_argument("duration", metavar="DURATION", help="how long sonard runs: 90s, 5m, 1h")
+    p.add_argument("--fault-every", type=float, default=60.0, metavar="S", help="default 60")
+    p.add_argument("--kill-trials", type=int, default=30, metavar="N", help="default 30")
+    p.add_argument("--dir", type=Path, help="work directory (default: a new temporary one)")
+    p.add_argument("--keep", action="store_true", help="keep the work directory on success")
+    p.add_argument("--seed", type=int, default=0, help="kill moments")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the soak command line; return the exit code (0 pass, 1 a check failed, 2 usage)."""
+    try:
+        args = _parser().parse_args(argv)
+        duration = parse_duration(args.duration)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    except ValueError as exc:
+        print(f"soak: {exc}", file=sys.stderr)
+        return 2
+    if args.fault_every <= 0 or args.kill_trials < 0:
+        print("soak: --fault-every must be > 0 and --kill-trials >= 0", file=sys.stderr)
+        return 2
+    work = args.dir or Path(tempfile.mkdtemp(prefix="sonard-soak-"))
+    work.mkdir(parents=True, exist_ok=True)
+    result = soak(
+        duration,
+        fault_every=args.fault_every,
+        kill_trials=args.kill_trials,
+        work=work,
+        seed=args.seed,
+        tty=sys.stdout.isatty(),
+    )
+    print(f"soak: {duration:.0f} s, {result.faults} faults injected, work directory {work}")
+    for key, value in result.figures.items():
+        print(f"  {key}: {value}")
+    for failure in result.failures:
+        print(f"FAIL: {failure}")
+    print("soak: PASS" if not result.failures else "soak: FAIL")
+    if not result.failures and not args.keep and args.dir is None:
+        shutil.rmtree(work, ignore_errors=True)
+    return 1 if result.failures else 0
