@@ -2,8 +2,9 @@
 
 The format is sonarlog v1 (docs/formats.md). :class:`LogWriter` appends crash-safely
 (SWMR, batched writes, a flush + fsync at least every half second); :func:`read_log`
-validates, recovers the intact prefix of a damaged file, says how the file ended (:attr:`SonarLog.log_state`,
-:meth:`SonarLog.integrity_warning`) and computes transducer world poses in one vectorised call.
+validates, recovers the intact prefix of a damaged file, says how the file ended
+(:attr:`SonarLog.log_state`, :meth:`SonarLog.integrity_warning`) and computes transducer
+world poses in one vectorised call.
 """
 
 from sonarlog.acoustics import speed_of_sound_at
