@@ -300,6 +300,28 @@ def _range_ids(names: list[str], spec: SensorSet | None) -> dict[str, int]:
     return {n: k for k, n in enumerate(sorted(names))}
 
 
+def _tf_table(
+    path: Path,
+    col: RangeCollector,
+    static: StaticTransforms,
+    base: str,
+    ids: dict[str, int],
+    name_of: dict[tuple[str, str], str],
+    frame_of: dict[str, str],
+) -> np.ndarray:
+    table = np.zeros(len(ids), dtype=SENSOR_DTYPE)
+    for k, (name, sid) in enumerate(sorted(ids.items(), key=lambda kv: kv[1])):
+        mount = static.mount(frame_of[name], base)
+        if mount is None:
+            raise SourceError(
+                f"{path}: no mount for sonar frame {frame_of[name] or name} (no /tf_static "
+                f"transform to it); give a robot preset or a sensors file"
+            )
+        fov, lo, hi = next(b for p, b in col.beams.items() if name_of[p] == name)
+        table[k] = (sid, mount[0], mount[1], mount[2], fov / 2.0, lo, hi)
+    return table
+
+
 def _from_ranges(
     path: Path, col: RangeCollector, static: StaticTransforms, base: str, spec: SensorSet | None
 ) -> tuple[RawValues, np.ndarray, dict[str, int], str]:
@@ -310,22 +332,14 @@ def _from_ranges(
     name_of = {p: (p[1] if by_frame else p[0]) for p in pairs}
     frame_of = {name_of[p]: p[1] for p in pairs}
     ids = _range_ids(sorted(frame_of), spec)
-    table = np.zeros(len(ids), dtype=SENSOR_DTYPE)
-    spec_rows = {int(r["id"]): r for r in spec.table} if spec is not None else {}
-    for k, (name, sid) in enumerate(sorted(ids.items(), key=lambda kv: kv[1])):
-        if spec is not None:
-            if sid not in spec_rows:
+    if spec is not None:
+        known = {int(i) for i in spec.table["id"]}
+        for name, sid in sorted(ids.items()):
+            if sid not in known:
                 raise SourceError(f"{path}: frame {name} is transducer {sid}, not in {spec.source}")
-            table[k] = spec_rows[sid]
-            continue
-        mount = static.mount(frame_of[name], base)
-        if mount is None:
-            raise SourceError(
-                f"{path}: no mount for sonar frame {frame_of[name] or name} (no /tf_static "
-                f"transform to it); give a robot preset or a sensors file"
-            )
-        fov, lo, hi = next(b for p, b in col.beams.items() if name_of[p] == name)
-        table[k] = (sid, mount[0], mount[1], mount[2], fov / 2.0, lo, hi)
+        table = spec.table
+    else:
+        table = _tf_table(path, col, static, base, ids, name_of, frame_of)
     lookup = {p: ids[name_of[p]] for p in pairs}
     sensor = np.array([lookup[p] for p in zip(col.topic, col.frame, strict=True)], dtype=np.int64)
     rng = np.asarray(col.range, dtype=np.float64)

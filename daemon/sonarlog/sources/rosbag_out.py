@@ -4,7 +4,7 @@ The bag holds, all stamped with the readings' times:
 
 * ``/sonar/sonar_<id>``: ``sensor_msgs/Range`` per reading, in frame ``sonar_<id>``
   (ultrasound, field of view = beam width, a no-echo reading as ``+inf``, REP 117);
-* ``/tf``: ``odom -> base_link`` whenever the pose changes (and ``base_link -> turret``
+* ``/tf``: ``odom -> base_link`` where each pose starts and ends (and ``base_link -> turret``
   when the log has a turret that turns apart from the base);
 * ``/tf_static``: ``base_link -> sonar_<id>`` (or ``turret -> sonar_<id>``), offered as
   transient-local so a late subscriber still gets it;
@@ -247,11 +247,17 @@ def write_rosbag2(
             )
             put(mconn, t0, arr, "visualization_msgs/msg/MarkerArray")
 
-        # One /tf message per change of pose: the readings of a firing cycle share one.
+        # A /tf message where the pose starts and where it ends being the same: readings
+        # of one firing cycle share a pose, and a reader interpolating the tf between the
+        # two gets it back exactly.
         pose = np.column_stack([rows["x"], rows["y"], rows["theta"], rows["turret"]])
-        new = np.ones(len(rows), dtype=bool)
-        new[1:] = np.any(pose[1:] != pose[:-1], axis=1)
-        for j in np.flatnonzero(new):
+        edge = np.ones(len(rows), dtype=bool)
+        change = np.any(pose[1:] != pose[:-1], axis=1)
+        edge[1:] = change
+        edge[:-1] |= change
+        if len(rows):
+            edge[-1] = True
+        for j in np.flatnonzero(edge):
             t = float(rows["t"][j])
             x, y, th, tu = (float(v) for v in pose[j])
             trs = [m.transform(t, ODOM_FRAME, BASE_FRAME, x, y, th)]

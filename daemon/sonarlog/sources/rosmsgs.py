@@ -57,6 +57,11 @@ def stamp_of(header: Any, fallback_ns: int) -> float:
     return sec + nsec * 1e-9
 
 
+def _decimal(value: float) -> float:
+    """A float32 field as the shortest decimal that rounds to it (0.1, not 0.100000001)."""
+    return float(str(np.float32(value)))
+
+
 @dataclass
 class RangeCollector:
     """``sensor_msgs/Range`` messages: one value each, named by frame and topic."""
@@ -79,7 +84,8 @@ class RangeCollector:
         self.frame.append(frame)
         self.range.append(msg.range)
         self.beams.setdefault(
-            (topic, frame), (float(msg.field_of_view), float(msg.min_range), float(msg.max_range))
+            (topic, frame),
+            (_decimal(msg.field_of_view), _decimal(msg.min_range), _decimal(msg.max_range)),
         )
 
 
