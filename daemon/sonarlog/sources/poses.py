@@ -39,7 +39,7 @@ def yaw_from_quaternion(
     Examples
     --------
     >>> float(np.degrees(yaw_from_quaternion(0.0, 0.0, np.sin(0.25), np.cos(0.25))).round(6))
-    28.647890
+    28.64789
     """
     x, y, z, w = (np.asarray(v, dtype=np.float64) for v in (qx, qy, qz, qw))
     return np.asarray(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))

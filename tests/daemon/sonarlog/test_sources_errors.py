@@ -150,7 +150,7 @@ def test_not_a_log_and_missing_file(tmp_path: Path) -> None:
 
 
 def test_bad_presets_and_temperature(tmp_path: Path, run: SimRun) -> None:
-    with pytest.raises(SourceError, match="no preset of that name.*pioneer3-dx"):
+    with pytest.raises(SourceError, match=r"no preset of that name.*pioneer3-dx"):
         load_sensors("pioneer9")
     bad = tmp_path / "s.yaml"
     bad.write_text("sensors:\n  - {id: 0, x: 0, y: 0, heading: 0, half_beamwidth: 0.2, "

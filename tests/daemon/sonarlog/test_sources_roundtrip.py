@@ -134,7 +134,7 @@ def test_import_writes_sonarlog_and_refuses_to_overwrite(tmp_path: Path, run: Si
     _check(back, exp)
     assert back.attrs["temperature_c"] == 20.0
     assert abs(back.speed_of_sound - 343.21) < 0.01
-    assert '"stale_dropped": %d' % exp.stale in back.attrs["import_summary"]
+    assert f'"stale_dropped": {exp.stale}' in back.attrs["import_summary"]
     assert summary.counts.readings == len(back.readings)
     assert back.poses is not None and len(back.poses) == summary.counts.poses
     before = out.read_bytes()

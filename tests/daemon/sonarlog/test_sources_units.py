@@ -6,7 +6,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-import pytest
 from bagbuilders import T0, BagWriter, sim_run
 from hypothesis import given, settings
 from hypothesis import strategies as st
