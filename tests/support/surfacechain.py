@@ -95,7 +95,9 @@ def run_chain(
 def summary(res: ChainResult) -> dict[str, Any]:
     """A short description for messages."""
     return {
-        "surfaces": [(s.model, round(s.length_m, 2), round(s.rms_m, 4)) for s in res.found.surfaces],
+        "surfaces": [
+            (s.model, round(s.length_m, 2), round(s.rms_m, 4)) for s in res.found.surfaces
+        ],
         "metrics": None if res.metrics is None else res.metrics.to_json(),
         "timings_s": {k: round(v, 3) for k, v in res.timings_s.items()},
     }
