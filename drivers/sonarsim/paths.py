@@ -87,6 +87,39 @@ def line_locations(
     return np.asarray(a + (b - a) * f[:, None], dtype=np.float64)
 
 
+def route_poses(waypoints: ArrayLike, *, step: float) -> Poses:
+    """Stops every ``step`` metres along a polyline of waypoints, facing along the route.
+
+    The base (and the turret with it) heads along the piece of route the stop lies on;
+    at a waypoint the robot has already turned to the next piece (it turns on the spot,
+    as a synchro-drive robot does).
+
+    Examples
+    --------
+    >>> p = route_poses([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], step=0.5)
+    >>> p.x.tolist(), p.y.tolist(), np.rad2deg(p.theta).round(3).tolist()
+    ([0.0, 0.5, 1.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.5, 1.0], [0.0, 0.0, 90.0, 90.0, 90.0])
+    """
+    w = np.asarray(waypoints, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] < 2:
+        raise ValueError("a route needs at least two waypoints [x, y]")
+    if not step > 0:
+        raise ValueError(f"step must be > 0, got {step}")
+    seg = np.diff(w, axis=0)
+    length = np.hypot(seg[:, 0], seg[:, 1])
+    if np.any(length <= 0):
+        raise ValueError("route waypoints must differ from the one before")
+    s_way = np.concatenate(([0.0], np.cumsum(length)))
+    n = int(np.floor(s_way[-1] / step + 1e-9)) + 1
+    s = step * np.arange(n)
+    piece = np.clip(np.searchsorted(s_way, s + 1e-9, side="right") - 1, 0, len(length) - 1)
+    heading = np.arctan2(seg[:, 1], seg[:, 0])
+    x = np.interp(s, s_way, w[:, 0])
+    y = np.interp(s, s_way, w[:, 1])
+    theta = heading[piece]
+    return Poses(x, y, theta, theta)
+
+
 def grid_poses(
     locations: ArrayLike,
     *,

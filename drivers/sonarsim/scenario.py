@@ -19,7 +19,7 @@ from pydantic import ValidationError
 
 from sonarsim.arrays import SensorArray, circular_array, linear_array, make_array, random_array
 from sonarsim.geometry import FloatArray
-from sonarsim.paths import Poses, grid_poses, line_locations, sweep
+from sonarsim.paths import Poses, grid_poses, line_locations, route_poses, sweep
 from sonarsim.scenario_spec import (
     Angles,
     ArrayRef,
@@ -29,6 +29,7 @@ from sonarsim.scenario_spec import (
     LinearArray,
     PathSpec,
     RandomArray,
+    Route,
     ScenarioSpec,
     SensorDefaults,
     SensorFile,
@@ -124,6 +125,10 @@ def _build_array(spec: Any, defaults: SensorDefaults, rng_seed: int) -> SensorAr
 def _build_poses(spec: PathSpec | None) -> tuple[Poses, FloatArray]:
     if spec is None:
         return Poses.still(), np.zeros(1)
+    rot = _angles(spec.sensor_rotation_deg)
+    rotation = np.zeros(1) if rot is None else rot
+    if isinstance(spec.locations, Route):
+        return route_poses(spec.locations.waypoints, step=spec.locations.step), rotation
     if isinstance(spec.locations, list):
         loc = np.asarray(spec.locations, dtype=np.float64).reshape(-1, 2)
     else:
@@ -132,8 +137,7 @@ def _build_poses(spec: PathSpec | None) -> tuple[Poses, FloatArray]:
     theta = _angles(spec.theta_deg)
     assert theta is not None
     turret = _angles(spec.turret_deg)
-    rot = _angles(spec.sensor_rotation_deg)
-    return grid_poses(loc, theta=theta, turret=turret), np.zeros(1) if rot is None else rot
+    return grid_poses(loc, theta=theta, turret=turret), rotation
 
 
 def scenario_from_dict(

@@ -143,13 +143,32 @@ class Line(_Model):
         return self
 
 
-class PathSpec(_Model):
-    """Stops: every location x base heading x turret heading x sensor rotation."""
+class Route(_Model):
+    """Stops every ``step`` metres along ``waypoints``, the robot facing along the route."""
 
-    locations: Line | list[Point] = Field(default_factory=lambda: [(0.0, 0.0)])
+    waypoints: list[Point] = Field(min_length=2)
+    step: float = Field(gt=0)
+
+
+class PathSpec(_Model):
+    """Stops: every location x base heading x turret heading x sensor rotation.
+
+    With ``locations: {waypoints: [...], step: S}`` (a :class:`Route`) the base and the
+    turret face along the route, so ``theta_deg`` and ``turret_deg`` must not be given.
+    """
+
+    locations: Line | Route | list[Point] = Field(default_factory=lambda: [(0.0, 0.0)])
     theta_deg: Angles = 0.0
     turret_deg: Angles | None = None
     sensor_rotation_deg: Angles | None = None
+
+    @model_validator(mode="after")
+    def _route_heading(self) -> PathSpec:
+        if isinstance(self.locations, Route) and (
+            "theta_deg" in self.model_fields_set or self.turret_deg is not None
+        ):
+            raise ValueError("a route sets the headings itself: drop theta_deg and turret_deg")
+        return self
 
 
 class TimingSpec(_Model):

@@ -125,7 +125,8 @@ class World:
         -------
         ndarray, shape (N, 2)
             Samples in surface order; when every included surface is a curve ``y = f(x)``
-            the samples are sorted by x.
+            the samples are sorted by x. Otherwise, with several surfaces, each is its own
+            polyline and a row of NaN separates them (sonarlog's multi-surface truth).
         """
         idx = (
             [i for i, s in enumerate(self.surfaces) if s.truth]
@@ -134,10 +135,12 @@ class World:
         )
         if not idx:
             return np.zeros((0, 2))
-        pts = np.concatenate([self.surfaces[i].sample(spacing) for i in idx])
+        parts = [self.surfaces[i].sample(spacing) for i in idx]
         if all(isinstance(self.surfaces[i], Curve) for i in idx):
-            pts = pts[np.argsort(pts[:, 0], kind="stable")]
-        return pts
+            pts = np.concatenate(parts)
+            return pts[np.argsort(pts[:, 0], kind="stable")]
+        gap = np.full((1, 2), np.nan)
+        return np.concatenate([r for k, p in enumerate(parts) for r in ((gap, p) if k else (p,))])
 
 
 # --- YAML schema ---------------------------------------------------------------------------

@@ -1,0 +1,78 @@
+"""Several surfaces from one arc map: a ridge that keeps every wall, extraction, fits.
+
+The paper fits one curve y = f(x) through every kept cell. A robot in a corridor or a
+room sees several walls, corners, boxes and pillars; this package finds them separately:
+
+1. :func:`ridge_nms` thins the arc-count map across each ridge's own direction (every
+   wall survives, whatever its direction);
+2. :func:`find_surfaces` splits the kept cells into surfaces (gaps bridged, corners
+   cut, each ordered along its length) and fits each with a line, an arc or a spline
+   (:func:`fit_surface`, model chosen by a stated criterion);
+3. :func:`decide` says whether the cells are after all one function of x (the paper's
+   scenes, where the paper's polynomial applies);
+4. :func:`surface_metrics` and :func:`seen_truth` measure fits against a multi-surface
+   truth; :func:`write_surfaces_csv` and :func:`write_surfaces_geojson` write them.
+"""
+
+from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
+from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
+from sonarproc.surfaces.models import (
+    SurfaceFailure,
+    SurfaceFit,
+    choose_model,
+    fit_arc,
+    fit_line,
+    fit_spline,
+    fit_surface,
+)
+from sonarproc.surfaces.polylines import (
+    distance_to_polylines,
+    join_polylines,
+    resample,
+    split_polylines,
+)
+from sonarproc.surfaces.ridge import ridge_directions, ridge_nms
+from sonarproc.surfaces.truth import (
+    SurfaceMetrics,
+    seen_truth,
+    surface_metrics,
+    truth_is_function,
+    truth_points,
+)
+from sonarproc.surfaces.writers import (
+    surfaces_geojson,
+    write_surfaces_csv,
+    write_surfaces_geojson,
+)
+
+__all__ = [
+    "Decision",
+    "SurfaceCells",
+    "SurfaceFailure",
+    "SurfaceFit",
+    "SurfaceMetrics",
+    "SurfaceParams",
+    "SurfaceSet",
+    "cells_of",
+    "choose_model",
+    "decide",
+    "distance_to_polylines",
+    "extract_surfaces",
+    "find_surfaces",
+    "fit_arc",
+    "fit_line",
+    "fit_spline",
+    "fit_surface",
+    "join_polylines",
+    "resample",
+    "ridge_directions",
+    "ridge_nms",
+    "seen_truth",
+    "split_polylines",
+    "surface_metrics",
+    "surfaces_geojson",
+    "truth_is_function",
+    "truth_points",
+    "write_surfaces_csv",
+    "write_surfaces_geojson",
+]

@@ -1,0 +1,81 @@
+"""Benchmark: the surface stage (ridge, extraction, fits) against the whole run.
+
+The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wandering in a
+20 m x 20 m room, 90 000 readings, mapped at 1 cm (2000 x 2000 cells). The whole run is
+``sonarproc.pipeline.process`` on it (in this process, best of three); the surface
+stage is :func:`sonarproc.surfaces.ridge_nms` on the processed map then
+:func:`sonarproc.surfaces.find_surfaces`, timed on the same map. Target: extraction +
+fits add at most 20 % to the whole run. Also prints the metrics time (seen truth).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sonarlog import read_log
+from sonarproc.params import RunParams
+from sonarproc.pipeline import process
+from sonarproc.surfaces import find_surfaces, ridge_nms, seen_truth, surface_metrics, truth_points
+
+TARGET = 0.20
+
+# the room log of the whole-run benchmark (a sibling test module: load it by path)
+_spec = importlib.util.spec_from_file_location(
+    "bench_run", Path(__file__).with_name("test_bench_run.py")
+)
+assert _spec is not None and _spec.loader is not None
+_bench_run = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_bench_run)
+ROOM: float = _bench_run.ROOM
+write_room_log = _bench_run.write_room_log
+
+
+def _best(fn, repeat: int = 3) -> tuple[float, object]:  # type: ignore[no-untyped-def]
+    out = None
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+@pytest.mark.benchmark
+def test_bench_surface_stage(tmp_path: Path) -> None:
+    path = tmp_path / "hour.h5"
+    n = write_room_log(path, 1.0)
+    lg = read_log(path)
+    params = RunParams(cell=0.01, bbox=(0.0, ROOM, 0.0, ROOM), ops="vote:2", fit="polar")
+    whole, res = _best(lambda: process(lg, params))
+    assert res is not None
+    counts, processed, grid = res.counts_map, res.processed, res.grid  # type: ignore[attr-defined]
+    t_ridge, thin = _best(lambda: ridge_nms(processed, counts))
+    t_find, found = _best(lambda: find_surfaces(thin, grid, counts))
+    tp = lg.transducer_poses(lg.readings[np.isfinite(lg.readings["tof"])])
+    r = lg.readings[np.isfinite(lg.readings["tof"])]
+    pts = np.concatenate(truth_points(lg.truth))
+    t0 = time.perf_counter()
+    seen = seen_truth(pts, tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, lg.path_lengths(r),
+                      tx_half_beamwidth=tp.tx_half_beamwidth,
+                      rx_half_beamwidth=tp.rx_half_beamwidth)  # fmt: skip
+    m = surface_metrics(found.polylines(), lg.truth, seen=seen)  # type: ignore[attr-defined]
+    t_metrics = time.perf_counter() - t0
+    stage = t_ridge + t_find
+    print(
+        f"\nsurfaces: {n} readings, {grid.nx} x {grid.ny} cells, "  # type: ignore[attr-defined]
+        f"{int(processed.sum())} kept cells, {len(found.surfaces)} surfaces"
+    )  # type: ignore[attr-defined]
+    print(f"  whole run (process, vote:2, polar fit) {whole:.2f} s")
+    print(
+        f"  ridge {t_ridge:.3f} s + find_surfaces {t_find:.3f} s = {stage:.3f} s: "
+        f"ratio to the whole run {stage / whole:.3f} (target <= {TARGET:.2f})"
+    )
+    print(
+        f"  metrics (seen truth over {pts.shape[0]} truth points + precision/completeness) "
+        f"{t_metrics:.2f} s: precision {m.precision_m} m, completeness {m.completeness}"
+    )
