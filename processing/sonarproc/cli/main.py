@@ -5,13 +5,13 @@ from __future__ import annotations
 import sys
 from typing import NoReturn
 
-from sonarproc.cli import compare, export, recover, run, simulate, sweep, watch
+from sonarproc.cli import compare, export, import_log, recover, run, simulate, sweep, watch
 from sonarproc.cli.app import app
 
 __all__ = ["main", "run_console"]
 
 #: The subcommand modules (imported for their side effect of registering on ``app``).
-COMMANDS = (compare, export, recover, run, simulate, sweep, watch)
+COMMANDS = (compare, export, import_log, recover, run, simulate, sweep, watch)
 
 
 def main(argv: list[str] | None = None) -> int:

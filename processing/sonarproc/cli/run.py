@@ -149,6 +149,8 @@ def run_command(
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
         try:
             result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)
+            if result.log_warning:
+                typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
             doc = write_report(result, out_dir)
         finally:

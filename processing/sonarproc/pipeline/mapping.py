@@ -116,7 +116,7 @@ def evaluate_map(
         params, grid, mmap.processed, mmap.evidence, truth=truth, robot_xy=robot_xy, stage=stage
     )
     t_cpu = time.process_time() - cpu_start
-    return RunResult.of(
+    result = RunResult.of(
         ev,
         source=source,
         params=params,
@@ -128,6 +128,11 @@ def evaluate_map(
         t_cpu_s=t_cpu,
         timings_s=timings,
     )
+    # A crashed or cut log is processed, but never silently (its state is in the report).
+    result.log_state = str(getattr(log_, "log_state", "closed"))
+    warning = getattr(log_, "integrity_warning", None)
+    result.log_warning = warning() if callable(warning) else None
+    return result
 
 
 def map_log(

@@ -40,6 +40,8 @@ class RunResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     centre: tuple[float, float] | None = None
     robot_xy: npt.NDArray[np.float64] | None = None
+    log_state: str = "closed"
+    log_warning: str | None = None
 
     @classmethod
     def of(

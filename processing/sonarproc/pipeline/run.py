@@ -72,24 +72,48 @@ def process(
 def load_log(
     path: str | Path, *, sensors: str | Path | None = None, truth: str | Path | None = None
 ) -> SonarLog:
-    """Read a sonarlog (``.h5``) or, with ``sensors``, a readings CSV; optional truth CSV."""
+    """Read any log this tool reads, in memory.
+
+    A sonarlog (``.h5``); with ``sensors``, a readings CSV; or, through
+    :func:`sonarlog.sources.read_source`, a ROS 1 bag, a ROS 2 bag directory or a Player
+    log (``sensors`` then gives the mounts). ``truth``: a truth CSV replacing the log's.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``path`` does not exist.
+    ParameterError
+        A CSV log without ``sensors``.
+    InputError
+        A directory that is not a ROS 2 bag.
+    sonarlog.SonarLogError
+        A log that cannot be read (damaged, or a bag missing what a map needs).
+    """
+    from sonarlog.sources import read_source
+
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(2, "no such file", str(p))
-    if p.is_dir():
-        raise InputError(f"{p}: is a directory, not a log (a sonarlog .h5 or a readings CSV)")
     truth_xy = None
     if truth is not None:
         from sonarlog.csvlog import read_truth_csv
 
         truth_xy = read_truth_csv(truth)
-    if sensors is not None or p.suffix.lower() == ".csv":
+    if p.suffix.lower() == ".csv":
         if sensors is None:
             raise ParameterError("sensors", f"is required for a CSV log ({p})")
         from sonarlog.csvlog import read_csv_log
 
         return read_csv_log(p, sensors, truth=truth_xy)
-    lg = read_log(p)
+    if p.is_dir() and not (p / "metadata.yaml").is_file():
+        raise InputError(
+            f"{p}: is a directory, not a log (a sonarlog .h5, a readings CSV, a ROS 1 bag, "
+            "a ROS 2 bag directory or a Player log)"
+        )
+    if p.is_dir() or p.suffix.lower() not in (".h5", ".hdf5"):
+        lg, _ = read_source(p, sensors=sensors)
+    else:
+        lg = read_log(p)
     return lg if truth_xy is None else replace(lg, truth=truth_xy)
 
 

@@ -51,7 +51,8 @@ def report_dict(result: RunResult) -> dict[str, Any]:
     """The content of ``report.json``.
 
     Keys: ``format``, ``version``, ``software``, ``source``, ``method``, ``parameters``,
-    ``grid``, ``counts``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
+    ``grid``, ``counts``, ``log_state`` (``closed``, ``crashed``, ``cut``), ``intact_rows``,
+    ``dropped_rows``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
     and, when the log has a truth profile, ``E1_m``, ``E2``, ``sigma_y_m``), ``truth``,
     ``timings_s``.
     """
@@ -85,6 +86,9 @@ def report_dict(result: RunResult) -> dict[str, Any]:
             "extent": list(g.centre_extent),
         },
         "counts": dict(result.counts),
+        "log_state": result.log_state,
+        "intact_rows": int(result.counts.get("readings_total", 0)),
+        "dropped_rows": int(result.counts.get("dropped_torn_rows", 0)),
         "fit": fit,
         "metrics": metrics,
         "truth": result.truth is not None,

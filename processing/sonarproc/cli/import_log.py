@@ -1,0 +1,75 @@
+"""``sonarproc import``: any robot's log (ROS 1/2 bag, Player log, sonarlog) to sonarlog v1.
+
+The reading, pose interpolation, stale-reading removal and mounts are
+:mod:`sonarlog.sources`; this module parses options and prints what was found.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from sonarproc.cli.app import app, fail, guarded
+
+__all__ = ["import_command"]
+
+
+@app.command("import")
+def import_command(
+    log: Annotated[
+        Path,
+        typer.Argument(
+            metavar="LOG", help="A ROS 1 .bag, a ROS 2 bag directory, a Player log or a sonarlog."
+        ),
+    ],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="The sonarlog to write (.h5).")
+    ] = None,
+    sonar_topic: Annotated[
+        str | None, typer.Option("--sonar-topic", help="Sonar topic(s) or Player device.")
+    ] = None,
+    odom_topic: Annotated[
+        str | None, typer.Option("--odom-topic", help="Pose topic (Odometry, PoseStamped, /tf).")
+    ] = None,
+    robot: Annotated[
+        str | None,
+        typer.Option("--robot", help="Mount preset (pioneer3-dx, pioneer3-at, nomad200, ...)."),
+    ] = None,
+    sensors: Annotated[
+        Path | None, typer.Option("--sensors", help="Sensors YAML with the mounts.")
+    ] = None,
+    temperature: Annotated[
+        float | None, typer.Option("--temperature", help="Air temperature (°C).")
+    ] = None,
+    list_only: Annotated[
+        bool, typer.Option("--list", help="Show the topics found and which would be used.")
+    ] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite OUT if it exists.")] = False,
+) -> None:
+    """Convert LOG to a sonarlog v1 file (or, with --list, show what it holds)."""
+    from rich.console import Console
+    from rich.table import Table
+
+    from sonarlog.sources import import_to_sonarlog, list_source
+
+    with guarded():
+        if list_only:
+            rows = list_source(log)
+            table = Table(title=f"sonarproc import --list: {log}")
+            for col in ("topic", "type", "messages", "use", "why"):
+                table.add_column(col)
+            for r in rows:
+                table.add_row(r.name, r.msgtype, str(r.count), r.role or "-", r.reason)
+            Console().print(table)
+            return
+        if out is None:
+            fail("--out is required (the sonarlog to write), or pass --list")
+        summary = import_to_sonarlog(
+            log, out, force=force, sonar_topic=sonar_topic, odom_topic=odom_topic, robot=robot,
+            sensors=sensors, temperature_c=temperature,
+        )  # fmt: skip
+    for line in summary.lines():
+        typer.echo(f"sonarproc import: {line}", err=True)
+    typer.echo(f"{out}: written")

@@ -1,0 +1,64 @@
+"""``sonarproc import`` and bags read directly by ``run``, through ``main(argv)``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from bagbuilders import SimRun, sim_run, write_range_bag
+
+from sonarlog import read_log
+from sonarproc.cli import main
+
+
+@pytest.fixture(scope="module")
+def run() -> SimRun:
+    return sim_run("pioneer3-dx", stops=6, seed=5)
+
+
+def one_error_line(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in err, err
+    return lines[0]
+
+
+def test_import_lists_then_converts_and_refuses_to_overwrite(
+    tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "run.bag"
+    exp = write_range_bag(bag, "ros1", run)
+    assert main(["import", str(bag), "--list"]) == 0
+    listing = capsys.readouterr().out
+    assert "sonar" in listing and "odometry" in listing
+    out = tmp_path / "run.h5"
+    assert main(["import", str(bag), "--out", str(out)]) == 0
+    capsys.readouterr()
+    lg = read_log(out)
+    assert len(lg.readings) == len(exp.t)
+    assert abs(lg.readings["tof"] * lg.speed_of_sound / 2 - exp.range).max() < 1e-3
+    assert main(["import", str(bag), "--out", str(out)]) == 2
+    assert "exists already" in one_error_line(capsys.readouterr().err)
+    assert main(["import", str(bag), "--out", str(out), "--force"]) == 0
+
+
+def test_run_reads_a_ros2_bag_directly(
+    tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "run-sqlite3"
+    write_range_bag(bag, "sqlite3", run)
+    rep = tmp_path / "rep"
+    assert main(["run", str(bag), "--out", str(rep), "--json", "--cell", "0.02"]) == 0
+    doc = json.loads((rep / "report.json").read_text())
+    assert doc["counts"]["readings_used"] > 50 and doc["log_state"] == "closed"
+
+
+def test_bad_inputs_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", str(tmp_path)]) == 2
+    assert "is a directory" in one_error_line(capsys.readouterr().err)
+    junk = tmp_path / "junk.bag"
+    junk.write_bytes(b"#ROSBAG V2.0\n" + b"\x00" * 40)
+    assert main(["import", str(junk), "--out", str(tmp_path / "x.h5")]) == 2
+    assert str(junk) in one_error_line(capsys.readouterr().err)
+    assert main(["import", str(junk)]) == 2
+    assert "--out is required" in one_error_line(capsys.readouterr().err)
