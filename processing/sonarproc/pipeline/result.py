@@ -14,6 +14,7 @@ from sonarproc.grid import Grid
 from sonarproc.metrics import Bins, Metrics
 from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import Evaluation
+from sonarproc.surfaces import SurfaceSet
 
 __all__ = ["RunResult"]
 
@@ -42,6 +43,7 @@ class RunResult:
     robot_xy: npt.NDArray[np.float64] | None = None
     log_state: str = "closed"
     log_warning: str | None = None
+    surfaces: SurfaceSet | None = None
 
     @classmethod
     def of(
