@@ -6,6 +6,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from sonarlog.errors import InvalidLogError
 from sonarlog.reader import read_log
 from sonarlog.state import CRASHED_ATTR
 from sonarlog.writer import AttrValue, LogWriter
@@ -32,7 +33,10 @@ def default_recovered_path(source: str | os.PathLike[str]) -> Path:
 
 
 def recover_log(
-    source: str | os.PathLike[str], destination: str | os.PathLike[str] | None = None
+    source: str | os.PathLike[str],
+    destination: str | os.PathLike[str] | None = None,
+    *,
+    force: bool = False,
 ) -> RecoveryReport:
     """Copy the intact part of ``source`` into a new, cleanly closed sonarlog v1 file.
 
@@ -42,6 +46,8 @@ def recover_log(
         A sonarlog that may have been cut, or left open by a killed writer.
     destination : path-like, optional
         Where to write; default ``<stem>.recovered.h5`` beside ``source``.
+    force : bool
+        Replace ``destination`` if it exists (it is refused otherwise).
 
     Returns
     -------
@@ -51,13 +57,20 @@ def recover_log(
     ------
     InvalidLogError
         If nothing of ``source`` can be read as a sonarlog.
-    ValueError
-        If ``destination`` is the same file as ``source``.
+    InvalidLogError
+        If ``destination`` is the same file as ``source``, or exists and ``force`` is
+        False, or its folder does not exist.
     """
     src = Path(source)
     dst = Path(destination) if destination is not None else default_recovered_path(src)
+    if not src.exists():
+        raise FileNotFoundError(2, "no such file", str(src))
     if dst.exists() and dst.resolve() == src.resolve():
-        raise ValueError(f"{dst}: the recovered copy must not overwrite the source log")
+        raise InvalidLogError(f"{dst}: the recovered copy must not overwrite the source log")
+    if dst.exists() and not force:
+        raise InvalidLogError(f"{dst}: exists already; pass --force to overwrite")
+    if not dst.resolve().parent.is_dir():
+        raise InvalidLogError(f"{dst}: its folder {dst.resolve().parent} does not exist")
     return _copy_intact(src, dst, {})
 
 

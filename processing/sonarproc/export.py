@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from sonarlog import SonarLog
 from sonarproc.errors import InputError, ParameterError
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
@@ -47,7 +48,7 @@ __all__ = [
     "write_ros_map",
 ]
 
-FORMATS = ("ros-map", "geojson", "ply")
+FORMATS = ("ros-map", "geojson", "ply", "rosbag2")
 OCCUPIED, FREE, UNKNOWN = 0, 254, 205
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
@@ -192,8 +193,39 @@ def write_ply(result: MethodResult, path: str | Path) -> Path:
     return p
 
 
-def write_exports(result: MethodResult, out_dir: str | Path, formats: Iterable[str]) -> list[Path]:
-    """Write each format of ``formats`` as ``OUT/<method>.<ext>``; return the paths."""
+def fitted_polylines(result: MethodResult) -> list[npt.NDArray[np.float64]]:
+    """The fitted surfaces of a run as polylines (world frame): each surface, or the profile."""
+    run = result.run
+    if run.surfaces is not None and run.surfaces.surfaces:
+        return [np.asarray(s.polyline, dtype=np.float64) for s in run.surfaces.surfaces]
+    if isinstance(run.fit, FitFailure):
+        return []
+    return [run.fit.sample(run.grid.cell)]
+
+
+def write_rosbag2(
+    result: MethodResult, log: SonarLog, path: str | Path, *, force: bool = False
+) -> Path:
+    """A ROS 2 bag replaying ``log``'s readings (Range + tf) over the fitted surfaces."""
+    from sonarlog.sources import write_rosbag2 as write_bag
+
+    write_bag(log, path, surfaces=fitted_polylines(result), force=force)
+    return Path(path)
+
+
+def write_exports(
+    result: MethodResult,
+    out_dir: str | Path,
+    formats: Iterable[str],
+    *,
+    log: SonarLog | None = None,
+    force: bool = False,
+) -> list[Path]:
+    """Write each format of ``formats`` as ``OUT/<method>.<ext>``; return the paths.
+
+    ``rosbag2`` (a bag directory ``OUT/<method>_rosbag2``) needs the ``log`` the run read;
+    ``force`` lets it replace an existing bag.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stem = out / result.method
@@ -205,6 +237,11 @@ def write_exports(result: MethodResult, out_dir: str | Path, formats: Iterable[s
             written.append(write_geojson(result, stem.with_suffix(".geojson")))
         elif f == "ply":
             written.append(write_ply(result, stem.with_suffix(".ply")))
+        elif f == "rosbag2":
+            if log is None:
+                raise ParameterError("formats", "rosbag2 needs the log the run read")
+            bag = out / f"{result.method}_rosbag2"
+            written.append(write_rosbag2(result, log, bag, force=force))
         else:
             raise ParameterError("formats", f"must be among {', '.join(FORMATS)}, got {f!r}")
     return written

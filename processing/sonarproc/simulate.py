@@ -77,7 +77,7 @@ def _t1(result: SimResult) -> float:
 
 
 def simulate_to_log(
-    scenario: str | Path, out: str | Path, *, seed: int | None = None
+    scenario: str | Path, out: str | Path, *, seed: int | None = None, force: bool = False
 ) -> SimulationSummary:
     """Load ``scenario``, simulate it and write the log ``out``.
 
@@ -86,9 +86,11 @@ def simulate_to_log(
     scenario : path
         Scenario YAML (``configs/scenarios/*.yaml``).
     out : path
-        The sonarlog to write (overwritten).
+        The sonarlog to write.
     seed : int, optional
         Overrides the scenario's seed.
+    force : bool
+        Overwrite ``out`` if it exists (refused otherwise).
 
     Returns
     -------
@@ -100,12 +102,14 @@ def simulate_to_log(
         An invalid scenario or world (a ``ValueError``; the message names file and field).
     FileNotFoundError
         The scenario, or a file it names, does not exist.
-    ValueError
-        The output directory does not exist.
+    InputError
+        The output directory does not exist, or ``out`` exists and ``force`` is False.
     """
     parent = Path(out).resolve().parent
     if not parent.is_dir():
         raise InputError(f"{out}: output directory {parent} does not exist")
+    if Path(out).exists() and not force:
+        raise InputError(f"{out}: exists already; pass --force to overwrite")
     scn = load_scenario(scenario, seed=seed)
     log.info("simulating %s (seed %d)", scn.name, scn.seed)
     result = simulate(scn)

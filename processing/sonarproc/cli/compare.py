@@ -135,7 +135,7 @@ def compare_command(
         doc = write_comparison(str(log), params, results, out_dir)
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:
-                write_exports(r, out_dir / "export", formats)
+                write_exports(r, out_dir / "export", formats, log=lg)
             if not row["fit_ok"]:
                 reason = getattr(r.run.fit, "reason", "")
                 typer.echo(f"sonarproc: warning: {r.method}: fit failed: {reason}", err=True)

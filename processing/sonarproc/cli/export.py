@@ -31,7 +31,8 @@ __all__ = ["export_command"]
 def export_command(
     log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
     fmt: Annotated[
-        str, typer.Option("--format", help="ros-map, geojson, ply (comma-separated).")
+        str,
+        typer.Option("--format", help="ros-map, geojson, ply, rosbag2 (comma-separated)."),
     ] = "ros-map,geojson",
     method: Annotated[str, typer.Option(help="Map-building method.")] = "morphological",
     out: Annotated[
@@ -52,8 +53,9 @@ def export_command(
     ] = None,
     drop_crosstalk: DropCrosstalkOption = False,
     settings: SetOption = None,
+    force: Annotated[bool, typer.Option("--force", help="Replace an existing rosbag2.")] = False,
 ) -> None:
-    """Export one method's map of a log: ROS map_server map, GeoJSON profile, PLY cloud."""
+    """Export one method's map of a log: ROS map, GeoJSON profile, PLY cloud, ROS 2 bag."""
     from sonarproc.export import parse_formats, write_exports
     from sonarproc.methods import parse_method_list
     from sonarproc.pipeline import load_log
@@ -72,6 +74,6 @@ def export_command(
         lg = load_log(log, sensors=sensors, truth=truth)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
         result = instance.run(lg, params)
-        paths = write_exports(result, out_dir, formats)
+        paths = write_exports(result, out_dir, formats, log=lg, force=force)
     for p in paths:
         typer.echo(str(p))

@@ -19,12 +19,13 @@ def recover(
             "--out", "-o", help="Where to write the clean copy [default: LOG.recovered.h5]."
         ),
     ] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite OUT if it exists.")] = False,
 ) -> None:
     """Copy every intact reading of LOG into a new, cleanly closed sonarlog."""
     from sonarlog import recover_log
 
     with guarded():
-        report = recover_log(log, out)
+        report = recover_log(log, out, force=force)
     typer.echo(
         f"{report.destination}: {report.readings} readings kept, "
         f"{report.dropped_rows} torn row(s) dropped, {report.poses} poses, {report.events} events"

@@ -62,3 +62,24 @@ def test_bad_inputs_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert str(junk) in one_error_line(capsys.readouterr().err)
     assert main(["import", str(junk)]) == 2
     assert "--out is required" in one_error_line(capsys.readouterr().err)
+
+
+def test_export_rosbag2_replays_the_run(
+    tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rosbags.highlevel import AnyReader
+
+    bag = tmp_path / "run.bag"
+    write_range_bag(bag, "ros1", run)
+    out = tmp_path / "exp"
+    args = ["export", str(bag), "--format", "rosbag2", "--out", str(out), "--cell", "0.02"]
+    assert main(args) == 0
+    capsys.readouterr()
+    target = out / "morphological_rosbag2"
+    with AnyReader([target]) as reader:
+        topics = {c.topic: c.msgcount for c in reader.connections}
+    assert topics["/map/surfaces"] >= 1
+    assert sum(n for t, n in topics.items() if t.startswith("/sonar/")) > 50
+    assert main(args) == 2  # the bag exists: refused without --force
+    assert "exists" in one_error_line(capsys.readouterr().err)
+    assert main([*args, "--force"]) == 0
