@@ -130,6 +130,8 @@ def compare_command(
         instances = build_methods(names, settings)
         formats = parse_formats(export) if export is not None else []
         lg = load_log(log, sensors=sensors, truth=truth)
+        if lg.integrity_warning() is not None:
+            typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
         results = compare(lg, params, instances)
         doc = write_comparison(str(log), params, results, out_dir)
