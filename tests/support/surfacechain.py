@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 
 from sonarlog import SonarLog, read_log
-from sonarproc.arcs import arc_bounds, rasterize_arcs
-from sonarproc.evaluation import make_grid
+from sonarproc.arcs import arc_geometry, rasterize
 from sonarproc.grid import Grid
+from sonarproc.morphology import apply_chain
 from sonarproc.params import RunParams
 from sonarproc.pipeline import select_readings
+from sonarproc.pipeline.selection import make_grid
 from sonarproc.simulate import simulate_to_log
 from sonarproc.surfaces import (
     SurfaceMetrics,
@@ -31,7 +32,6 @@ from sonarproc.surfaces import (
     surface_metrics,
     truth_points,
 )
-from sonarproc.voting import apply_chain
 
 #: The chain before the surfaces: the count ops the pipeline runs first.
 OPS = "vote:2"
@@ -72,8 +72,9 @@ def run_chain(
     path = log.path_lengths(readings)
     args = (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, path)
     beams = {"tx_half_beamwidth": tp.tx_half_beamwidth, "rx_half_beamwidth": tp.rx_half_beamwidth}
-    grid = make_grid(RunParams(cell=cell), arc_bounds(*args, **beams), str(log.path))
-    counts = rasterize_arcs(*args, **beams, grid=grid)
+    arcs = arc_geometry(*args, **beams)
+    grid = make_grid(RunParams(cell=cell), arcs.bounds(), str(log.path))
+    counts = rasterize(arcs, grid)
     kept = apply_chain(counts, ops)
     t["arcs+morphology"] = time.perf_counter() - t0
     t1 = time.perf_counter()

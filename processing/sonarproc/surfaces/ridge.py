@@ -1,6 +1,6 @@
 """A ridge of the arc-count map that keeps every wall: non-maximum suppression across it.
 
-The per-column ``ridge`` of :mod:`sonarproc.voting` keeps the crest of each *column*, so
+The per-column ``ridge`` of :mod:`sonarproc.morphology` keeps the crest of each *column*, so
 of two walls one above the other (a corridor) only one survives, and a wall running
 along y (a column of equal counts) is not thinned at all. Here the crest is found across
 the ridge's own direction: the count map is smoothed, the Hessian of the smoothed map
@@ -80,7 +80,7 @@ def ridge_nms(
     mask : array_like of bool, shape (ny, nx)
         The cells still kept (e.g. after ``vote:auto``); only these can survive.
     counts : array_like of int, shape (ny, nx)
-        Arcs crossing each cell (:func:`sonarproc.arcs.rasterize_arcs`).
+        Arcs crossing each cell (:func:`sonarproc.arcs.rasterize`).
     sigma : float
         Gaussian smoothing (cells) of the counts compared along the normal.
     direction_sigma : float
@@ -98,7 +98,7 @@ def ridge_nms(
     Examples
     --------
     Two parallel walls four cells apart (a corridor) both survive; the per-column ridge
-    of :mod:`sonarproc.voting` would keep only the stronger one:
+    of :mod:`sonarproc.morphology` would keep only the stronger one:
 
     >>> c = np.zeros((12, 8), dtype=np.uint16)
     >>> c[2:5, :] = [[3], [9], [3]]; c[7:10, :] = [[2], [6], [2]]

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sonarproc.grid import Grid
+from sonarproc.morphology import ridge as column_ridge
 from sonarproc.surfaces import (
     SurfaceCells,
     SurfaceFailure,
@@ -21,7 +22,6 @@ from sonarproc.surfaces import (
     write_surfaces_csv,
     write_surfaces_geojson,
 )
-from sonarproc.voting import ridge as column_ridge
 
 CELL = 0.01
 
