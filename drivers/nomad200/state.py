@@ -1,11 +1,13 @@
-"""State replies and the other sensor replies, in robot units and in SI.
+"""State replies (the answer to almost every command), in robot units and in SI.
 
 A :class:`~nomad200.mask.StateMask` says what the robot puts in every state reply (CT
 command). For each mask a :class:`StateLayout` precomputes one :class:`struct.Struct` so
 encoding and decoding a reply is a single ``pack``/``unpack`` plus unit conversion. The
 fields come in the order of Nomadic's host library: infrared (with attachments), sonar
 (with attachments), bumper, x, y, steering, turret, the three velocities, compass, laser
-(point count, points, attachment), then motor status, clock and the two voltages.
+(point count, points, attachment), then motor status, clock and the two voltages. The
+replies that do not depend on the mask (GET_SN, GET_RC, GET_RV) are in
+:mod:`nomad200.replies`.
 
 Robot units: distance 1/10 inch, angles 1/10 degree, sonar ranges whole inches, clock ms.
 
