@@ -27,6 +27,7 @@ from pathlib import Path
 import h5py
 
 from sonarlog.errors import InvalidLogError
+from sonarlog.state import read_superblock
 
 
 def _first_line(err: BaseException) -> str:
@@ -52,9 +53,9 @@ def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
         raise InvalidLogError(f"{p}: cannot read ({_first_line(err)})") from err
     if not is_hdf5:
         raise InvalidLogError(f"{p}: not an HDF5 file")
-    stored_eof = _stored_eof(p)
-    if stored_eof is not None and stored_eof > p.stat().st_size:
-        with _padded_copy(p, stored_eof) as padded:
+    info = read_superblock(p)
+    if info is not None and info.cut:
+        with _padded_copy(p, info.stored_eof) as padded:
             salvaged = _salvage(p, padded)
             with _open_tolerant(salvaged) as handle:
                 yield handle
@@ -65,24 +66,6 @@ def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
         raise InvalidLogError(f"{p}: cannot open as HDF5 ({_first_line(err)})") from err
     with handle:
         yield handle
-
-
-def _stored_eof(path: Path) -> int | None:
-    """The end-of-file address a version 2/3 superblock records, or None if unknown.
-
-    Layout (HDF5 file format spec, superblock v2/v3): signature (8), version (1), size of
-    offsets (1), size of lengths (1), flags (1), base address, extension address, EOF address.
-    """
-    with open(path, "rb") as fh:
-        head = fh.read(12)
-        if len(head) < 12 or head[:8] != b"\x89HDF\r\n\x1a\n" or head[8] not in (2, 3):
-            return None
-        size = head[9]
-        if size not in (2, 4, 8):
-            return None
-        fh.seek(12 + 2 * size)
-        raw = fh.read(size)
-    return int.from_bytes(raw, "little") if len(raw) == size else None
 
 
 def _open_tolerant(path: Path) -> h5py.File:

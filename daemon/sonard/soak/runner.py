@@ -127,6 +127,7 @@ class _Procs:
         from sonarsim.shipped import resolve_shipped
 
         world = resolve_shipped("lab", kind="worlds")
+        self._err = open(work / "emulator.err", "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
         self.emulator = subprocess.Popen(
             [
                 *(sys.executable, "-m", "sonard.soak.emulator", "--world", str(world)),
@@ -134,7 +135,7 @@ class _Procs:
                 *("--faults", str(self.faults), "--every", str(fault_every)),
             ],
             stdout=subprocess.PIPE,
-            stderr=open(work / "emulator.err", "w"),  # noqa: SIM115 - lives as long as it
+            stderr=self._err,
             text=True,
             env=self.env,
         )
@@ -162,6 +163,9 @@ class _Procs:
             except subprocess.TimeoutExpired:
                 self.emulator.kill()
                 self.emulator.wait()
+        if self.emulator.stdout is not None:
+            self.emulator.stdout.close()
+        self._err.close()
 
 
 def _progress(tty: bool, duration: float) -> Any:

@@ -74,6 +74,9 @@ def test_sigkill_at_random_moments_loses_nothing_older_than_one_second(tmp_path:
     for path, ready_at, killed_at in trials:
         log = read_log(path)
         n = len(log.readings)
+        assert log.log_state == "crashed" and not log.live
+        warning = log.integrity_warning()
+        assert warning is not None and f"{n} intact readings" in warning
         # The intact prefix is exactly the rows appended, in order, with nothing in between.
         np.testing.assert_array_equal(log.readings["tof"], np.arange(n))
         assert n == 0 or np.all(np.diff(log.readings["t"]) >= 0)
@@ -112,6 +115,13 @@ def test_files_cut_at_random_offsets_give_a_prefix_or_a_one_line_error(tmp_path:
         recovered += 1
         n = len(log.readings)
         np.testing.assert_array_equal(log.readings, readings[:n])
+        # never silent: the state, the counts and the warning say what was lost
+        assert log.log_state == "cut" and log.intact_rows == n
+        assert log.dropped_rows == len(readings) - n
+        warning = log.integrity_warning()
+        assert warning is not None and "\n" not in warning
+        assert f"{n} intact readings, {len(readings) - n} torn rows dropped" in warning
+        assert warning.endswith(f"sonarproc recover {cut}")
     assert recovered > 0  # the padding recovery works for at least some cuts
 
 
@@ -151,3 +161,45 @@ def test_background_flush_makes_readings_visible_to_a_live_reader(
                 break
             time.sleep(0.02)
         np.testing.assert_array_equal(read_log(path).readings, readings)
+
+
+def test_a_closed_log_reads_as_closed_without_warning(tmp_path: Path) -> None:
+    path = tmp_path / "closed.h5"
+    readings = random_readings(np.random.default_rng(5), 100)
+    readings["t"] = np.sort(readings["t"])
+    with LogWriter(path, ring_sensors(), flush_interval=0) as w:
+        w.append(readings)
+    log = read_log(path)
+    assert (log.log_state, log.intact_rows, log.dropped_rows) == ("closed", 100, 0)
+    assert log.integrity_warning() is None and log.time_ordered
+
+
+def test_reader_counts_backward_steps_and_still_reads(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    path = tmp_path / "unordered.h5"
+    readings = random_readings(np.random.default_rng(6), 50)
+    readings["t"] = np.arange(50.0)
+    readings["t"][[10, 30]] = [5.0, 1.0]  # two steps back (and two forward again)
+    with LogWriter(path, ring_sensors(), flush_interval=0) as w:
+        w.append(readings)
+    log = read_log(path)
+    assert len(log.readings) == 50 and not log.time_ordered and log.backward_steps == 2
+    assert "not in time order" in caplog.text
+
+
+def test_a_live_sonard_log_reads_as_live(tmp_path: Path) -> None:
+    import fcntl
+
+    path = tmp_path / "live.h5"
+    fd = os.open(path, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)  # what sonard holds while it writes
+    try:
+        with LogWriter(path, ring_sensors(), flush_interval=0) as w:
+            w.append(random_readings(np.random.default_rng(8), 10))
+            w.flush()
+            log = read_log(path)
+            assert log.live and log.log_state == "crashed"
+            assert "still being written" in (log.integrity_warning() or "")
+    finally:
+        os.close(fd)
