@@ -13,9 +13,9 @@ __all__ = ["DEFAULT_ORDER", "RunParams", "parse_bbox", "parse_point"]
 
 #: Default fit order per fit kind: the paper's m = 9 (Table 1) for a polynomial; harmonics
 #: for a polar fit; the spline is always cubic.
-DEFAULT_ORDER: dict[str, int] = {"poly": 9, "spline": 3, "polar": 16}
+DEFAULT_ORDER: dict[str, int] = {"poly": 9, "spline": 3, "polar": 16, "auto": 9}
 
-FIT_KINDS = ("poly", "spline", "polar")
+FIT_KINDS = ("poly", "spline", "polar", "auto")
 ROBUST_KINDS = ("none", "huber")
 SPANS = ("truth", "points")
 #: Highest order ``--order auto`` tries.
@@ -34,8 +34,10 @@ class RunParams:
         Map extent (m); ``None`` covers every arc.
     ops : str
         Morphological operations, e.g. ``"closing,thinning:3"``.
-    fit : {"poly", "spline", "polar"}
-        Fit kind.
+    fit : {"poly", "spline", "polar", "auto"}
+        Fit kind. ``auto``: the paper's polynomial where the kept cells are one curve
+        y = f(x), else a line, arc or spline per surface
+        (:mod:`sonarproc.pipeline.surfacefit`).
     order : int or None
         Polynomial order m, or polar harmonics; ``None`` uses :data:`DEFAULT_ORDER`.
     smooth : float or None
@@ -65,7 +67,7 @@ class RunParams:
     cell: float = 0.01
     bbox: tuple[float, float, float, float] | None = None
     ops: str = "thinning:3"
-    fit: FitKind = "poly"
+    fit: FitKind | Literal["auto"] = "poly"
     order: int | None = None
     smooth: float | None = None
     centre: tuple[float, float] | None = None
@@ -105,7 +107,7 @@ class RunParams:
             )
         if self.span not in SPANS:
             raise ParameterError("span", f"must be one of {', '.join(SPANS)}, got {self.span!r}")
-        if (self.auto_order or self.robust != "none") and self.fit != "poly":
+        if (self.auto_order or self.robust != "none") and self.fit not in ("poly", "auto"):
             raise ParameterError("fit", "must be poly for an automatic order or a robust fit")
         if self.span == "points" and self.fit == "polar":
             raise ParameterError("span", "points applies to a poly or spline fit, not polar")

@@ -43,7 +43,7 @@ def export_command(
     ops: Annotated[
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
-    fit: FitOption = "poly",
+    fit: FitOption = "auto",
     order: Annotated[
         int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
     ] = None,

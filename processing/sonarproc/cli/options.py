@@ -37,7 +37,13 @@ CellOption = Annotated[float, typer.Option(help="Grid cell size (m).")]
 BboxOption = Annotated[
     str | None, typer.Option(help="Map extent 'xmin,xmax,ymin,ymax' (m); default: all arcs.")
 ]
-FitOption = Annotated[str, typer.Option(help="Fit: poly, spline or polar.")]
+FitOption = Annotated[
+    str,
+    typer.Option(
+        help="Fit: auto (the paper's polynomial for one curve y = f(x), else one fit per "
+        "surface), poly, spline or polar."
+    ),
+]
 OrderOption = Annotated[
     str | None,
     typer.Option(

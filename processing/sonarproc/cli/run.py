@@ -87,6 +87,8 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
+    from sonarproc.report.units import length_cm, number
+
     def fmt(v: Any, spec: str = ".4g") -> str:
         return "—" if v is None else format(v, spec)
 
@@ -99,12 +101,20 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_row("map", f"{g['nx']} x {g['ny']} cells of {g['cell']:g} m")
     table.add_row("operations", str(doc["parameters"]["ops"]))
     fit_text = f"{fit['kind']}, order {fit['order']}"
-    table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
+    if "surfaces" in doc:
+        models = [s.get("model", "failed") for s in doc["surfaces"]]
+        kinds = ", ".join(f"{models.count(k)} {k}" for k in sorted(set(models)))
+        table.add_row("fit", f"{len(doc['surfaces'])} surfaces ({kinds})")
+    else:
+        table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
     table.add_row("e", fmt(m["e"]))
     table.add_row("f_c", fmt(m["f_c"]))
     if "E1_m" in m:
         table.add_row("E1", "—" if m["E1_m"] is None else f"{100 * m['E1_m']:.3g} cm")
         table.add_row("E2", fmt(m["E2"]))
+    if "precision_m" in m:
+        table.add_row("precision", length_cm(m["precision_m"]))
+        table.add_row("completeness", number(m["completeness"]))
     table.add_row("t_cpu", f"{m['t_cpu_s']:.3f} s")
     table.add_row("report", str(out))
     Console().print(table)
@@ -121,7 +131,7 @@ def run_command(
     ops: Annotated[
         str, typer.Option(help="Morphological operations, e.g. 'closing,thinning:3'.")
     ] = "thinning:3",
-    fit: FitOption = "poly",
+    fit: FitOption = "auto",
     order: OrderOption = None,
     smooth: SmoothOption = None,
     centre: CentreOption = None,
@@ -155,7 +165,10 @@ def run_command(
             doc = write_report(result, out_dir)
         finally:
             progress.close()
-        if isinstance(result.fit, FitFailure):
+        if result.surfaces is not None and not result.surfaces.surfaces:
+            reason = result.surfaces.reason or "no group of cells was long enough"
+            typer.echo(f"sonarproc: warning: no surface found: {reason}", err=True)
+        elif isinstance(result.fit, FitFailure) and result.surfaces is None:
             typer.echo(f"sonarproc: warning: fit failed: {result.fit.reason}", err=True)
     if as_json:
         typer.echo(json.dumps(doc, indent=2))

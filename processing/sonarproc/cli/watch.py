@@ -47,7 +47,7 @@ def watch_command(
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
     ops: Annotated[str, typer.Option(help="Morphological operations.")] = "thinning:3",
-    fit: FitOption = "poly",
+    fit: FitOption = "auto",
     order: OrderOption = None,
     smooth: SmoothOption = None,
     centre: CentreOption = None,

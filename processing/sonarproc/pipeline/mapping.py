@@ -16,18 +16,21 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from sonarlog import SonarLog
+from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import fit_and_measure, map_counts, no_arc_message
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
+from sonarproc.pipeline.surfacefit import choose_fit, measure_surfaces
+from sonarproc.surfaces import truth_is_function
 
 __all__ = ["STAGES", "MapBuilder", "MethodMap", "evaluate_map", "map_log"]
 
@@ -112,9 +115,23 @@ def evaluate_map(
     if stage is not None:
         stage("fit")
     truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
+    auto = None
+    fit_params = params
+    if params.fit == "auto":
+        auto = choose_fit(mmap.processed, mmap.evidence, grid)
+        fit_params = replace(params, fit="poly")
+    # The paper's E1 and E2 compare one curve y = f(x) with one true curve y = f(x).
+    # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
+    single = truth is None or params.fit == "polar" or truth_is_function(truth)
+    profile_truth = truth if single else None
     ev = fit_and_measure(
-        params, grid, mmap.processed, mmap.evidence, truth=truth, robot_xy=robot_xy, stage=stage
-    )
+        fit_params, grid, mmap.processed, mmap.evidence, truth=profile_truth,
+        robot_xy=robot_xy, stage=stage,
+    )  # fmt: skip
+    if auto is not None and auto.surfaces is not None:
+        n = len(auto.surfaces.surfaces)
+        why = f"{n} surface(s) fitted one by one: see surfaces.csv"
+        ev.fit = FitFailure("surfaces", why if n else str(auto.surfaces.reason))
     t_cpu = time.process_time() - cpu_start
     result = RunResult.of(
         ev,
@@ -129,6 +146,9 @@ def evaluate_map(
         timings_s=timings,
     )
     # A crashed or cut log is processed, but never silently (its state is in the report).
+    if auto is not None:
+        result.auto = auto.to_json()
+        result.surfaces = auto.surfaces
     result.log_state = str(getattr(log_, "log_state", "closed"))
     warning = getattr(log_, "integrity_warning", None)
     result.log_warning = warning() if callable(warning) else None
@@ -190,6 +210,13 @@ def map_log(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message,
     )  # fmt: skip
+    if result.surfaces is not None and result.surfaces.surfaces and result.truth is not None:
+        tp = beams.poses
+        result.surface_metrics = measure_surfaces(
+            result.surfaces, result.truth, (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,
+            beams.path), tx_half_beamwidth=tp.tx_half_beamwidth,
+            rx_half_beamwidth=tp.rx_half_beamwidth,
+        )  # fmt: skip
     stage("done")
     timings.pop("done")
     result.timings_s = timings

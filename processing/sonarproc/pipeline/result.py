@@ -44,6 +44,8 @@ class RunResult:
     log_state: str = "closed"
     log_warning: str | None = None
     surfaces: SurfaceSet | None = None
+    auto: dict[str, Any] | None = None
+    surface_metrics: dict[str, Any] | None = None
 
     @classmethod
     def of(

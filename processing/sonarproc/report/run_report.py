@@ -19,6 +19,7 @@ from sonarproc.fit import FitFailure
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
+from sonarproc.surfaces import truth_is_function, write_surfaces_csv, write_surfaces_geojson
 
 __all__ = [
     "REPORT_FILES",
@@ -65,8 +66,11 @@ def report_dict(result: RunResult) -> dict[str, Any]:
         "N": m["N"],
         "N_k": m["N_k"],
     }
-    if result.truth is not None:
+    polar = result.params.fit == "polar"
+    if result.truth is not None and (polar or truth_is_function(result.truth)):
         metrics.update(E1_m=m["E1_m"], E2=m["E2"], sigma_y_m=m["sigma_y_m"])
+    if result.surface_metrics is not None:
+        metrics.update(result.surface_metrics)
     fit = result.fit.to_json()
     if result.centre is not None:
         fit.setdefault("centre", list(result.centre))
@@ -94,6 +98,12 @@ def report_dict(result: RunResult) -> dict[str, Any]:
         "truth": result.truth is not None,
         "timings_s": {k: round(v, 6) for k, v in result.timings_s.items()},
     }
+    if result.auto is not None:
+        doc["auto"] = result.auto
+    if result.surfaces is not None:
+        doc["surfaces"] = result.surfaces.to_json()
+        if result.surfaces.reason:
+            doc["surfaces_reason"] = result.surfaces.reason
     return dict(to_jsonable(doc))
 
 
@@ -122,6 +132,9 @@ def write_report(result: RunResult, out_dir: str | Path) -> dict[str, Any]:
     doc = report_dict(result)
     (out / "report.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     write_profile_csv(out / "profile.csv", profile_points(result))
+    if result.surfaces is not None:
+        write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
+        write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
     images = {
         "arcmap.png": plots.render_arcmap(result),
         "processed.png": plots.render_processed(result),

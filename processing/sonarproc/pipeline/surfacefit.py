@@ -1,0 +1,129 @@
+"""``fit = "auto"``: the paper's polynomial for one curve y = f(x), surfaces otherwise.
+
+:func:`choose_fit` looks at the processed map. When its cells are one thin band with one
+run of cells per column (the paper's scenes), it answers "function" without further work
+and the run fits the paper's polynomial. Otherwise it extracts the surfaces
+(:mod:`sonarproc.surfaces`) from the arc count map through the chain that keeps every
+wall (``vote:2``, then the ridge across each wall's own direction), and decides by
+:func:`sonarproc.surfaces.decide`: still one function of x, or several surfaces, each
+fitted with a line, an arc or a spline. :func:`measure_surfaces` gives precision and
+completeness against a truth of several surfaces.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.grid import Grid
+from sonarproc.morphology import vote
+from sonarproc.surfaces import (
+    SurfaceSet,
+    decide,
+    find_surfaces,
+    ridge_nms,
+    seen_truth,
+    surface_metrics,
+    truth_points,
+)
+
+__all__ = ["AutoFit", "choose_fit", "column_spans", "measure_surfaces"]
+
+#: One function of x when the kept cells of a median column span at most this (m)...
+MEDIAN_SPAN_M = 0.75
+#: ... and those of 90 % of the columns at most this (m): less than a corridor's width.
+P90_SPAN_M = 1.0
+#: Arc votes a cell needs before the ridge (a cell crossed by one arc is no evidence).
+SURFACE_VOTES = 2
+
+
+@dataclass(frozen=True)
+class AutoFit:
+    """What ``fit = "auto"`` chose, and why (``report.json``'s ``auto``)."""
+
+    choice: str  # "function" or "surfaces"
+    criterion: str
+    surfaces: SurfaceSet | None = None
+    detail: dict[str, Any] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready mapping for ``report.json``."""
+        return {"choice": self.choice, "criterion": self.criterion, **(self.detail or {})}
+
+
+def column_spans(processed: npt.NDArray[np.bool_], cell: float) -> npt.NDArray[np.float64]:
+    """For each column with kept cells, the height (m) from its lowest to its highest one.
+
+    Examples
+    --------
+    >>> m = np.zeros((6, 4), bool); m[2, :] = True; m[4, 1] = True
+    >>> column_spans(m, 0.5).tolist()
+    [0.5, 1.5, 0.5, 0.5]
+    """
+    m = np.asarray(processed, dtype=bool)
+    occupied = m.any(axis=0)
+    rows = np.arange(m.shape[0])[:, None]
+    top = np.where(m, rows, -1).max(axis=0)[occupied]
+    bottom = np.where(m, rows, m.shape[0]).min(axis=0)[occupied]
+    return (top - bottom + 1).astype(np.float64) * cell
+
+
+def choose_fit(
+    processed: npt.NDArray[np.bool_],
+    counts: npt.NDArray[Any],
+    grid: Grid,
+) -> AutoFit:
+    """Decide between the paper's polynomial and several surfaces (see the module notes).
+
+    Parameters
+    ----------
+    processed : ndarray of bool
+        The cells the ``ops`` chain kept.
+    counts : ndarray of int
+        Arc counts per cell (the evidence of the map).
+    grid : Grid
+        The maps' grid.
+
+    Returns
+    -------
+    AutoFit
+    """
+    if not np.any(processed):
+        empty = find_surfaces(processed, grid, counts)
+        return AutoFit("surfaces", "nothing is left to fit", empty, {"surfaces": 0})
+    spans = column_spans(processed, grid.cell)
+    median = float(np.median(spans)) if spans.size else 0.0
+    p90 = float(np.percentile(spans, 90)) if spans.size else 0.0
+    spread = {"median_column_span_m": median, "p90_column_span_m": p90}
+    fast = (
+        f"one function of x when the kept cells of the median column span <= "
+        f"{MEDIAN_SPAN_M:g} m and those of 90 % of the columns <= {P90_SPAN_M:g} m"
+    )
+    if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
+        return AutoFit("function", fast, None, spread)
+    kept = ridge_nms(vote(counts > 0, counts, SURFACE_VOTES), counts)
+    found = find_surfaces(kept, grid, counts)
+    decision = decide(found)
+    detail = {**spread, **decision.to_json()}
+    detail.pop("choice", None)
+    criterion = detail.pop("criterion")
+    if decision.single_function:
+        return AutoFit("function", str(criterion), None, detail)
+    return AutoFit("surfaces", str(criterion), found, detail)
+
+
+def measure_surfaces(
+    found: SurfaceSet, truth: npt.NDArray[np.float64], arcs_args: tuple[Any, ...], **beams: Any
+) -> dict[str, Any]:
+    """Precision and completeness of the fitted surfaces against a multi-surface truth.
+
+    ``arcs_args`` and ``beams`` are the readings' geometry (transmitter and receiver
+    positions and headings, path lengths; half beamwidths), which says which part of the
+    truth the sonars could see.
+    """
+    pts = np.concatenate(truth_points(truth))
+    seen = seen_truth(pts, *arcs_args, **beams)
+    return dict(surface_metrics(found.polylines(), truth, seen=seen).to_json())
