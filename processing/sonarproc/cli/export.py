@@ -72,6 +72,8 @@ def export_command(
         (instance,) = build_methods(names, settings)
         formats = parse_formats(fmt)
         lg = load_log(log, sensors=sensors, truth=truth)
+        if lg.integrity_warning() is not None:
+            typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
         result = instance.run(lg, params)
         paths = write_exports(result, out_dir, formats, log=lg, force=force)
