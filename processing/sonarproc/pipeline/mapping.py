@@ -29,8 +29,6 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import fit_and_measure, map_counts, no_arc_message
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
-from sonarproc.pipeline.surfacefit import choose_fit, measure_surfaces
-from sonarproc.surfaces import truth_is_function
 
 __all__ = ["STAGES", "MapBuilder", "MethodMap", "evaluate_map", "map_log"]
 
@@ -118,11 +116,13 @@ def evaluate_map(
     auto = None
     fit_params = params
     if params.fit == "auto":
+        from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
+
         auto = choose_fit(mmap.processed, mmap.evidence, grid)
         fit_params = replace(params, fit="poly")
     # The paper's E1 and E2 compare one curve y = f(x) with one true curve y = f(x).
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
-    single = truth is None or params.fit == "polar" or truth_is_function(truth)
+    single = truth is None or params.fit == "polar" or not np.isnan(truth).any()
     profile_truth = truth if single else None
     ev = fit_and_measure(
         fit_params, grid, mmap.processed, mmap.evidence, truth=profile_truth,
@@ -211,6 +211,8 @@ def map_log(
         stage=stage, timings=timings, empty_message=empty_message,
     )  # fmt: skip
     if result.surfaces is not None and result.surfaces.surfaces and result.truth is not None:
+        from sonarproc.pipeline.surfacefit import measure_surfaces
+
         tp = beams.poses
         result.surface_metrics = measure_surfaces(
             result.surfaces, result.truth, (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,

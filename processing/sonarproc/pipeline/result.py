@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -14,7 +14,9 @@ from sonarproc.grid import Grid
 from sonarproc.metrics import Bins, Metrics
 from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import Evaluation
-from sonarproc.surfaces import SurfaceSet
+
+if TYPE_CHECKING:
+    from sonarproc.surfaces import SurfaceSet
 
 __all__ = ["RunResult"]
 

@@ -89,8 +89,6 @@ def load_log(
     sonarlog.SonarLogError
         A log that cannot be read (damaged, or a bag missing what a map needs).
     """
-    from sonarlog.sources import read_source
-
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(2, "no such file", str(p))
@@ -111,6 +109,8 @@ def load_log(
             "a ROS 2 bag directory or a Player log)"
         )
     if p.is_dir() or p.suffix.lower() not in (".h5", ".hdf5"):
+        from sonarlog.sources import read_source  # rosbags: only for the logs that need it
+
         lg, _ = read_source(p, sensors=sensors)
     else:
         lg = read_log(p)

@@ -19,7 +19,6 @@ from sonarproc.fit import FitFailure
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
-from sonarproc.surfaces import truth_is_function, write_surfaces_csv, write_surfaces_geojson
 
 __all__ = [
     "REPORT_FILES",
@@ -67,7 +66,7 @@ def report_dict(result: RunResult) -> dict[str, Any]:
         "N_k": m["N_k"],
     }
     polar = result.params.fit == "polar"
-    if result.truth is not None and (polar or truth_is_function(result.truth)):
+    if result.truth is not None and (polar or not np.isnan(result.truth).any()):
         metrics.update(E1_m=m["E1_m"], E2=m["E2"], sigma_y_m=m["sigma_y_m"])
     if result.surface_metrics is not None:
         metrics.update(result.surface_metrics)
@@ -133,6 +132,8 @@ def write_report(result: RunResult, out_dir: str | Path) -> dict[str, Any]:
     (out / "report.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     write_profile_csv(out / "profile.csv", profile_points(result))
     if result.surfaces is not None:
+        from sonarproc.surfaces import write_surfaces_csv, write_surfaces_geojson
+
         write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
         write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
     images = {
