@@ -27,22 +27,19 @@ The sensors YAML holds the same fields as sonarlog's ``/sensors`` table, SI unit
 from __future__ import annotations
 
 import csv
-import math
 import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from sonarlog import DEFAULT_SPEED_OF_SOUND, READING_DTYPE, SENSOR_DTYPE, SonarLog
+from sonarlog import DEFAULT_SPEED_OF_SOUND, READING_DTYPE, SonarLog
+from sonarlog.sources.presets import SensorSet, load_sensors
 
 __all__ = [
     "CSV_OPTIONAL",
     "CSV_REQUIRED",
-    "SensorsFile",
     "load_sensors_yaml",
     "read_csv_log",
     "read_truth_csv",
@@ -54,81 +51,18 @@ CSV_REQUIRED = ("t", "tx", "rx", "x", "y", "theta", "turret")
 CSV_OPTIONAL = ("echo", "flags")
 
 
-class _Sensor(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+def load_sensors_yaml(path: str | Path) -> SensorSet:
+    """Read and validate a sensors YAML file (or a shipped preset, by name).
 
-    id: int = Field(ge=-32768, le=32767)
-    x: float
-    y: float
-    heading: float
-    half_beamwidth: float = Field(gt=0.0, lt=math.pi)
-    min_range: float = Field(ge=0.0)
-    max_range: float = Field(gt=0.0)
-
-    @field_validator("x", "y", "heading")
-    @classmethod
-    def _finite(cls, v: float) -> float:
-        if not math.isfinite(v):
-            raise ValueError("must be finite")
-        return v
-
-    @model_validator(mode="after")
-    def _ranges(self) -> _Sensor:
-        if not self.max_range > self.min_range:
-            raise ValueError("max_range must be greater than min_range")
-        return self
-
-
-class SensorsFile(BaseModel):
-    """The sensors YAML: transducer mounts in the turret frame (m, rad)."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    robot: str = ""
-    speed_of_sound: float = Field(default=DEFAULT_SPEED_OF_SOUND, gt=0.0)
-    sensors: list[_Sensor] = Field(min_length=1)
-
-    @model_validator(mode="after")
-    def _unique_ids(self) -> SensorsFile:
-        ids = [s.id for s in self.sensors]
-        if len(set(ids)) != len(ids):
-            dup = sorted({i for i in ids if ids.count(i) > 1})
-            raise ValueError(f"sensor id(s) {dup} repeat")
-        return self
-
-    def table(self) -> np.ndarray:
-        """Return the sensors as a :data:`sonarlog.SENSOR_DTYPE` array."""
-        rows = [tuple(getattr(s, n) for n in SENSOR_DTYPE.names or ()) for s in self.sensors]
-        return np.array(rows, dtype=SENSOR_DTYPE)
-
-
-def _first_error(path: Path, err: ValidationError) -> str:
-    first = err.errors()[0]
-    where = ".".join(str(p) for p in first["loc"]) or "(top level)"
-    return f"{path}: {where}: {first['msg']}"
-
-
-def load_sensors_yaml(path: str | Path) -> SensorsFile:
-    """Read and validate a sensors YAML file.
+    The format is the one of :func:`sonarlog.sources.load_sensors`: ``robot``, optional
+    ``speed_of_sound`` and a ``sensors`` list of mounts in the turret frame (m, rad).
 
     Raises
     ------
     ValueError
         One line naming the file, the field and the problem.
-    FileNotFoundError
-        If the file does not exist.
     """
-    p = Path(path)
-    try:
-        doc: Any = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except yaml.YAMLError as err:
-        raise ValueError(f"{p}: not valid YAML ({str(err).splitlines()[0]})") from err
-    if not isinstance(doc, dict):
-        raise ValueError(f"{p}: expected a mapping with a 'sensors' list")
-    try:
-        return SensorsFile.model_validate(doc)
-    except ValidationError as err:
-        raise ValueError(_first_error(p, err)) from err
+    return load_sensors(path)
 
 
 def _header(path: Path) -> tuple[list[str], int]:
@@ -209,7 +143,7 @@ def read_csv_log(
     if "flags" in col:
         _integral(p, "flags", col["flags"], 0, 65535)
         readings["flags"] = col["flags"]
-    c = spec.speed_of_sound
+    c = spec.speed_of_sound if spec.speed_of_sound is not None else DEFAULT_SPEED_OF_SOUND
     readings["tof"] = col["tof"] if has_tof else 2.0 * col["range"] / c
     for name in ("t", "x", "y", "theta", "turret"):
         if not np.all(np.isfinite(readings[name])):
@@ -224,7 +158,7 @@ def read_csv_log(
         "created": "",
         "source": f"csv:{p.name}",
     }
-    return SonarLog(path=p, attrs=attrs, sensors=spec.table(), readings=readings, truth=t)
+    return SonarLog(path=p, attrs=attrs, sensors=spec.table, readings=readings, truth=t)
 
 
 def read_truth_csv(path: str | Path) -> npt.NDArray[np.float64]:

@@ -103,7 +103,7 @@ def test_failed_fit_exits_zero_with_a_warning(
     tmp_path: Path, log_h5: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     rc = main(["run", str(log_h5), "--out", str(tmp_path), "--cell", "0.02", "--order", "40",
-               "--ops", "erosion,erosion,erosion,erosion"])  # fmt: skip
+               "--ops", "erosion,erosion,erosion,erosion", "--fit", "poly"])  # fmt: skip
     captured = capsys.readouterr()
     assert rc == 0
     assert captured.err.startswith("sonarproc: warning: fit failed")
@@ -196,7 +196,7 @@ def test_missing_files_and_csv_without_sensors(
     assert main(["run", str(READINGS)]) == 2
     assert "--sensors: is required for a CSV log" in one_error_line(capsys.readouterr().err)
     assert main(["run", str(READINGS), "--sensors", str(tmp_path / "s.yaml")]) == 2
-    assert "no such file" in one_error_line(capsys.readouterr().err)
+    assert "no such sensors file" in one_error_line(capsys.readouterr().err)
     notlog = tmp_path / "x.h5"
     notlog.write_bytes(b"not hdf5 at all")
     assert main(["run", str(notlog)]) == 2

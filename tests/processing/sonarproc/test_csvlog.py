@@ -88,7 +88,7 @@ def test_bad_csv_names_file_and_problem(
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        ("[1, 2]", "expected a mapping"),
+        ("[1, 2]", "must hold a mapping"),
         ("sensors: []", "sensors"),
         (
             "sensors: [{id: 0, x: 0, y: 0, heading: 0, half_beamwidth: 4, min_range: 0, "
@@ -111,7 +111,7 @@ def test_bad_csv_names_file_and_problem(
             "max_range: 1}",
             "repeat",
         ),
-        ("sensors: [unclosed", "not valid YAML"),
+        ("sensors: [unclosed", "not a readable YAML file"),
     ],
 )
 def test_bad_sensors_yaml(tmp_path: Path, text: str, message: str) -> None:
