@@ -42,7 +42,11 @@ def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path
     with emulator_pty(tmp_path) as (pty, _trace):
         first = start_sonard(pty, plan, out, locks)
         try:
-            _wait_for(lambda: any(locks.iterdir()) and is_locked(out))
+            mine = f"{first.pid:10d}\n"
+            lock_file = locks / ("LCK.." + os.path.realpath(pty)[5:].replace("/", "_"))
+            _wait_for(
+                lambda: is_locked(out) and lock_file.exists() and lock_file.read_text() == mine
+            )
             url = f"nomad://other?world={WORLD}&fast=1"
             same_log = start_sonard(url, plan, out, locks)
             same_port = start_sonard(pty, plan, tmp_path / "other.h5", locks)
