@@ -277,17 +277,17 @@ def _check_log(procs: _Procs, out: Path, result: SoakResult) -> None:
         result.failures.append("no firings in the run")
 
 
-def _wait_finalised(path: Path | None, proc: subprocess.Popen[str]) -> None:
-    from sonarlog import read_superblock
-
+def _wait_running(locks: Path, proc: subprocess.Popen[str]) -> None:
+    """Until ``proc`` holds the port's lock file: it has finalised the logs and runs."""
+    mine = f"{proc.pid:10d}\n"
     deadline = time.monotonic() + 30.0
-    while path is not None and time.monotonic() < deadline and proc.poll() is None:
-        try:
-            info = read_superblock(path)
-        except FileNotFoundError:
-            return  # removed: it had no reading
-        if info is not None and not info.open_for_write:
-            return
+    while time.monotonic() < deadline and proc.poll() is None:
+        for lock in locks.glob("LCK..*"):
+            try:
+                if lock.read_text(encoding="ascii") == mine:
+                    return
+            except OSError:
+                pass  # a lock file being replaced
         time.sleep(0.1)
 
 
@@ -304,7 +304,7 @@ def _kill_trials(procs: _Procs, n: int, seed: int, result: SoakResult) -> None:
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
             proc = procs.sonard(out, err)
             if i == n:  # the last start only finalises the last killed log
-                _wait_finalised(killed[-1][0] if killed else None, proc)
+                _wait_running(procs.work / "lock", proc)
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(30)
                 break
