@@ -8,7 +8,8 @@ Usage::
 ``DURATION`` on the emulator (:mod:`sonard.soak.emulator`: a fault every ``--fault-every``
 seconds, 60 by default, garbled, dropped, stalled and unplugged in turn), its RSS and open
 file descriptors sampled meanwhile; it is stopped with SIGTERM. Then ``--kill-trials``
-sonards are started one after the other and SIGKILLed at a random moment; each start
+sonards are started one after the other and SIGKILLed at a random moment, with the
+fault injection stopped (the loss measured is the crash's, not an outage's); each start
 finalises the previous one's log.
 
 Checks (exit 1 when one fails, 2 on bad arguments):
@@ -42,6 +43,7 @@ from typing import IO, Any
 import numpy as np
 
 from sonard.soak.accounting import account_firings, load_firings, slope_per_hour
+from sonard.soak.emulator import EPISODE_S
 
 __all__ = ["Sample", "SoakResult", "main", "parse_duration"]
 
@@ -349,6 +351,8 @@ def soak(
     try:
         out = _long_run(procs, duration, result, tty)
         if kill_trials:
+            procs.emulator.send_signal(signal.SIGUSR1)  # no more faults ...
+            time.sleep(EPISODE_S + 1.0)  # ... once the one under way is over
             _kill_trials(procs, kill_trials, seed, result)
     finally:
         procs.close()
