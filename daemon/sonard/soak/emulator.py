@@ -4,7 +4,8 @@ The faults take turns: ``garble`` (reply and request bytes damaged), ``drop`` (b
 both ways), ``stall`` (replies held back longer than sonard's reply timeout), ``unplug``
 (the pty vanishes and comes back under a new name behind the ``--link`` symlink, as a USB
 adapter does). Each fault is written to ``--faults`` as one JSON line with its kind and
-its UNIX start and end. Prints the link path, then serves until SIGTERM.
+its UNIX start and end. Prints the link path, then serves until SIGTERM; SIGUSR1 stops
+the injection (a fault under way runs to its end).
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ class FaultSchedule:
         self.unplug = threading.Event()
         self.session = threading.Event()
         self.count = 0
+        #: set (SIGUSR1) to stop injecting: the kill trials measure crash loss, not outages
+        self.paused = threading.Event()
         self._lock = threading.Lock()
 
     def record(self, kind: str, start: float, end: float) -> None:
@@ -66,6 +69,8 @@ class FaultSchedule:
     def run(self, stop: threading.Event) -> None:
         """Loop until ``stop``: wait, inject, wait, inject..."""
         while not stop.wait(self.every):
+            if self.paused.is_set():
+                continue
             kind = FAULT_KINDS[self.count % len(FAULT_KINDS)]
             self.count += 1
             if kind == "unplug":
@@ -140,6 +145,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         signal.signal(signal.SIGTERM, _stop)
         signal.signal(signal.SIGINT, _stop)
+        signal.signal(signal.SIGUSR1, lambda signum, frame: schedule.paused.set())
         server.open()
         print(args.link, flush=True)
         injector = threading.Thread(target=schedule.run, args=(stop,), daemon=True)

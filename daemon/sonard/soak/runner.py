@@ -8,7 +8,8 @@ Usage::
 ``DURATION`` on the emulator (:mod:`sonard.soak.emulator`: a fault every ``--fault-every``
 seconds, 60 by default, garbled, dropped, stalled and unplugged in turn), its RSS and open
 file descriptors sampled meanwhile; it is stopped with SIGTERM. Then ``--kill-trials``
-sonards are started one after the other and SIGKILLed at a random moment; each start
+sonards are started one after the other and SIGKILLed at a random moment, with the
+fault injection stopped (the loss measured is the crash's, not an outage's); each start
 finalises the previous one's log.
 
 Checks (exit 1 when one fails, 2 on bad arguments):
@@ -42,6 +43,7 @@ from typing import IO, Any
 import numpy as np
 
 from sonard.soak.accounting import account_firings, load_firings, slope_per_hour
+from sonard.soak.emulator import EPISODE_S
 
 __all__ = ["Sample", "SoakResult", "main", "parse_duration"]
 
@@ -277,17 +279,17 @@ def _check_log(procs: _Procs, out: Path, result: SoakResult) -> None:
         result.failures.append("no firings in the run")
 
 
-def _wait_finalised(path: Path | None, proc: subprocess.Popen[str]) -> None:
-    from sonarlog import read_superblock
-
+def _wait_running(locks: Path, proc: subprocess.Popen[str]) -> None:
+    """Until ``proc`` holds the port's lock file: it has finalised the logs and runs."""
+    mine = f"{proc.pid:10d}\n"
     deadline = time.monotonic() + 30.0
-    while path is not None and time.monotonic() < deadline and proc.poll() is None:
-        try:
-            info = read_superblock(path)
-        except FileNotFoundError:
-            return  # removed: it had no reading
-        if info is not None and not info.open_for_write:
-            return
+    while time.monotonic() < deadline and proc.poll() is None:
+        for lock in locks.glob("LCK..*"):
+            try:
+                if lock.read_text(encoding="ascii") == mine:
+                    return
+            except OSError:
+                pass  # a lock file being replaced
         time.sleep(0.1)
 
 
@@ -304,7 +306,7 @@ def _kill_trials(procs: _Procs, n: int, seed: int, result: SoakResult) -> None:
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
             proc = procs.sonard(out, err)
             if i == n:  # the last start only finalises the last killed log
-                _wait_finalised(killed[-1][0] if killed else None, proc)
+                _wait_running(procs.work / "lock", proc)
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(30)
                 break
@@ -349,6 +351,8 @@ def soak(
     try:
         out = _long_run(procs, duration, result, tty)
         if kill_trials:
+            procs.emulator.send_signal(signal.SIGUSR1)  # no more faults ...
+            time.sleep(EPISODE_S + 1.0)  # ... once the one under way is over
             _kill_trials(procs, kill_trials, seed, result)
     finally:
         procs.close()

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
 import os
+import struct
 import subprocess
 import sys
 import time
@@ -19,12 +22,26 @@ from sonarlog import read_log
 
 pytestmark = pytest.mark.timeout(120)
 
+TIOCGEXCL = 0x80045440  # Linux: _IOR('T', 0x40, int)
+
 
 def _wait_for(cond: object, timeout: float = 20.0) -> None:
     deadline = time.monotonic() + timeout
     while not cond():  # type: ignore[operator]
         assert time.monotonic() < deadline, "timed out"
         time.sleep(0.05)
+
+
+def _exclusive(device: str) -> bool:
+    """Whether the tty is in exclusive mode (TIOCGEXCL; EBUSY for non-root says so too)."""
+    try:
+        fd = os.open(device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError as err:
+        return err.errno == errno.EBUSY
+    try:
+        return struct.unpack("i", fcntl.ioctl(fd, TIOCGEXCL, b"\0" * 4))[0] == 1
+    finally:
+        os.close(fd)
 
 
 def _one_line(proc: subprocess.Popen[str]) -> str:
@@ -42,7 +59,12 @@ def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path
     with emulator_pty(tmp_path) as (pty, _trace):
         first = start_sonard(pty, plan, out, locks)
         try:
-            _wait_for(lambda: any(locks.iterdir()) and is_locked(out))
+            mine = f"{first.pid:10d}\n"
+            lock_file = locks / ("LCK.." + os.path.realpath(pty)[5:].replace("/", "_"))
+            _wait_for(
+                lambda: is_locked(out) and lock_file.exists() and lock_file.read_text() == mine
+            )
+            _wait_for(lambda: _exclusive(pty))  # TIOCEXCL: set once sonard's client has the port
             url = f"nomad://other?world={WORLD}&fast=1"
             same_log = start_sonard(url, plan, out, locks)
             same_port = start_sonard(pty, plan, tmp_path / "other.h5", locks)
