@@ -175,7 +175,9 @@ def test_bench_whole_run(tmp_path: Path) -> None:
     counts = doc["counts"]
     grid = doc["grid"]
     cells = int(grid["nx"]) * int(grid["ny"])
-    fwall, _, _, _ = _child(["-c", FLOOR, str(log1), str(counts["arc_cells"]), str(cells)], tmp_path)
+    fwall, _, _, _ = _child(
+        ["-c", FLOOR, str(log1), str(counts["arc_cells"]), str(cells)], tmp_path
+    )
     t_cpu = doc["metrics"]["t_cpu_s"]
     print(
         f"\nwhole run: {n1} readings ({counts['readings_used']} arcs, "

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.report.figure import TICK, Layout, Line, MapFigure, Raster, Swatch, layout
+from sonarproc.report.figure import TICK, Layout, MapFigure, Raster, Swatch, layout
 from sonarproc.report.glyphs import DPI, render_text
 from sonarproc.report.png import encode_png
 
@@ -139,7 +139,7 @@ def to_png(fig: MapFigure, lay: Layout | None = None) -> bytes:
     """The figure as PNG bytes at :data:`~sonarproc.report.glyphs.DPI` dpi."""
     lay = lay or layout(fig)
     canvas = np.full((lay.height, lay.width, 3), 255, np.uint8)
-    left, top, w, h = lay.box
+    left, top, _w, h = lay.box
     for layer in fig.rasters:
         _raster(canvas, lay, layer)
     for line in fig.lines:
@@ -175,4 +175,3 @@ def to_png(fig: MapFigure, lay: Layout | None = None) -> bytes:
             _stroke(canvas, seg, hex_rgb(entry.colour), entry.width, dashed=entry.dashed)
         _text(canvas, entry.label or "", "tick", x + 36, y)
     return encode_png(canvas, dpi=DPI)
-

@@ -120,7 +120,9 @@ def compare_figure(results: Sequence[MethodResult], source: str = "") -> Figure:
             ax.plot(pts[:, 0], pts[:, 1], "-", color="tab:red", lw=1.4)
         m = run.metrics
         fit_note = "" if not isinstance(run.fit, FitFailure) else ", fit failed"
-        ax.set_title(f"{r.method}\nf_c {number(m.f_c)}, E1 {length_cm(m.E1_m)}{fit_note}", fontsize=9)
+        ax.set_title(
+            f"{r.method}\nf_c {number(m.f_c)}, E1 {length_cm(m.E1_m)}{fit_note}", fontsize=9
+        )
         ax.set_xlim(left, right)
         ax.set_ylim(bottom, top)
         ax.set_aspect("equal")
@@ -136,7 +138,9 @@ def compare_figure(results: Sequence[MethodResult], source: str = "") -> Figure:
         Line2D([], [], color="tab:red", lw=1.4, label="fit (whole truth span)"),
     ]
     name = Path(source).name if source else ""
-    fig.suptitle(f"{name}: map-building methods, same grid, fit and metrics".lstrip(": "), fontsize=10.5)
+    fig.suptitle(
+        f"{name}: map-building methods, same grid, fit and metrics".lstrip(": "), fontsize=10.5
+    )
     if len(results) < rows * cols:
         spare = axes.flat[rows * cols - 1]
         spare.legend(handles=handles, loc="center", fontsize=9, frameon=False)

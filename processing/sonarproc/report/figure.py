@@ -135,7 +135,7 @@ def nice_ticks(lo: float, hi: float, most: int) -> list[float]:
     mag = 10.0 ** math.floor(math.log10(raw))
     step = next(s * mag for s in (1.0, 2.0, 2.5, 5.0, 10.0) if s * mag >= raw)
     first = math.ceil(lo / step - 1e-9) * step
-    n = int(math.floor((hi - first) / step + 1e-9)) + 1
+    n = math.floor((hi - first) / step + 1e-9) + 1
     return [round(first + k * step, 12) + 0.0 for k in range(n)]
 
 
@@ -143,7 +143,9 @@ def tick_labels(values: list[float]) -> list[str]:
     """Labels with as few decimals as tell the ticks apart (``0``, ``0.5``, ``1``)."""
     for decimals in range(0, 7):
         texts = [f"{v:.{decimals}f}" for v in values]
-        if all(abs(float(t) - v) < 1e-9 * max(1.0, abs(v)) for t, v in zip(texts, values)):
+        if all(
+            abs(float(t) - v) < 1e-9 * max(1.0, abs(v)) for t, v in zip(texts, values, strict=True)
+        ):
             return [t.replace("-", "−") if t.startswith("-") else t for t in texts]
     return [f"{v:g}" for v in values]
 
@@ -187,7 +189,9 @@ def layout(fig: MapFigure) -> Layout:
         cx = left + bw + 22
         cbar_box = (cx, top, 18, bh)
         span = (cb.vmax - cb.vmin) or 1.0
-        cbar_ticks = [(round(top + bh - (v - cb.vmin) / span * bh), s) for v, s in zip(ct, ctl)]
+        cbar_ticks = [
+            (round(top + bh - (v - cb.vmin) / span * bh), s) for v, s in zip(ct, ctl, strict=True)
+        ]
         ctw = max(text_width(s, "tick") for s in ctl)
         lab_x = cx + 18 + TICK + 4 + ctw + 8 + l_asc
         cbar_label_xy = (lab_x, top + bh // 2)
@@ -216,8 +220,8 @@ def layout(fig: MapFigure) -> Layout:
         box=(left, top, bw, bh),
         xlim=xlim,
         ylim=ylim,
-        xticks=[(px(v), s) for v, s in zip(xt, xl)],
-        yticks=[(py(v), s) for v, s in zip(yt, yl)],
+        xticks=[(px(v), s) for v, s in zip(xt, xl, strict=True)],
+        yticks=[(py(v), s) for v, s in zip(yt, yl, strict=True)],
         title_xy=(left + bw // 2, 14 + h_asc),
         xlabel_xy=(left + bw // 2, top + bh + TICK + 4 + t_asc + t_desc + 6 + l_asc),
         ylabel_xy=(12 + l_asc, top + bh // 2),

@@ -113,9 +113,7 @@ def arcmap_figure(result: RunResult) -> MapFigure:
     return fig
 
 
-def processed_figure(
-    result: RunResult, cells: npt.NDArray[np.bool_] | None = None
-) -> MapFigure:
+def processed_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) -> MapFigure:
     """The processed (binary) map after the morphological operations.
 
     ``cells`` is the processed map already reduced by :func:`block_max`, if at hand.

@@ -28,7 +28,9 @@ def _fs(role: str) -> str:
     return f"{_PT[role] * DPI / 72:.2f}"
 
 
-def _text(s: str, role: str, x: float, y: float, anchor: str = "start", rotate: bool = False) -> str:
+def _text(
+    s: str, role: str, x: float, y: float, anchor: str = "start", rotate: bool = False
+) -> str:
     rot = f' transform="rotate(-90 {x:.1f} {y:.1f})"' if rotate else ""
     return (
         f'<text x="{x:.1f}" y="{y:.1f}" font-size="{_fs(role)}" text-anchor="{anchor}"{rot}>'
@@ -59,7 +61,7 @@ def to_svg(fig: MapFigure, lay: Layout | None = None, *, max_points: int = 2000)
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<svg xmlns="http://www.w3.org/2000/svg" width="{wpt:.1f}pt" height="{hpt:.1f}pt" '
         f'viewBox="0 0 {lay.width} {lay.height}" font-family="{_FONT}" fill="{_INK}">',
-        f'<title>{html.escape(fig.title)}</title>',
+        f"<title>{html.escape(fig.title)}</title>",
         f'<defs><clipPath id="plot"><rect x="{left}" y="{top}" width="{w}" height="{h}"/>'
         "</clipPath></defs>",
         f'<rect width="{lay.width}" height="{lay.height}" fill="#ffffff"/>',
@@ -73,9 +75,9 @@ def to_svg(fig: MapFigure, lay: Layout | None = None, *, max_points: int = 2000)
             'preserveAspectRatio="none" style="image-rendering:pixelated" '
             f'clip-path="url(#plot)" href="data:image/png;base64,{uri}"/>'
         )
-    for entry in fig.lines:
-        xy = entry.xy[:: max(entry.xy.shape[0] // max_points, 1)]
-        out.append(_line(entry, _points(lay.to_px(xy))))
+    for line in fig.lines:
+        xy = line.xy[:: max(line.xy.shape[0] // max_points, 1)]
+        out.append(_line(line, _points(lay.to_px(xy))))
     out.append(
         f'<rect x="{left}" y="{top}" width="{w}" height="{h}" fill="none" '
         f'stroke="{_INK}" stroke-width="1.5"/>'
@@ -92,9 +94,10 @@ def to_svg(fig: MapFigure, lay: Layout | None = None, *, max_points: int = 2000)
     if fig.colourbar is not None and lay.cbar_box is not None:
         cb = fig.colourbar
         cx, cy, cw, ch = lay.cbar_box
+        hexes = ["#" + "".join(f"{v:02x}" for v in cb.ramp[k * 255 // 8]) for k in range(9)]
+        hexes = ["#" + "".join(f"{v:02x}" for v in cb.ramp[k * 255 // 8]) for k in range(9)]
         stops = "".join(
-            f'<stop offset="{k / 8:.3f}" stop-color="#{"".join(f"{v:02x}" for v in cb.ramp[k * 255 // 8])}"/>'
-            for k in range(9)
+            f'<stop offset="{k / 8:.3f}" stop-color="{c}"/>' for k, c in enumerate(hexes)
         )
         out.append(
             f'<defs><linearGradient id="cbar" x1="0" y1="1" x2="0" y2="0">{stops}'
