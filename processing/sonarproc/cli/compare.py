@@ -20,10 +20,12 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OrderOption,
     SensorsOption,
     TruthOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 from sonarproc.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -98,9 +100,7 @@ def compare_command(
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
     fit: FitOption = "poly",
-    order: Annotated[
-        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
-    ] = None,
+    order: OrderOption = None,
     sensors: SensorsOption = None,
     truth: TruthOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
@@ -131,6 +131,7 @@ def compare_command(
         formats = parse_formats(export) if export is not None else []
         lg = load_log(log, sensors=sensors, truth=truth)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
+        check_output_dir(out_dir)
         results = compare(lg, params, instances)
         doc = write_comparison(str(log), params, results, out_dir)
         for r, row in zip(results, doc["methods"], strict=True):

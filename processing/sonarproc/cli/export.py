@@ -19,9 +19,11 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OrderOption,
     SensorsOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 from sonarproc.errors import ParameterError
 
 __all__ = ["export_command"]
@@ -43,9 +45,7 @@ def export_command(
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
     fit: FitOption = "poly",
-    order: Annotated[
-        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
-    ] = None,
+    order: OrderOption = None,
     sensors: SensorsOption = None,
     truth: Annotated[
         Path | None, typer.Option(help="True profile CSV (x,y), for the metrics in the GeoJSON.")
@@ -71,6 +71,7 @@ def export_command(
         formats = parse_formats(fmt)
         lg = load_log(log, sensors=sensors, truth=truth)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
+        check_output_dir(out_dir)
         result = instance.run(lg, params)
         paths = write_exports(result, out_dir, formats)
     for p in paths:

@@ -12,6 +12,7 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, fail, guarded
+from sonarproc.cli.paths import check_output_file
 
 __all__ = ["import_command"]
 
@@ -66,6 +67,7 @@ def import_command(
             return
         if out is None:
             fail("--out is required (the sonarlog to write), or pass --list")
+        check_output_file(out)
         summary = import_to_sonarlog(
             log, out, force=force, sonar_topic=sonar_topic, odom_topic=odom_topic, robot=robot,
             sensors=sensors, temperature_c=temperature,

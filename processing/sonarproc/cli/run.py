@@ -32,6 +32,7 @@ from sonarproc.cli.options import (
     TruthOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 
 __all__ = ["run_command"]
 
@@ -146,6 +147,7 @@ def run_command(
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
+        check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
         try:
             result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, guarded
+from sonarproc.cli.paths import check_output_file
 
 
 @app.command()
@@ -25,6 +26,7 @@ def simulate(
     from sonarproc.simulate import simulate_to_log
 
     with guarded():
+        check_output_file(out)
         summary = simulate_to_log(scenario, out, seed=seed)
     typer.echo(
         f"{summary.path}: {summary.readings} readings ({summary.echoes} echoes), "

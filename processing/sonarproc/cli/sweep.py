@@ -15,6 +15,7 @@ from typing import Annotated, Any
 import typer
 
 from sonarproc.cli.app import RuntimeProblem, app, guarded
+from sonarproc.cli.paths import check_output_dir
 from sonarproc.errors import ParameterError
 
 __all__ = ["sweep_command", "sweep_merge_command"]
@@ -49,6 +50,7 @@ def sweep_command(
         if jobs < 0:
             raise ParameterError("jobs", f"must be >= 0, got {jobs}")
         n_jobs = jobs or (os.cpu_count() or 1)
+        check_output_dir(out)
         result = run_sweep([str(p) for p in inputs], grid, jobs=n_jobs, shard=part)
         csv_path = write_sweep(result, out)
     failed = sum(1 for r in result.rows if not r["ok"])
