@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from sonarlog import LogWriter
-from sonarlog.csvlog import read_csv_log, read_truth_csv
+from sonarlog.csvlog import read_csv_log
 from sonarproc.cli import main
 
 CONFIGS = Path(__file__).resolve().parents[3] / "configs"
