@@ -26,6 +26,7 @@ from sonarproc.cli.options import (
     build_run_params,
 )
 from sonarproc.cli.paths import check_output_dir
+from sonarproc.cli.progress import progress
 from sonarproc.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -132,7 +133,12 @@ def compare_command(
         lg = load_log(log, sensors=sensors, truth=truth)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
         check_output_dir(out_dir)
-        results = compare(lg, params, instances)
+        results = []
+        with progress("compare", len(instances)) as steps:
+            for k, method in enumerate(instances):
+                steps.describe(method.name)
+                results.extend(compare(lg, params, [method]))
+                steps(k + 1)
         doc = write_comparison(str(log), params, results, out_dir)
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:

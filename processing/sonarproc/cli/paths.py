@@ -41,7 +41,7 @@ def check_output_file(path: Path, parameter: str = "out", *, overwrite: bool = T
         raise ParameterError(parameter, f"{path} exists; choose another name or use --force")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.exists():
-        raise ParameterError(parameter, f"{path}: no such directory {parent}")
+        raise ParameterError(parameter, f"{path}: directory {parent} does not exist")
     if not parent.is_dir():
         raise ParameterError(parameter, f"{path}: {parent} is a file, not a directory")
 

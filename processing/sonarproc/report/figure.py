@@ -11,7 +11,9 @@ they always agree.
 >>> nice_ticks(0.0, 2.0, 5)
 [0.0, 0.5, 1.0, 1.5, 2.0]
 >>> tick_labels([0.0, 0.5, 1.0])
-['0', '0.5', '1']
+['0.0', '0.5', '1.0']
+>>> tick_labels([0.0, 2.0, 4.0])
+['0', '2', '4']
 """
 
 from __future__ import annotations
@@ -140,7 +142,7 @@ def nice_ticks(lo: float, hi: float, most: int) -> list[float]:
 
 
 def tick_labels(values: list[float]) -> list[str]:
-    """Labels with as few decimals as tell the ticks apart (``0``, ``0.5``, ``1``)."""
+    """Labels with one number of decimals, as few as show every tick exactly."""
     for decimals in range(0, 7):
         texts = [f"{v:.{decimals}f}" for v in values]
         if all(

@@ -62,7 +62,7 @@ def files(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
 CASES: list[tuple[str, int, list[str]]] = [
     # the reported ones
     ("run {dir}", 2, ["is a directory", "{dir}"]),
-    ("recover {log} --out /nonexistent-dir/x.h5", 2, ["--out", "no such directory"]),
+    ("recover {log} --out /nonexistent-dir/x.h5", 2, ["--out", "does not exist"]),
     ("run {log} --out {file}", 2, ["--out", "README.md", "is a file"]),
     ("simulate {typo} --out {dir}/t.h5", 2, ["typo.yaml", "cuont", "unknown field"]),
     ("run {log} --ops=", 2, ["--ops", "empty", "thinning:3"]),
@@ -111,7 +111,7 @@ CASES: list[tuple[str, int, list[str]]] = [
     ("simulate {badtype} --out {dir}/b.h5", 2, ["count", "integer"]),
     ("simulate {notyaml} --out {dir}/y.h5", 2, ["notyaml.yaml", "YAML"]),
     ("simulate fig02 --out {empty}", 2, ["--out", "is a directory"]),
-    ("simulate fig02 --out /nonexistent-dir/f.h5", 2, ["--out", "no such directory"]),
+    ("simulate fig02 --out /nonexistent-dir/f.h5", 2, ["--out", "does not exist"]),
     ("simulate fig02 --out {dir}/s.h5 --seed -1", 2, ["--seed"]),
     ("import {log}", 2, ["--out is required"]),
     ("import {log} --out {empty}", 2, ["--out", "is a directory"]),

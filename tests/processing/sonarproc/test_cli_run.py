@@ -203,12 +203,12 @@ def test_missing_files_and_csv_without_sensors(
     assert "x.h5" in one_error_line(capsys.readouterr().err)
 
 
-def test_unwritable_out_dir_is_a_runtime_failure(
+def test_out_dir_under_a_file_is_refused_first(
     tmp_path: Path, log_h5: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")
-    assert main(["run", str(log_h5), "--out", str(blocker / "sub"), "--cell", "0.02"]) == 1
+    assert main(["run", str(log_h5), "--out", str(blocker / "sub"), "--cell", "0.02"]) == 2
     one_error_line(capsys.readouterr().err)
 
 
