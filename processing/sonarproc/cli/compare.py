@@ -58,21 +58,20 @@ def _table(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    def fmt(v: Any, spec: str = ".4g") -> str:
-        return "—" if v is None else format(v, spec)
+    from sonarproc.report.units import MISSING, number, seconds, sig3
 
     table = Table(title=f"sonarproc compare: {doc['source']}")
     for col in ("method", "e", "f_c", "E1 (cm)", "E2", "t_cpu (s)", "points", "fit"):
         table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
     for r in doc["methods"]:
-        e1 = None if r["E1_m"] is None else 100 * r["E1_m"]
+        e1 = MISSING if r["E1_m"] is None else sig3(100 * r["E1_m"])
         table.add_row(
             r["method"],
-            fmt(r["e"]),
-            fmt(r["f_c"]),
-            fmt(e1),
-            fmt(r["E2"]),
-            f"{r['t_cpu_s']:.3f}",
+            number(r["e"]),
+            number(r["f_c"]),
+            e1,
+            number(r["E2"]),
+            seconds(r["t_cpu_s"]).removesuffix(" s"),
             str(r["points"]),
             f"order {r['fit_order']}" if r["fit_ok"] else "FAILED",
         )

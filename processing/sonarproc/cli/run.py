@@ -88,8 +88,7 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    def fmt(v: Any, spec: str = ".4g") -> str:
-        return "—" if v is None else format(v, spec)
+    from sonarproc.report.units import length_cm, number, seconds
 
     m, c, g, fit = doc["metrics"], doc["counts"], doc["grid"], doc["fit"]
     table = Table(title=f"sonarproc run: {doc['source']}", show_header=False)
@@ -97,16 +96,16 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_column()
     table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
     table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
-    table.add_row("map", f"{g['nx']} x {g['ny']} cells of {g['cell']:g} m")
+    table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
     table.add_row("operations", str(doc["parameters"]["ops"]))
     fit_text = f"{fit['kind']}, order {fit['order']}"
     table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
-    table.add_row("e", fmt(m["e"]))
-    table.add_row("f_c", fmt(m["f_c"]))
+    table.add_row("e", number(m["e"]))
+    table.add_row("f_c", number(m["f_c"]))
     if "E1_m" in m:
-        table.add_row("E1", "—" if m["E1_m"] is None else f"{100 * m['E1_m']:.3g} cm")
-        table.add_row("E2", fmt(m["E2"]))
-    table.add_row("t_cpu", f"{m['t_cpu_s']:.3f} s")
+        table.add_row("E1", length_cm(m["E1_m"]))
+        table.add_row("E2", number(m["E2"]))
+    table.add_row("t_cpu", seconds(m["t_cpu_s"]))
     table.add_row("report", str(out))
     Console().print(table)
 
