@@ -23,14 +23,22 @@ from functools import cache
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["CHARS", "DPI", "SIZES_PT", "build_atlas_source", "render_text", "text_width"]
+__all__ = [
+    "CHARS",
+    "DPI",
+    "SIZES_PT",
+    "build_atlas_source",
+    "missing_glyphs",
+    "render_text",
+    "text_width",
+]
 
 #: The pixel density the atlas (and every raster figure) is drawn at.
 DPI = 150
 #: Font size (points) of each text role.
 SIZES_PT = {"tick": 8.0, "label": 9.5, "title": 10.5}
 #: Characters in the atlas: printable ASCII and the few symbols the figures use.
-CHARS = "".join(chr(c) for c in range(32, 127)) + "—–×°µσ≥≤±²"
+CHARS = "".join(chr(c) for c in range(32, 127)) + "—–−…×°µσ≥≤±²"
 
 
 @dataclass(frozen=True)
@@ -66,6 +74,16 @@ def _atlas() -> dict[str, tuple[int, int, dict[str, _Glyph]]]:
             glyphs[chr(code)] = _Glyph(adv, left, top, bm)
         out[name] = (ascent, descent, glyphs)
     return out
+
+
+def missing_glyphs(text: str) -> str:
+    """The characters of ``text`` the atlas lacks (drawn as ``?``).
+
+    >>> missing_glyphs("x (m) −1.5 ≥ 3")
+    ''
+    """
+    glyphs = _atlas()["tick"][2]
+    return "".join(sorted({ch for ch in text if ch not in glyphs}))
 
 
 def text_width(text: str, role: str) -> int:

@@ -177,6 +177,18 @@ def test_each_surface_is_drawn_in_its_own_colour(result: RunResult) -> None:
         assert np.all(img == hex_rgb(colour), axis=2).sum() > 50
 
 
+def test_every_label_has_its_glyphs(result: RunResult) -> None:
+    from sonarproc.report.figure import tick_labels
+    from sonarproc.report.glyphs import missing_glyphs
+
+    for fig in (arcmap_figure(result), processed_figure(result), fit_figure(result)):
+        lay = layout(fig)
+        texts = [fig.title, fig.xlabel, fig.ylabel, *(s for _, s in lay.xticks + lay.yticks)]
+        texts += [e.label or "" for _, _, e in lay.legend]
+        assert missing_glyphs("".join(texts)) == ""
+    assert missing_glyphs("".join(tick_labels([-1.5, -1.0, -0.5]))) == ""
+
+
 def test_nice_ticks_are_round_and_inside() -> None:
     assert nice_ticks(0.13, 4.87, 6) == [1.0, 2.0, 3.0, 4.0]
     assert nice_ticks(-1.0, 1.0, 5) == [-1.0, -0.5, 0.0, 0.5, 1.0]
