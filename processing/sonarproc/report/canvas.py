@@ -79,23 +79,30 @@ def _stroke(
     dashed: bool = False,
     clip: tuple[int, int, int, int] | None = None,
 ) -> None:
-    """Draw the pixel polyline ``px`` (N x 2 column, row) with a round pen."""
-    px = px[np.all(np.isfinite(px), axis=1)]
-    if px.shape[0] == 0:
+    """Draw the pixel polyline ``px`` (N x 2 column, row) with a round pen.
+
+    A row of NaN breaks the line (separate walls of one truth profile).
+    """
+    finite = np.all(np.isfinite(px), axis=1)
+    if not finite.any():
         return
     if px.shape[0] == 1:
         pts = px
         along = np.zeros(1)
     else:
         seg = np.diff(px, axis=0)
+        valid = finite[:-1] & finite[1:]
+        seg[~valid] = 0.0
         lengths = np.hypot(seg[:, 0], seg[:, 1])
-        steps = np.maximum(np.ceil(lengths / 0.5).astype(np.intp), 1)
+        steps = np.where(valid, np.maximum(np.ceil(lengths / 0.5).astype(np.intp), 1), 0)
+        px = np.where(finite[:, None], px, 0.0)
         idx = np.repeat(np.arange(seg.shape[0]), steps)
         frac = (np.arange(idx.size) - np.repeat(np.cumsum(steps) - steps, steps)) / steps[idx]
         pts = px[idx] + seg[idx] * frac[:, None]
         along = np.concatenate(([0.0], np.cumsum(lengths)))[idx] + lengths[idx] * frac
-        pts = np.vstack((pts, px[-1:]))
-        along = np.append(along, along[-1] if along.size else 0.0)
+        if finite[-1]:
+            pts = np.vstack((pts, px[-1:]))
+            along = np.append(along, along[-1] if along.size else 0.0)
     if dashed:
         keep = (along % 14.0) < 8.0
         pts = pts[keep]

@@ -26,7 +26,7 @@ from sonarproc.fit import FitFailure
 from sonarproc.methods.base import MethodResult
 from sonarproc.methods.compare import COLUMNS, comparison_doc
 from sonarproc.params import RunParams
-from sonarproc.report.plots import block_max, fit_curve
+from sonarproc.report.plots import block_max, broken_at_jumps, fit_curve
 from sonarproc.report.units import MISSING, length_cm, number, sig3
 
 __all__ = [
@@ -114,7 +114,8 @@ def compare_figure(results: Sequence[MethodResult], source: str = "") -> Figure:
             interpolation="nearest",
         )
         if run.truth is not None:
-            ax.plot(run.truth[:, 0], run.truth[:, 1], "k--", lw=1.0)
+            truth = broken_at_jumps(run.truth)
+            ax.plot(truth[:, 0], truth[:, 1], "k--", lw=1.0)
         if not isinstance(run.fit, FitFailure):
             pts = fit_curve(run.fit, run.truth, run.grid.cell)
             ax.plot(pts[:, 0], pts[:, 1], "-", color="tab:red", lw=1.4)

@@ -29,6 +29,7 @@ __all__ = [
     "Rendered",
     "arcmap_figure",
     "block_max",
+    "broken_at_jumps",
     "fit_curve",
     "fit_figure",
     "grey_ramp",
@@ -84,9 +85,29 @@ def _base(result: RunResult, what: str) -> MapFigure:
     return MapFigure(title=f"{name}: {what}", xlim=(x0, x1), ylim=(y0, y1))
 
 
+def broken_at_jumps(xy: npt.NDArray[np.float64], factor: float = 8.0) -> npt.NDArray[np.float64]:
+    """``xy`` with a NaN row wherever a step is ``factor`` times the median step.
+
+    A truth profile of several walls is one polyline; drawn as is, it joins the walls.
+
+    Examples
+    --------
+    >>> broken_at_jumps(np.array([[0.0, 0], [1, 0], [2, 0], [50, 0], [51, 0]]))[3].tolist()
+    [nan, nan]
+    """
+    if xy.shape[0] < 3:
+        return xy
+    step = np.hypot(*np.diff(xy, axis=0).T)
+    jumps = np.flatnonzero(step > factor * max(float(np.median(step)), 1e-12))
+    if jumps.size == 0:
+        return xy
+    return np.insert(xy, jumps + 1, np.nan, axis=0)
+
+
 def _truth(fig: MapFigure, result: RunResult) -> None:
     if result.truth is not None and result.truth.size:
-        fig.lines.append(Line(result.truth, "#000000", 1.6, dashed=True, label="true surface"))
+        xy = broken_at_jumps(result.truth)
+        fig.lines.append(Line(xy, "#000000", 1.6, dashed=True, label="true surface"))
 
 
 def arcmap_figure(result: RunResult) -> MapFigure:

@@ -77,7 +77,11 @@ def to_svg(fig: MapFigure, lay: Layout | None = None, *, max_points: int = 2000)
         )
     for line in fig.lines:
         xy = line.xy[:: max(line.xy.shape[0] // max_points, 1)]
-        out.append(_line(line, _points(lay.to_px(xy))))
+        breaks = np.flatnonzero(~np.all(np.isfinite(xy), axis=1))
+        for piece in np.split(xy, breaks):  # a NaN row breaks the line
+            piece = piece[np.all(np.isfinite(piece), axis=1)]
+            if piece.shape[0] >= 2:
+                out.append(_line(line, _points(lay.to_px(piece))))
     out.append(
         f'<rect x="{left}" y="{top}" width="{w}" height="{h}" fill="none" '
         f'stroke="{_INK}" stroke-width="1.5"/>'
