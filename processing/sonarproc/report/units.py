@@ -31,7 +31,7 @@ def sig3(value: float) -> str:
     Beyond 100 000 (a fit gone wild) or below 0.001, in exponent form: ``4.24e+08``.
 
     >>> sig3(424073262.0), sig3(0.000123), sig3(1234.5)
-    ('4.24e+08', '1.23e-04', '1235')
+    ('4.24e+08', '1.23e-04', '1234')
     """
     if value == 0 or not math.isfinite(value):
         return f"{value:g}"
