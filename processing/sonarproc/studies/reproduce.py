@@ -524,11 +524,13 @@ def reproduce(
     reports: Path | None = None,
     progress: Callable[[str, int, int], None] | None = None,
     done: Callable[[str], None] | None = None,
+    only: Sequence[str] | None = None,
 ) -> str:
     """Simulate and run every scenario; return the markdown.
 
     ``progress(name, k, total)`` hears which scenario starts; ``done(line)`` gets one
-    human line per finished scenario (:func:`outcome_line`).
+    human line per finished scenario (:func:`outcome_line`); ``only`` limits the run
+    to the scenarios of those names.
     """
     import yaml
 
@@ -542,6 +544,8 @@ def reproduce(
     sampled_t1: list[SampledRow] = []
     with tempfile.TemporaryDirectory(prefix="sonarproc-reproduce-") as tmp:
         scenarios = sorted(scenario_dir.glob("*.yaml"))
+        if only:
+            scenarios = [s for s in scenarios if s.stem in only]
         for k, scenario in enumerate(scenarios):
             name = scenario.stem
             if progress is not None:
@@ -632,8 +636,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--cell", type=float, default=0.01)
     ap.add_argument("--reports", type=Path, default=None, help="keep report dirs here")
     ap.add_argument("--quiet", action="store_true", help="no progress, no per-scenario lines")
+    ap.add_argument(
+        "--only", action="append", default=None, metavar="NAME", help="this scenario only"
+    )
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="reproduce: %(message)s")
+    unknown = sorted(set(args.only or ()) - {p.stem for p in args.scenarios.glob("*.yaml")})
+    if unknown:
+        print(f"reproduce: error: --only: no scenario {', '.join(unknown)} in {args.scenarios}",
+              file=sys.stderr)  # fmt: skip
+        return 2
     show = not args.quiet and sys.stdout.isatty()
     with _progress(show) as (bar, task):
 
@@ -650,8 +662,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(line, file=sys.stderr)
 
         text = reproduce(
-            args.scenarios, cell=args.cell, reports=args.reports, progress=started, done=finished
-        )
+            args.scenarios, cell=args.cell, reports=args.reports, progress=started,
+            done=finished, only=args.only,
+        )  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text, encoding="utf-8")
     print(f"reproduce: wrote {args.out}", file=sys.stderr)

@@ -11,6 +11,7 @@ import pytest
 from sonarlog import FLAG_NO_ECHO, LogWriter
 from sonarlog.csvlog import read_csv_log, read_truth_csv
 from sonarproc.cli import main
+from sonarproc.report.units import sig3
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
 READINGS = EXAMPLES / "example-readings.csv"
@@ -63,7 +64,8 @@ def test_run_writes_report_and_summary(
     for name in ("arcmap.png", "processed.png", "fit.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     html = (out / "report.html").read_text()
-    assert f"{doc['metrics']['E2']:.6g}" in html and "thinning:3" in html
+    assert f"<td>{sig3(doc['metrics']['E2'])}</td>" in html and "thinning:3" in html
+    assert f"<td>{sig3(100 * doc['metrics']['E1_m'])} cm</td>" in html
 
 
 def test_json_goes_to_stdout_and_default_out_dir(
