@@ -35,6 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND, READING_DTYPE, SonarLog
+from sonarlog.errors import InvalidLogError
 from sonarlog.sources.presets import SensorSet, load_sensors
 
 __all__ = [
@@ -59,7 +60,7 @@ def load_sensors_yaml(path: str | Path) -> SensorSet:
 
     Raises
     ------
-    ValueError
+    InvalidLogError (a ValueError)
         One line naming the file, the field and the problem.
     """
     return load_sensors(path)
@@ -71,7 +72,7 @@ def _header(path: Path) -> tuple[list[str], int]:
         for line_no, row in enumerate(csv.reader(fh)):
             if row and not row[0].lstrip().startswith("#"):
                 return [c.strip().lower() for c in row], line_no + 1
-    raise ValueError(f"{path}: empty file, expected a header row")
+    raise InvalidLogError(f"{path}: empty file, expected a header row")
 
 
 def _load_numbers(path: Path, ncols: int, skip: int) -> npt.NDArray[np.float64]:
@@ -82,11 +83,11 @@ def _load_numbers(path: Path, ncols: int, skip: int) -> npt.NDArray[np.float64]:
                 path, delimiter=",", skiprows=skip, comments="#", ndmin=2, dtype=np.float64
             )
         except ValueError as err:
-            raise ValueError(f"{path}: {str(err).splitlines()[0]}") from err
+            raise InvalidLogError(f"{path}: {str(err).splitlines()[0]}") from err
     if data.size == 0:
         return np.zeros((0, ncols))
     if data.shape[1] != ncols:
-        raise ValueError(f"{path}: rows have {data.shape[1]} values, header has {ncols}")
+        raise InvalidLogError(f"{path}: rows have {data.shape[1]} values, header has {ncols}")
     return data
 
 
@@ -94,7 +95,7 @@ def _integral(path: Path, name: str, col: npt.NDArray[np.float64], lo: int, hi: 
     bad = ~np.isfinite(col) | (col != np.round(col)) | (col < lo) | (col > hi)
     if np.any(bad):
         row = int(np.flatnonzero(bad)[0])
-        raise ValueError(
+        raise InvalidLogError(
             f"{path}: column {name!r} must hold integers {lo}..{hi} (data row {row + 1})"
         )
 
@@ -115,20 +116,20 @@ def read_csv_log(
 
     Raises
     ------
-    ValueError
+    InvalidLogError (a ValueError)
         One line naming the file and the problem (missing column, non-number, ...).
     """
     p = Path(path)
     spec = load_sensors_yaml(sensors)
     names, skip = _header(p)
     if len(set(names)) != len(names):
-        raise ValueError(f"{p}: header repeats a column name")
+        raise InvalidLogError(f"{p}: header repeats a column name")
     missing = [c for c in CSV_REQUIRED if c not in names]
     if missing:
-        raise ValueError(f"{p}: missing required column(s) {', '.join(missing)}")
+        raise InvalidLogError(f"{p}: missing required column(s) {', '.join(missing)}")
     has_tof, has_range = "tof" in names, "range" in names
     if has_tof == has_range:
-        raise ValueError(f"{p}: needs exactly one of the columns 'tof' (s) and 'range' (m)")
+        raise InvalidLogError(f"{p}: needs exactly one of the columns 'tof' (s) and 'range' (m)")
     data = _load_numbers(p, len(names), skip)
     col = {n: data[:, i] for i, n in enumerate(names)}
     readings = np.zeros(data.shape[0], dtype=READING_DTYPE)
@@ -148,7 +149,7 @@ def read_csv_log(
     for name in ("t", "x", "y", "theta", "turret"):
         if not np.all(np.isfinite(readings[name])):
             row = int(np.flatnonzero(~np.isfinite(readings[name]))[0])
-            raise ValueError(f"{p}: column {name!r} is not finite (data row {row + 1})")
+            raise InvalidLogError(f"{p}: column {name!r} is not finite (data row {row + 1})")
     t = None if truth is None else np.asarray(truth, dtype=np.float64)
     attrs: dict[str, Any] = {
         "format": "sonarlog",
@@ -166,9 +167,9 @@ def read_truth_csv(path: str | Path) -> npt.NDArray[np.float64]:
     p = Path(path)
     names, skip = _header(p)
     if "x" not in names or "y" not in names:
-        raise ValueError(f"{p}: a truth profile CSV needs columns x and y")
+        raise InvalidLogError(f"{p}: a truth profile CSV needs columns x and y")
     data = _load_numbers(p, len(names), skip)
     out = np.column_stack((data[:, names.index("x")], data[:, names.index("y")]))
     if out.shape[0] < 2 or not np.all(np.isfinite(out)):
-        raise ValueError(f"{p}: a truth profile needs at least 2 finite points")
+        raise InvalidLogError(f"{p}: a truth profile needs at least 2 finite points")
     return out

@@ -263,12 +263,60 @@ def _build_surface(spec: Any) -> Surface:
     return Circle(spec.center, spec.radius, **kw)
 
 
+def _field_path(loc: tuple[Any, ...]) -> tuple[list[str], tuple[str, ...]]:
+    """The YAML field path of a pydantic error location, and the union branch it is in.
+
+    Union branches show in ``loc`` as ``tagged-union[...]`` plus the tag, as
+    ``function-after[...]`` or as a model's class name; none of those is a field the
+    file's author wrote, but together they say which alternative the error is about.
+    """
+    out: list[str] = []
+    branch: list[str] = []
+    skip = False
+    for part in loc:
+        text = str(part)
+        if skip:
+            skip = False
+            branch.append(text)
+            continue
+        if text.startswith("tagged-union["):
+            skip = True
+            continue
+        if "[" in text or "(" in text or (text[:1].isupper() and text.isidentifier()):
+            branch.append(text)
+            continue
+        out.append(text)
+    return out, tuple(branch)
+
+
 def format_validation_error(source: str, err: ValidationError) -> str:
-    """One line: ``source: field.path: message`` for the first problem."""
-    first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"]) or "(top level)"
-    more = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
-    return f"{source}: {loc}: {first['msg']}{more}"
+    """One line: ``source: field.path: problem``, for the problem the author most likely made.
+
+    Of a union's alternatives, the one with the fewest problems is taken to be the one
+    the author meant; within it an unknown field (a typo) comes before a missing one,
+    with the closest allowed name suggested.
+    """
+    import difflib
+    from collections import Counter
+
+    errors = err.errors(include_url=False)
+    found = [(*_field_path(tuple(e["loc"])), e) for e in errors]
+    sizes = Counter(branch for _, branch, _ in found)
+    best = min(sizes, key=lambda b: (sizes[b], list(sizes).index(b)))
+    found = [f for f in found if f[1] == best]
+    extra = [f for f in found if f[2]["type"] == "extra_forbidden"]
+    path, _, first = (extra or found)[0]
+    where = ".".join(path) or "(top level)"
+    if first["type"] == "extra_forbidden":
+        parent = path[:-1]
+        missing = [p[-1] for p, _, e in found if e["type"] == "missing" and p[:-1] == parent]
+        close = difflib.get_close_matches(path[-1] if path else "", missing, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        return f"{source}: {where}: unknown field{hint}"
+    msg = str(first["msg"])
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    return f"{source}: {where}: {msg}"
 
 
 def world_from_dict(data: Mapping[str, Any], *, source: str = "<world>") -> World:

@@ -42,7 +42,23 @@ PEAK = (
     "    sys.stderr.write(f'VMHWM_BYTES={kib * 1024}\\n')\n"
     "atexit.register(_peak)\n"
 )
-RUN = PEAK + "from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
+# The report writer is wrapped so the child reports the wall and CPU seconds spent writing
+# the report directory (figures, HTML, JSON, CSV, and any import they trigger).
+RUN = (
+    PEAK
+    + "import time\n"
+    + "import sonarproc.report as _report\n"
+    + "_write = _report.write_report\n"
+    + "def _timed(*a, **k):\n"
+    + "    t0, c0 = time.perf_counter(), time.process_time()\n"
+    + "    try:\n"
+    + "        return _write(*a, **k)\n"
+    + "    finally:\n"
+    + "        t, c = time.perf_counter() - t0, time.process_time() - c0\n"
+    + "        sys.stderr.write(f'REPORT_S={t} {c}\\n')\n"
+    + "_report.write_report = _timed\n"
+    + "from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
+)
 FLOOR = (
     PEAK
     + """
@@ -94,8 +110,8 @@ def write_room_log(path: Path, hours: float, seed: int = 0) -> int:
     return n
 
 
-def _child(args: list[str], tmp: Path) -> tuple[float, int, str]:
-    """Run ``python args``; return wall seconds, the child's own peak RSS (bytes), stdout."""
+def _child(args: list[str], tmp: Path) -> tuple[float, int, str, str]:
+    """Run ``python args``; return wall seconds, its own peak RSS (bytes), stdout, stderr."""
     t0 = time.perf_counter()
     with (tmp / "stderr.txt").open("w+b") as err:
         proc = subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE, stderr=err)
@@ -116,15 +132,24 @@ def _child(args: list[str], tmp: Path) -> tuple[float, int, str]:
         assert proc.returncode == 0, text
     marks = [line for line in text.splitlines() if line.startswith("VMHWM_BYTES=")]
     peak = int(marks[-1].split("=")[1]) if marks else usage.ru_maxrss * 1024
-    return wall, peak, out.decode()
+    return wall, peak, out.decode(), text
+
+
+def _report_s(stderr: str) -> tuple[float, float]:
+    """The report writer's wall and CPU seconds, as the wrapped child printed them."""
+    marks = [line for line in stderr.splitlines() if line.startswith("REPORT_S=")]
+    wall, cpu = marks[-1].split("=")[1].split()
+    return float(wall), float(cpu)
 
 
 def _run(log: Path, out: Path, cell: float) -> tuple[float, int, dict[str, Any]]:
     args = ["-c", RUN, "run", str(log), "--out", str(out), "--cell", f"{cell:.6g}",
             "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", "polar", "--json"]  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
-    wall, peak, stdout = _child(args, out)
-    return wall, peak, json.loads(stdout)
+    wall, peak, stdout, stderr = _child(args, out)
+    doc = json.loads(stdout)
+    doc["_report_s"] = _report_s(stderr)
+    return wall, peak, doc
 
 
 def _best(log: Path, out: Path, cell: float, repeat: int = 3) -> tuple[float, int, dict[str, Any]]:
@@ -133,6 +158,7 @@ def _best(log: Path, out: Path, cell: float, repeat: int = 3) -> tuple[float, in
     wall = min(r[0] for r in runs)
     peak = max(r[1] for r in runs)
     doc = min((r[2] for r in runs), key=lambda d: d["metrics"]["t_cpu_s"])
+    doc["_report_s"] = min(r[2]["_report_s"] for r in runs)
     return wall, peak, doc
 
 
@@ -149,7 +175,9 @@ def test_bench_whole_run(tmp_path: Path) -> None:
     counts = doc["counts"]
     grid = doc["grid"]
     cells = int(grid["nx"]) * int(grid["ny"])
-    fwall, _, _ = _child(["-c", FLOOR, str(log1), str(counts["arc_cells"]), str(cells)], tmp_path)
+    fwall, _, _, _ = _child(
+        ["-c", FLOOR, str(log1), str(counts["arc_cells"]), str(cells)], tmp_path
+    )
     t_cpu = doc["metrics"]["t_cpu_s"]
     print(
         f"\nwhole run: {n1} readings ({counts['readings_used']} arcs, "
@@ -165,6 +193,11 @@ def test_bench_whole_run(tmp_path: Path) -> None:
         f"run / floor = {wall / fwall:.2f}"
     )
     print("  stages (s): " + ", ".join(f"{k} {v:.3f}" for k, v in doc["timings_s"].items()))
+    rep_wall, rep_cpu = doc["_report_s"]
+    print(
+        f"  report writing (figures PNG+SVG, HTML, JSON, CSV): wall {rep_wall:.2f} s, "
+        f"CPU {rep_cpu:.2f} s; share of the run's wall {rep_wall / wall:.2f}"
+    )
 
     rows = [("x1 readings, x1 cells", n1, wall, peak, t_cpu, cells)]
     for label, log, n, cell in [

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import typer
 
@@ -22,6 +22,32 @@ from sonarproc import __version__
 from sonarproc.errors import FitError, ParameterError, SonarprocError
 
 __all__ = ["PARAMETER_FLAGS", "RuntimeProblem", "app", "fail", "guarded", "version_callback"]
+
+
+def _flags_show_as_flags() -> None:
+    """Show on/off flags bare in ``--help`` (``--json``), not as ``--json <bool>``.
+
+    This typer prints every option's type, flags included, which reads as if ``--json``
+    took a value (and ``--json true`` is then refused). Flags take none: show no type.
+    """
+    from typer import core
+
+    option = getattr(core, "TyperOption", None)
+    original = getattr(option, "display_type_rich", None)
+    if option is None or original is None or getattr(original, "_flag_aware", False):
+        return
+
+    def display_type_rich(self: Any, ctx: Any) -> str | None:
+        if getattr(self, "is_flag", False):
+            return None
+        result: str | None = original(self, ctx)
+        return result
+
+    display_type_rich._flag_aware = True  # type: ignore[attr-defined]
+    option.display_type_rich = display_type_rich
+
+
+_flags_show_as_flags()
 
 app = typer.Typer(
     name="sonarproc",
@@ -99,7 +125,27 @@ def flag_message(err: ParameterError) -> str:
 
 
 def os_message(err: OSError) -> str:
-    """One line for an OS error: the file, then what went wrong, without ``[Errno N]``."""
+    """One line for an OS error: the file, then what went wrong, without ``[Errno N]``.
+
+    HDF5's errors carry no file name; the path is taken from their message.
+
+    Examples
+    --------
+    >>> os_message(FileExistsError(17, "File exists", "README.md"))
+    'README.md: file exists'
+    >>> os_message(OSError("Unable to create file (unable to open file: name = "
+    ...     "'/no/x.h5.partial', errno = 2, error message = 'No such file or directory')"))
+    '/no/x.h5: no such file or directory'
+    """
+    if err.filename is None and not err.strerror:
+        import re
+
+        text = str(err)
+        named = re.search(r"name = '([^']*)'", text)
+        reason = re.search(r"error message = '([^']*)'", text)
+        if named:
+            path = named.group(1).removesuffix(".partial")
+            return f"{path}: {(reason.group(1) if reason else text).lower()}"
     name = err.filename if err.filename is not None else ""
     if isinstance(err, FileNotFoundError):
         # Our own resolvers put a fuller sentence in strerror (shipped names to choose from).

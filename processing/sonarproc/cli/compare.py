@@ -20,10 +20,13 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OrderOption,
     SensorsOption,
     TruthOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
+from sonarproc.cli.progress import progress
 from sonarproc.errors import ParameterError
 
 if TYPE_CHECKING:
@@ -55,21 +58,20 @@ def _table(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    def fmt(v: Any, spec: str = ".4g") -> str:
-        return "—" if v is None else format(v, spec)
+    from sonarproc.report.units import MISSING, number, seconds, sig3
 
     table = Table(title=f"sonarproc compare: {doc['source']}")
     for col in ("method", "e", "f_c", "E1 (cm)", "E2", "t_cpu (s)", "points", "fit"):
         table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
     for r in doc["methods"]:
-        e1 = None if r["E1_m"] is None else 100 * r["E1_m"]
+        e1 = MISSING if r["E1_m"] is None else sig3(100 * r["E1_m"])
         table.add_row(
             r["method"],
-            fmt(r["e"]),
-            fmt(r["f_c"]),
-            fmt(e1),
-            fmt(r["E2"]),
-            f"{r['t_cpu_s']:.3f}",
+            number(r["e"]),
+            number(r["f_c"]),
+            e1,
+            number(r["E2"]),
+            seconds(r["t_cpu_s"]).removesuffix(" s"),
             str(r["points"]),
             f"order {r['fit_order']}" if r["fit_ok"] else "FAILED",
         )
@@ -98,9 +100,7 @@ def compare_command(
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
     fit: FitOption = "auto",
-    order: Annotated[
-        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
-    ] = None,
+    order: OrderOption = None,
     sensors: SensorsOption = None,
     truth: TruthOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
@@ -133,7 +133,13 @@ def compare_command(
         if lg.integrity_warning() is not None:
             typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
-        results = compare(lg, params, instances)
+        check_output_dir(out_dir)
+        results = []
+        with progress("compare", len(instances)) as steps:
+            for k, method in enumerate(instances):
+                steps.describe(method.name)
+                results.extend(compare(lg, params, [method]))
+                steps(k + 1)
         doc = write_comparison(str(log), params, results, out_dir)
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:

@@ -19,9 +19,11 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OrderOption,
     SensorsOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 from sonarproc.errors import ParameterError
 
 __all__ = ["export_command"]
@@ -44,9 +46,7 @@ def export_command(
         str, typer.Option(help="Morphological operations of the 'morphological' method.")
     ] = "thinning:3",
     fit: FitOption = "auto",
-    order: Annotated[
-        int | None, typer.Option(help="Polynomial order m (default 9) or polar harmonics (16).")
-    ] = None,
+    order: OrderOption = None,
     sensors: SensorsOption = None,
     truth: Annotated[
         Path | None, typer.Option(help="True profile CSV (x,y), for the metrics in the GeoJSON.")
@@ -75,6 +75,7 @@ def export_command(
         if lg.integrity_warning() is not None:
             typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
+        check_output_dir(out_dir)
         result = instance.run(lg, params)
         paths = write_exports(result, out_dir, formats, log=lg, force=force)
     for p in paths:

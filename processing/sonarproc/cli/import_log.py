@@ -12,6 +12,8 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, fail, guarded
+from sonarproc.cli.paths import check_output_file
+from sonarproc.cli.progress import progress
 
 __all__ = ["import_command"]
 
@@ -66,10 +68,12 @@ def import_command(
             return
         if out is None:
             fail("--out is required (the sonarlog to write), or pass --list")
-        summary = import_to_sonarlog(
-            log, out, force=force, sonar_topic=sonar_topic, odom_topic=odom_topic, robot=robot,
-            sensors=sensors, temperature_c=temperature,
-        )  # fmt: skip
+        check_output_file(out)
+        with progress(f"import {log.name}", None):
+            summary = import_to_sonarlog(
+                log, out, force=force, sonar_topic=sonar_topic, odom_topic=odom_topic,
+                robot=robot, sensors=sensors, temperature_c=temperature,
+            )  # fmt: skip
     for line in summary.lines():
         typer.echo(f"sonarproc import: {line}", err=True)
     typer.echo(f"{out}: written")

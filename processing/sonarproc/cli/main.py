@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 from typing import NoReturn
 
+import typer
+
 from sonarproc.cli import compare, export, import_log, recover, run, simulate, sweep, watch
 from sonarproc.cli.app import app
 
@@ -15,13 +17,39 @@ COMMANDS = (compare, export, import_log, recover, run, simulate, sweep, watch)
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the CLI with ``argv`` (default: ``sys.argv[1:]``) and return the exit code."""
+    """Run the CLI with ``argv`` (default: ``sys.argv[1:]``) and return the exit code.
+
+    Usage errors (an unknown option, a missing argument, a value of the wrong type) are
+    one line on stderr and exit code 2, like every other user mistake, instead of the
+    usage box the parser would draw.
+    """
+    args = argv if argv is not None else sys.argv[1:]
     try:
-        app(args=argv if argv is not None else sys.argv[1:], prog_name="sonarproc")
+        code = app(args=args, prog_name="sonarproc", standalone_mode=False)
     except SystemExit as exc:
         code = exc.code
         return code if isinstance(code, int) else (0 if code is None else 1)
-    return 0
+    except typer.Abort:
+        print("sonarproc: interrupted", file=sys.stderr)
+        return 130
+    except typer.TyperException as err:
+        ctx = getattr(err, "ctx", None)
+        if not err.format_message().strip() and ctx is not None:  # no arguments: the help
+            print(ctx.get_help())
+        else:
+            print(usage_message(err), file=sys.stderr)
+        return int(getattr(err, "exit_code", 2))
+    return code if isinstance(code, int) else 0
+
+
+def usage_message(err: typer.TyperException) -> str:
+    """``sonarproc run: error: <what> (see 'sonarproc run --help')`` on one line."""
+    ctx = getattr(err, "ctx", None)
+    where = ctx.command_path if ctx is not None else "sonarproc"
+    text = " ".join(err.format_message().split())
+    if text.startswith("Got unexpected extra argument"):
+        text += "; flags such as --json take no value"
+    return f"{where}: error: {text} (see '{where} --help')"
 
 
 def run_console() -> NoReturn:  # pragma: no cover - console-script shim

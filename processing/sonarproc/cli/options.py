@@ -123,6 +123,10 @@ def build_run_params(
 
     from sonarproc.params import RunParams, parse_bbox, parse_point
 
+    if not ops.strip():
+        raise ParameterError(
+            "ops", "is empty; give operations, e.g. 'thinning:3' or 'closing,thinning:2'"
+        )
     auto_order = isinstance(order, str) and order.strip().lower() == "auto"
     if order is None or auto_order:
         order_value = None

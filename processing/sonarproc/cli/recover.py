@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, guarded
+from sonarproc.cli.paths import check_output_file
 
 
 @app.command()
@@ -25,6 +26,8 @@ def recover(
     from sonarlog import recover_log
 
     with guarded():
+        if out is not None:
+            check_output_file(out, overwrite=force)
         report = recover_log(log, out, force=force)
     typer.echo(
         f"{report.destination}: {report.readings} readings kept, "

@@ -32,6 +32,7 @@ from sonarproc.cli.options import (
     TruthOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 
 __all__ = ["run_command"]
 
@@ -87,10 +88,7 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
-    from sonarproc.report.units import length_cm, number
-
-    def fmt(v: Any, spec: str = ".4g") -> str:
-        return "—" if v is None else format(v, spec)
+    from sonarproc.report.units import length_cm, number, seconds
 
     m, c, g, fit = doc["metrics"], doc["counts"], doc["grid"], doc["fit"]
     table = Table(title=f"sonarproc run: {doc['source']}", show_header=False)
@@ -98,7 +96,7 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_column()
     table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
     table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
-    table.add_row("map", f"{g['nx']} x {g['ny']} cells of {g['cell']:g} m")
+    table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
     table.add_row("operations", str(doc["parameters"]["ops"]))
     fit_text = f"{fit['kind']}, order {fit['order']}"
     if "surfaces" in doc:
@@ -107,15 +105,15 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
         table.add_row("fit", f"{len(doc['surfaces'])} surfaces ({kinds})")
     else:
         table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
-    table.add_row("e", fmt(m["e"]))
-    table.add_row("f_c", fmt(m["f_c"]))
+    table.add_row("e", number(m["e"]))
+    table.add_row("f_c", number(m["f_c"]))
     if "E1_m" in m:
-        table.add_row("E1", "—" if m["E1_m"] is None else f"{100 * m['E1_m']:.3g} cm")
-        table.add_row("E2", fmt(m["E2"]))
+        table.add_row("E1", length_cm(m["E1_m"]))
+        table.add_row("E2", number(m["E2"]))
     if "precision_m" in m:
         table.add_row("precision", length_cm(m["precision_m"]))
         table.add_row("completeness", number(m["completeness"]))
-    table.add_row("t_cpu", f"{m['t_cpu_s']:.3f} s")
+    table.add_row("t_cpu", seconds(m["t_cpu_s"]))
     table.add_row("report", str(out))
     Console().print(table)
 
@@ -156,6 +154,7 @@ def run_command(
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
+        check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
         try:
             result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)

@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, guarded
+from sonarproc.cli.paths import check_output_file
 
 
 @app.command()
@@ -29,6 +30,7 @@ def simulate(
     from sonarproc.simulate import simulate_to_log
 
     with guarded():
+        check_output_file(out, overwrite=force)
         summary = simulate_to_log(scenario, out, seed=seed, force=force)
     typer.echo(
         f"{summary.path}: {summary.readings} readings ({summary.echoes} echoes), "

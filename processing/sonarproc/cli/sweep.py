@@ -15,13 +15,11 @@ from typing import Annotated, Any
 import typer
 
 from sonarproc.cli.app import RuntimeProblem, app, guarded
+from sonarproc.cli.paths import check_output_dir
+from sonarproc.cli.progress import progress
 from sonarproc.errors import ParameterError
 
 __all__ = ["sweep_command", "sweep_merge_command"]
-
-
-def _fmt(v: Any) -> str:
-    return "—" if v is None else (f"{v:.4g}" if isinstance(v, float) else str(v))
 
 
 @app.command("sweep")
@@ -49,7 +47,11 @@ def sweep_command(
         if jobs < 0:
             raise ParameterError("jobs", f"must be >= 0, got {jobs}")
         n_jobs = jobs or (os.cpu_count() or 1)
-        result = run_sweep([str(p) for p in inputs], grid, jobs=n_jobs, shard=part)
+        check_output_dir(out)
+        with progress("sweep", None) as steps:
+            result = run_sweep(
+                [str(p) for p in inputs], grid, jobs=n_jobs, shard=part, progress=steps
+            )
         csv_path = write_sweep(result, out)
     failed = sum(1 for r in result.rows if not r["ok"])
     typer.echo(
@@ -87,16 +89,7 @@ def sweep_merge_command(
         }
         (out_dir / "best.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
         for inp, b in best.items():
-            r = b["row"]
-            params = ", ".join(
-                f"{k}={r[k]}"
-                for k in ("ops", "order", "cell", "fit", "robust", "sigma", "seed")
-                if r.get(k) is not None
-            )
-            typer.echo(
-                f"best for {inp} ({b['criterion']}): {params}: e={_fmt(r['e'])} "
-                f"f_c={_fmt(r['f_c'])} E1={_fmt(r['E1_m'])} E2={_fmt(r['E2'])}"
-            )
+            typer.echo(best_line(inp, b))
         if merged.duplicates:
             typer.echo(
                 f"sonarproc: warning: {len(merged.duplicates)} combination(s) ran more than "
@@ -117,6 +110,36 @@ def sweep_merge_command(
                 f"{len(merged.missing)} of {merged.total} combinations missing: "
                 f"{_ranges(merged.missing)}"
             )
+
+
+def best_line(inp: str, best: dict[str, Any]) -> str:
+    """One human line for an input's best parameters: tuned ones only, lengths in cm.
+
+    Examples
+    --------
+    >>> best_line("a.h5", {"criterion": "min E1_m (truth)", "row": {"ops": "thinning:3",
+    ...     "order": 9, "sigma": 0.01, "seed": 3, "e": 0.5, "f_c": 1.0, "E1_m": 0.0123,
+    ...     "E2": 0.25}})
+    'best for a.h5 (least E1): ops=thinning:3, order=9: e 0.500, f_c 1.00, E1 1.23 cm, E2 0.250'
+    """
+    from sonarproc.report.units import length_cm, number
+    from sonarproc.sweep.merge import TUNED
+
+    r = best["row"]
+    params = ", ".join(f"{k}={r[k]}" for k in TUNED if r.get(k) is not None)
+    if "cell" in params:
+        params = params.replace(f"cell={r['cell']}", f"cell={length_cm(r['cell'])}")
+    criterion = str(best["criterion"])
+    criterion = "least E1" if criterion.startswith("min E1_m") else criterion
+    if "runs" in r:
+        return (
+            f"best for {inp} (least mean E1 over {r['runs']} noise/seed runs): "
+            f"{params or 'the defaults'}: mean E1 {length_cm(r['E1_m_mean'])}"
+        )
+    scores = f"e {number(r.get('e'))}, f_c {number(r.get('f_c'))}"
+    if r.get("E1_m") is not None:
+        scores += f", E1 {length_cm(r['E1_m'])}, E2 {number(r.get('E2'))}"
+    return f"best for {inp} ({criterion}): {params or 'the defaults'}: {scores}"
 
 
 def _ranges(indices: list[int]) -> str:

@@ -28,6 +28,7 @@ from sonarproc.cli.options import (
     TruthOption,
     build_run_params,
 )
+from sonarproc.cli.paths import check_output_dir
 
 __all__ = ["watch_command"]
 
@@ -71,6 +72,7 @@ def watch_command(
             drop_crosstalk=drop_crosstalk, robust=robust, span=span,
         )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
+        check_output_dir(out_dir)
 
         def on_signal(signum: int, frame: FrameType | None) -> None:
             stop.set()

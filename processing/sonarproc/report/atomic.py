@@ -15,11 +15,12 @@ from pathlib import Path
 from typing import Any
 
 from sonarproc.pipeline.result import RunResult
+from sonarproc.report.run_report import REPORT_FILES
 
 __all__ = ["write_report_atomic"]
 
 # report.json last: a reader that polls it sees the other files of that update already.
-_ORDER = ("arcmap.png", "processed.png", "fit.png", "profile.csv", "report.html", "report.json")
+_ORDER = (*(n for n in REPORT_FILES if n != "report.json"), "report.json")
 
 
 def write_report_atomic(

@@ -10,7 +10,11 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
+from sonarproc.report.units import MISSING, length_cm, metric, seconds
+
 __all__ = ["render_html"]
+
+_SVGS = ("arcmap.svg", "processed.svg", "fit.svg")
 
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
@@ -25,18 +29,18 @@ img{max-width:100%;border:1px solid #ddd}code{font-size:.9em}
 _METRIC_LABELS = {
     "e": "e (Eq. 1)",
     "f_c": "f_c = N_k / N",
-    "E1_m": "E1 (Eq. 3), m",
+    "E1_m": "E1 (Eq. 3)",
     "E2": "E2 (Eq. 4)",
-    "t_cpu_s": "t_CPU, s",
+    "t_cpu_s": "t_CPU",
     "N": "N (columns spanned)",
     "N_k": "N_k (columns with points)",
-    "sigma_y_m": "sigma_y, m",
+    "sigma_y_m": "σ_y",
 }
 
 
 def _fmt(v: Any) -> str:
     if v is None:
-        return "—"
+        return MISSING
     if isinstance(v, bool):
         return "yes" if v else "no"
     if isinstance(v, float):
@@ -46,12 +50,34 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _table(rows: Mapping[str, Any], labels: Mapping[str, str] | None = None) -> str:
+def _table(
+    rows: Mapping[str, Any], labels: Mapping[str, str] | None = None, *, human: bool = False
+) -> str:
+    """A two-column table; ``human``: numbers by their key's unit (lengths in cm)."""
+
+    def cell(k: str, v: Any) -> str:
+        return metric(k, v) if human and not isinstance(v, (list, dict)) else _fmt(v)
+
+    names = labels or {}
     body = "".join(
-        f"<tr><th>{html.escape((labels or {}).get(k, k))}</th><td>{html.escape(_fmt(v))}</td></tr>"
+        f"<tr><th>{html.escape(names.get(k, k))}</th><td>{html.escape(cell(k, v))}</td></tr>"
         for k, v in rows.items()
     )
     return f"<table>{body}</table>"
+
+
+def _grid_rows(grid: Mapping[str, Any]) -> dict[str, Any]:
+    if not {"nx", "ny", "cell", "x0", "y0"} <= set(grid):
+        return dict(grid)
+    extent = grid.get("extent") or []
+    rows = {
+        "cells": f"{grid['nx']} × {grid['ny']}",
+        "cell size": length_cm(grid["cell"]),
+        "origin (x0, y0)": f"{grid['x0']:.3f} m, {grid['y0']:.3f} m",
+    }
+    if len(extent) == 4:
+        rows["extent"] = f"x {extent[0]:.3f}…{extent[1]:.3f} m, y {extent[2]:.3f}…{extent[3]:.3f} m"
+    return rows
 
 
 def _figure(name: str, data: bytes, caption: str) -> str:
@@ -88,7 +114,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
     captions = {
         "arcmap.png": "Arc map: number of arcs through each cell",
         "processed.png": "After the morphological operations",
-        "fit.png": "Fit (solid) and true surface (dashed)",
+        "fit.png": "Processed map (grey), true surface (dashed), fit or surfaces (solid)",
     }
     figures = "".join(_figure(n, images[n], captions.get(n, n)) for n in images)
     title = f"sonarproc report: {doc['source']}"
@@ -99,7 +125,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         f"<p>{html.escape(str(doc['method']))}; sonarmorph "
         f"{html.escape(str(doc['software']['sonarmorph']))}.</p>"
         "<h2>Metrics</h2>"
-        + _table(doc["metrics"], _METRIC_LABELS)
+        + _table(doc["metrics"], _METRIC_LABELS, human=True)
         + "<h2>Fit</h2>"
         + fit_html
         + "<h2>Figures</h2>"
@@ -109,8 +135,11 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         + "<h2>Counts</h2>"
         + _table(doc["counts"])
         + "<h2>Grid</h2>"
-        + _table(doc["grid"])
-        + "<h2>Timings (wall, s)</h2>"
-        + _table(doc["timings_s"])
+        + _table(_grid_rows(doc["grid"]))
+        + "<h2>Timings (wall)</h2>"
+        + _table({k: seconds(v) for k, v in doc["timings_s"].items()})
+        + "<p>Figures as vector graphics: "
+        + ", ".join(f'<a href="{n}">{n}</a>' for n in _SVGS)
+        + ". Every number in SI units: <code>report.json</code>.</p>"
         + "</body></html>\n"
     )

@@ -1,4 +1,7 @@
-"""Write a run's report directory: report.json, profile.csv, three PNGs and report.html.
+"""Write a run's report directory: report.json, profile.csv, three figures and report.html.
+
+Each figure is written twice: a 150 dpi PNG (embedded in ``report.html``) and a vector
+SVG beside it, for print.
 
 :func:`report_dict` is the single source of every number the files show; the writers only
 format it. The file set is documented in docs/formats.md.
@@ -35,8 +38,11 @@ REPORT_FILES = (
     "report.json",
     "profile.csv",
     "arcmap.png",
+    "arcmap.svg",
     "processed.png",
+    "processed.svg",
     "fit.png",
+    "fit.svg",
     "report.html",
 )
 
@@ -136,13 +142,10 @@ def write_report(result: RunResult, out_dir: str | Path) -> dict[str, Any]:
 
         write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
         write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
-    images = {
-        "arcmap.png": plots.render_arcmap(result),
-        "processed.png": plots.render_processed(result),
-        "fit.png": plots.render_fit(result),
-    }
-    for name, data in images.items():
+    figures = plots.render_all(result)
+    for name, data in figures.items():
         (out / name).write_bytes(data)
-    (out / "report.html").write_text(render_html(doc, images), encoding="utf-8")
+    pngs = {name: data for name, data in figures.items() if name.endswith(".png")}
+    (out / "report.html").write_text(render_html(doc, pngs), encoding="utf-8")
     log.info("wrote report to %s", out)
     return doc

@@ -26,9 +26,17 @@ MISSING = "—"
 
 
 def sig3(value: float) -> str:
-    """``value`` with 3 significant figures, keeping trailing zeros (``3.30``, ``0.0412``)."""
+    """``value`` with 3 significant figures, keeping trailing zeros (``3.30``, ``0.0412``).
+
+    Beyond 100 000 (a fit gone wild) or below 0.001, in exponent form: ``4.24e+08``.
+
+    >>> sig3(424073262.0), sig3(0.000123), sig3(1234.5)
+    ('4.24e+08', '1.23e-04', '1234')
+    """
     if value == 0 or not math.isfinite(value):
         return f"{value:g}"
+    if not 1e-3 <= abs(value) < 1e5:
+        return f"{value:.2e}"
     digits = max(0, 2 - math.floor(math.log10(abs(value))))
     return f"{value:.{digits}f}"
 

@@ -20,9 +20,11 @@ import logging
 import math
 import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, run_file
@@ -499,8 +501,37 @@ def _sampled_runs(
     return tuple(Outcome.of(r) for r in results), tuple(_binary_cells(r) for r in results)
 
 
-def reproduce(scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = None) -> str:
-    """Simulate and run every scenario; return the markdown."""
+def outcome_line(name: str, paper: PaperRow, ours: Outcome) -> str:
+    """One human line for a scenario: our E1 (cm) beside the paper's, e and f_c.
+
+    Examples
+    --------
+    >>> outcome_line("fig12", PaperRow("Fig. 12", "thinning:3", 9, E1_cm=3.59),
+    ...              Outcome(0.5, 1.0, 3.3, 0.9, 0.2, 100, True))
+    'fig12 (Fig. 12): E1 3.30 cm (paper 3.59 cm), e 0.500, f_c 1.00'
+    """
+    from sonarproc.report.units import MISSING, number, sig3
+
+    e1 = MISSING if ours.E1_cm is None else f"{sig3(ours.E1_cm)} cm"
+    theirs = "" if paper.E1_cm is None else f" (paper {sig3(paper.E1_cm)} cm)"
+    return f"{name} ({paper.figure}): E1 {e1}{theirs}, e {number(ours.e)}, f_c {number(ours.f_c)}"
+
+
+def reproduce(
+    scenario_dir: Path,
+    *,
+    cell: float = 0.01,
+    reports: Path | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
+    done: Callable[[str], None] | None = None,
+    only: Sequence[str] | None = None,
+) -> str:
+    """Simulate and run every scenario; return the markdown.
+
+    ``progress(name, k, total)`` hears which scenario starts; ``done(line)`` gets one
+    human line per finished scenario (:func:`outcome_line`); ``only`` limits the run
+    to the scenarios of those names.
+    """
     import yaml
 
     from sonarproc.morphology._counts import auto_vote_threshold
@@ -512,8 +543,13 @@ def reproduce(scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = 
     sampled: list[SampledRow] = []
     sampled_t1: list[SampledRow] = []
     with tempfile.TemporaryDirectory(prefix="sonarproc-reproduce-") as tmp:
-        for scenario in sorted(scenario_dir.glob("*.yaml")):
+        scenarios = sorted(scenario_dir.glob("*.yaml"))
+        if only:
+            scenarios = [s for s in scenarios if s.stem in only]
+        for k, scenario in enumerate(scenarios):
             name = scenario.stem
+            if progress is not None:
+                progress(name, k, len(scenarios))
             paper = PAPER.get(name, PaperRow("—", "thinning:3", 9, note="not in the paper"))
             desc = str((yaml.safe_load(scenario.read_text()) or {}).get("description", ""))
             logpath = Path(tmp) / f"{name}.h5"
@@ -532,7 +568,9 @@ def reproduce(scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = 
                     (_binary_cells(result), *cells),
                 )
             )
-            log.info("%s: %s", name, result.metrics)
+            log.debug("%s: %s", name, result.metrics)
+            if done is not None:
+                done(outcome_line(name, paper, Outcome.of(result)))
             auto = run_file(logpath, RunParams(cell=cell, **AUTO))  # type: ignore[arg-type]
             whole = run_file(
                 logpath,
@@ -555,7 +593,7 @@ def reproduce(scenario_dir: Path, *, cell: float = 0.01, reports: Path | None = 
                     ),
                 )
             )
-            log.info("%s auto: %s", name, auto.metrics)
+            log.debug("%s auto: %s", name, auto.metrics)
             if reports is not None:
                 from sonarproc.report import write_report
 
@@ -597,13 +635,61 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, required=True, help="the markdown file to write")
     ap.add_argument("--cell", type=float, default=0.01)
     ap.add_argument("--reports", type=Path, default=None, help="keep report dirs here")
+    ap.add_argument("--quiet", action="store_true", help="no progress, no per-scenario lines")
+    ap.add_argument(
+        "--only", action="append", default=None, metavar="NAME", help="this scenario only"
+    )
     args = ap.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    text = reproduce(args.scenarios, cell=args.cell, reports=args.reports)
+    logging.basicConfig(level=logging.WARNING, format="reproduce: %(message)s")
+    unknown = sorted(set(args.only or ()) - {p.stem for p in args.scenarios.glob("*.yaml")})
+    if unknown:
+        print(f"reproduce: error: --only: no scenario {', '.join(unknown)} in {args.scenarios}",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    show = not args.quiet and sys.stdout.isatty()
+    with _progress(show) as (bar, task):
+
+        def started(name: str, k: int, total: int) -> None:
+            if bar is not None:
+                bar.update(task, completed=k, total=total, description=name)
+
+        def finished(line: str) -> None:
+            if args.quiet:
+                return
+            if bar is not None:
+                bar.console.print(line)
+            else:
+                print(line, file=sys.stderr)
+
+        text = reproduce(
+            args.scenarios, cell=args.cell, reports=args.reports, progress=started,
+            done=finished, only=args.only,
+        )  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text, encoding="utf-8")
-    print(f"wrote {args.out}", file=sys.stderr)
+    print(f"reproduce: wrote {args.out}", file=sys.stderr)
     return 0
+
+
+@contextmanager
+def _progress(show: bool) -> Iterator[tuple[Any, Any]]:
+    """A rich progress bar on stderr over the scenarios, or ``(None, None)``."""
+    if not show:
+        yield None, None
+        return
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    bar = Progress(
+        TextColumn("{task.description:<12}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    with bar:
+        yield bar, bar.add_task("reproduce", total=None)
 
 
 if __name__ == "__main__":

@@ -30,8 +30,8 @@ import math
 import multiprocessing
 import multiprocessing.context
 import time
-from collections.abc import Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -166,14 +166,22 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
     return to_jsonable(row)
 
 
-def _run_task(task: list[Combination]) -> list[dict[str, Any]]:
+def _run_task(
+    task: list[Combination], progress: Callable[[int], None] | None = None
+) -> list[dict[str, Any]]:
     """Run combinations that share one input, noise and seed: load or simulate once.
 
     A log or scenario that cannot be read raises (the whole sweep stops: a usage error).
+    ``progress`` (in-process runs only) hears of each finished combination.
     """
     data = {k: v for k, v in task[0].values.items() if k in DATA_KEYS}
     lg = _load(task[0].input, data)
-    return [_row(c, lg) for c in task]
+    rows = []
+    for c in task:
+        rows.append(_row(c, lg))
+        if progress is not None:
+            progress(1)
+    return rows
 
 
 def _tasks(combos: Sequence[Combination], jobs: int) -> list[list[Combination]]:
@@ -219,6 +227,7 @@ def run_sweep(
     *,
     jobs: int = 1,
     shard: tuple[int, int] = (0, 1),
+    progress: Callable[[int, int], None] | None = None,
 ) -> SweepResult:
     """Run this shard's combinations of the grid, ``jobs`` processes at once.
 
@@ -232,6 +241,9 @@ def run_sweep(
         Worker processes (1: in this process).
     shard : (I, N)
         Run every N-th combination starting at I.
+    progress : callable, optional
+        ``progress(done, total)``: combinations of this shard finished so far and in
+        all, after each one in this process, after each task with ``jobs > 1``.
 
     Returns
     -------
@@ -249,13 +261,24 @@ def run_sweep(
     wall0 = time.perf_counter()
     tasks = _tasks(mine, jobs)
     rows: list[dict[str, Any]] = []
+    finished = 0
+
+    def advance(n: int) -> None:
+        nonlocal finished
+        finished += n
+        if progress is not None:
+            progress(finished, len(mine))
+
+    advance(0)
     if jobs <= 1 or len(tasks) <= 1:
         for t in tasks:
-            rows.extend(_run_task(t))
+            rows.extend(_run_task(t, advance))
     else:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=_mp_context()) as pool:
-            for part in pool.map(_run_task, tasks):
+            for done in as_completed([pool.submit(_run_task, t) for t in tasks]):
+                part = done.result()
                 rows.extend(part)
+                advance(len(part))
     rows.sort(key=lambda r: int(r["index"]))
     manifest = {
         "format": "sonarproc-sweep",

@@ -11,6 +11,7 @@ import pytest
 from sonarlog import FLAG_NO_ECHO, LogWriter
 from sonarlog.csvlog import read_csv_log, read_truth_csv
 from sonarproc.cli import main
+from sonarproc.report.units import sig3
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
 READINGS = EXAMPLES / "example-readings.csv"
@@ -63,7 +64,8 @@ def test_run_writes_report_and_summary(
     for name in ("arcmap.png", "processed.png", "fit.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     html = (out / "report.html").read_text()
-    assert f"{doc['metrics']['E2']:.6g}" in html and "thinning:3" in html
+    assert f"<td>{sig3(doc['metrics']['E2'])}</td>" in html and "thinning:3" in html
+    assert f"<td>{sig3(100 * doc['metrics']['E1_m'])} cm</td>" in html
 
 
 def test_json_goes_to_stdout_and_default_out_dir(
@@ -203,12 +205,12 @@ def test_missing_files_and_csv_without_sensors(
     assert "x.h5" in one_error_line(capsys.readouterr().err)
 
 
-def test_unwritable_out_dir_is_a_runtime_failure(
+def test_out_dir_under_a_file_is_refused_first(
     tmp_path: Path, log_h5: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("")
-    assert main(["run", str(log_h5), "--out", str(blocker / "sub"), "--cell", "0.02"]) == 1
+    assert main(["run", str(log_h5), "--out", str(blocker / "sub"), "--cell", "0.02"]) == 2
     one_error_line(capsys.readouterr().err)
 
 

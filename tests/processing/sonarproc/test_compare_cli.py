@@ -10,6 +10,7 @@ import pytest
 
 from sonarproc.cli import main
 from sonarproc.methods.compare import COLUMNS
+from sonarproc.report.units import sig3
 from sonarproc.simulate import simulate_to_log
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
@@ -62,8 +63,10 @@ def test_compare_writes_every_file(
     assert png.startswith(PNG)
     html = (out / "compare.html").read_text()
     assert "data:image/png;base64," in html and "<script" not in html and 'src="http' not in html
-    for rec in doc["methods"]:
-        assert f"{rec['E1_m']:.6g}" in html and rec["method"] in html
+    for rec in doc["methods"]:  # people read lengths in cm, 3 significant figures
+        assert f"<td>{sig3(100 * rec['E1_m'])}</td>" in html and rec["method"] in html
+    assert "E1 (cm)" in html
+    assert (out / "compare.svg").read_text().lstrip().startswith("<?xml")
     # the morphological row is sonarproc run's result on the same options
     run_out = tmp_path / "run"
     assert (
@@ -152,7 +155,7 @@ def test_compare_missing_log_and_unwritable_out(
     blocker.write_text("x")
     assert (
         main(["compare", str(fig16), "--methods", "line-of-sight", "--out", str(blocker / "d")])
-        == 1
+        == 2  # the user's mistake, found before any work
     )
     err = capsys.readouterr().err
     assert err.startswith("sonarproc: error: ") and err.count("\n") == 1

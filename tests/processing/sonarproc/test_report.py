@@ -14,6 +14,7 @@ from sonarproc.pipeline import RunResult, process
 from sonarproc.report import REPORT_FILES, default_out_dir, report_dict, write_report
 from sonarproc.report.html import render_html
 from sonarproc.report.plots import block_max
+from sonarproc.report.units import length_cm
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -70,7 +71,7 @@ def test_write_report_files(tmp_path: Path, result: RunResult) -> None:
     assert xy[0, 0] == pytest.approx(doc["fit"]["domain"][0], abs=1e-6)
     html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 3
-    assert f"{doc['metrics']['E1_m']:.6g}" in html and "E1 (Eq. 3)" in html
+    assert length_cm(doc["metrics"]["E1_m"]) in html and "E1 (Eq. 3)" in html
     assert "<script" not in html and "http" not in html.split("<body>")[1]
 
 
