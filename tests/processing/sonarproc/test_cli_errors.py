@@ -87,7 +87,7 @@ CASES: list[tuple[str, int, list[str]]] = [
     ("run {log} --truth {dir}/none.csv", 2, ["none.csv", "no such file"]),
     ("run {txt}", 2, ["notes.txt"]),
     ("run {csv}", 2, ["--sensors"]),
-    ("run {csv} --sensors {dir}/none.yaml", 2, ["none.yaml", "no such file"]),
+    ("run {csv} --sensors {dir}/none.yaml", 2, ["none.yaml", "no such sensors file"]),
     ("run {log} --bogus", 2, ["--bogus", "No such option"]),
     ("run", 2, ["Missing argument"]),
     ("frobnicate", 2, ["No such command", "frobnicate"]),

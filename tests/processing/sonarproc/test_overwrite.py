@@ -21,7 +21,7 @@ def test_simulate_refuses_then_forces(tmp_path: Path, capsys: pytest.CaptureFixt
     assert main(["simulate", "fig13", "--out", str(out), "--seed", "1"]) == 0
     first = read_log(out).readings.copy()
     assert main(["simulate", "fig13", "--out", str(out), "--seed", "2"]) == 2
-    assert "exists already; pass --force" in one_error_line(capsys.readouterr().err)
+    assert "exists; choose another name or use --force" in one_error_line(capsys.readouterr().err)
     assert (read_log(out).readings == first).all()  # untouched
     assert main(["simulate", "fig13", "--out", str(out), "--seed", "2", "--force"]) == 0
     assert len(read_log(out).readings) > 0 and not (
@@ -35,7 +35,7 @@ def test_recover_refuses_then_forces(tmp_path: Path, capsys: pytest.CaptureFixtu
     dest = tmp_path / "b.h5"
     dest.write_bytes(b"keep me")
     assert main(["recover", str(log), "--out", str(dest)]) == 2
-    assert "exists already" in one_error_line(capsys.readouterr().err)
+    assert "exists; choose another name or use --force" in one_error_line(capsys.readouterr().err)
     assert dest.read_bytes() == b"keep me"
     assert main(["recover", str(log), "--out", str(dest), "--force"]) == 0
     assert len(read_log(dest).readings) == len(read_log(log).readings)
