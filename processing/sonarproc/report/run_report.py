@@ -104,7 +104,7 @@ def report_dict(result: RunResult) -> dict[str, Any]:
         "timings_s": {k: round(v, 6) for k, v in result.timings_s.items()},
     }
     if result.auto is not None:
-        doc["auto"] = result.auto
+        doc["fit_choice"] = result.auto
     if result.surfaces is not None:
         doc["surfaces"] = result.surfaces.to_json()
         if result.surfaces.reason:

@@ -33,7 +33,7 @@ def test_paper_scene_gets_the_papers_polynomial(
     assert main(["run", str(logs["fig16"]), "--out", str(tmp_path / "a")]) == 0
     assert main(["run", str(logs["fig16"]), "--fit", "poly", "--out", str(tmp_path / "p")]) == 0
     auto, poly = report(tmp_path / "a"), report(tmp_path / "p")
-    assert auto["auto"]["choice"] == "function" and "surfaces" not in auto
+    assert auto["fit_choice"]["choice"] == "function" and "surfaces" not in auto
     assert auto["fit"]["coefficients"] == poly["fit"]["coefficients"]
     assert auto["metrics"]["E1_m"] == poly["metrics"]["E1_m"]
     assert not (tmp_path / "a" / "surfaces.csv").exists()
@@ -46,7 +46,7 @@ def test_corridor_gets_surfaces(
     assert main(["run", str(logs["corridor-l"]), "--out", str(out)]) == 0
     assert "warning" not in capsys.readouterr().err
     doc = report(out)
-    assert doc["auto"]["choice"] == "surfaces" and len(doc["surfaces"]) >= 4
+    assert doc["fit_choice"]["choice"] == "surfaces" and len(doc["surfaces"]) >= 4
     assert "E1_m" not in doc["metrics"]  # the truth is several surfaces
     assert doc["metrics"]["precision_m"] <= 0.03 and doc["metrics"]["completeness"] >= 0.8
     rows = (out / "surfaces.csv").read_text().splitlines()
