@@ -69,6 +69,7 @@ def predicted_path(fit: Fit, beams: Beams, rows: npt.NDArray[np.intp], step: flo
     return first_echo_path(
         p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],
         p.rx_xy[rows], p.rx_heading[rows], p.rx_half_beamwidth[rows], curve,
+        beams.readings["echo"][rows],
     )  # fmt: skip
 
 

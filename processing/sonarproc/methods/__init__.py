@@ -19,8 +19,8 @@ name               method
 
 Examples
 --------
->>> sorted(METHODS)
-['arc-median', 'arc-vote', 'directional-max', 'histogram', 'line-of-sight', 'morphological', 'occupancy', 'triangulation']
+>>> len(METHODS), sorted(METHODS)[:3]
+(8, ['arc-median', 'arc-vote', 'directional-max'])
 >>> make_method("histogram", threshold=6).options["threshold"]
 6
 """
@@ -28,8 +28,8 @@ Examples
 from __future__ import annotations
 
 from sonarproc.errors import ParameterError
-from sonarproc.methods.base import Beams, MapMethod, MethodMap, MethodResult, OptionValue
 from sonarproc.methods.arc_selection import ArcMedian, DirectionalMaximum
+from sonarproc.methods.base import Beams, MapMethod, MethodMap, MethodResult, OptionValue
 from sonarproc.methods.line_of_sight import Histogram, LineOfSight
 from sonarproc.methods.morphological import ArcVote, Morphological
 from sonarproc.methods.occupancy import Occupancy

@@ -1,9 +1,13 @@
 """The first-echo model: which path length a reading would measure off a known curve.
 
-A transmitter T (heading, half beamwidth) and a receiver R hear a surface first at the
-point P of the surface inside both beams that minimises ``|TP| + |PR|`` (for T = R, the
-nearest point in the beam: twice its distance). This is the simulator's specular model
-for smooth surfaces seen within the beam, applied to a sampled curve. It predicts
+A transmitter T (heading, half beamwidth) and a receiver R hear a surface at its specular
+points: where the path ``|TP| + |PR|`` is stationary along the surface (the normal
+bisects P->T and P->R), inside both beams; the first echo is the shortest of them (for
+T = R, the nearest foot of a perpendicular in the beam: twice its distance). This is the
+simulator's first-order specular model, applied to a sampled curve (a stationary point
+is a sample whose path is no longer, or no shorter, than both its neighbours': the foot
+of a perpendicular in a trough, or a crest). A reading of echo rank ``k`` (0: first)
+is predicted by the ``k``-th shortest. It predicts
 readings from a fitted profile (:mod:`sonarproc.auto`) and makes the analytic logs of
 the tests (:mod:`sonarproc.methods.testing`).
 """
@@ -39,8 +43,9 @@ def first_echo_path(
     rx_heading: npt.ArrayLike,
     rx_half: npt.ArrayLike,
     curve: npt.ArrayLike,
+    rank: npt.ArrayLike | None = None,
 ) -> FloatArray:
-    """Shortest path T -> P -> R over the curve's points P inside both beams.
+    """Shortest path T -> P -> R over the curve's specular points P inside both beams.
 
     Parameters
     ----------
@@ -49,7 +54,10 @@ def first_echo_path(
     tx_heading, rx_heading, tx_half, rx_half : array_like, (N,)
         Beam axes and half beamwidths (rad).
     curve : array_like, (M, 2)
-        Points of the surface, spaced well below the range resolution wanted.
+        Points of the surface in order along it, spaced well below the range resolution
+        wanted (the two end points are never specular).
+    rank : array_like of int, (N,), optional
+        Echo rank of each reading (0, the default: the first echo).
 
     Returns
     -------
@@ -71,7 +79,8 @@ def first_echo_path(
     wr = np.broadcast_to(np.asarray(rx_half, dtype=np.float64), hr.shape)
     pts = np.asarray(curve, dtype=np.float64).reshape(-1, 2)
     out = np.full(t.shape[0], np.nan)
-    if pts.shape[0] == 0 or t.shape[0] == 0:
+    k = np.zeros(t.shape[0], np.intp) if rank is None else np.asarray(rank, np.intp).reshape(-1)
+    if pts.shape[0] < 3 or t.shape[0] == 0:
         return out
     step = max(1, _CHUNK // pts.shape[0])
     px, py = pts[None, :, 0], pts[None, :, 1]
@@ -81,7 +90,19 @@ def first_echo_path(
         rdx, rdy = px - r[sl, 0:1], py - r[sl, 1:2]
         ok = _in_beam(tdx, tdy, ht[sl], wt[sl]) & _in_beam(rdx, rdy, hr[sl], wr[sl])
         path = np.hypot(tdx, tdy) + np.hypot(rdx, rdy)
+        mid = path[:, 1:-1]
+        low = (mid <= path[:, :-2]) & (mid <= path[:, 2:])
+        high = (mid >= path[:, :-2]) & (mid >= path[:, 2:])
+        ok[:, 1:-1] &= low | high
+        ok[:, [0, -1]] = False
         path[~ok] = np.inf
-        best = path.min(axis=1)
+        kk = k[sl]
+        top = int(kk.max()) + 1
+        if top == 1:
+            best = path.min(axis=1)
+        else:
+            part = np.partition(path, min(top, path.shape[1]) - 1, axis=1)[:, :top]
+            part.sort(axis=1)
+            best = np.take_along_axis(part, np.minimum(kk, top - 1)[:, None], axis=1)[:, 0]
         out[sl] = np.where(np.isfinite(best), best, np.nan)
     return out
