@@ -10,7 +10,7 @@ on the columns between its first and last point (``span="points"``):
 candidate            map                              fit family (settings tried)
 ===================  ===============================  =====================================
 ``arc-vote/poly``    count vote + crest per column    polynomial, order 2, 4, 6, 9, 12, 15
-``arc-vote/spline``  count vote + crest per column    spline, smoothing length 0.1-3.2 m
+``arc-vote/spline``  count vote + crest per column    spline, smoothing length 0.1-1.6 m
 ``dirmax/poly``      directional maximum (Barshan)    polynomial
 ``dirmax/spline``    directional maximum (Barshan)    spline
 ``median/spline``    arc-transversal median (Choset)  spline
@@ -36,7 +36,7 @@ __all__ = ["CANDIDATES", "ORDERS", "SMOOTHING_LENGTHS", "Candidate", "spline_lam
 #: Polynomial orders a ``poly`` candidate tries.
 ORDERS = (2, 4, 6, 9, 12, 15)
 #: Smoothing lengths (m) a ``spline`` candidate tries.
-SMOOTHING_LENGTHS = (0.1, 0.2, 0.4, 0.8, 1.6, 3.2)
+SMOOTHING_LENGTHS = (0.1, 0.2, 0.4, 0.8, 1.6)
 
 
 def spline_lambda(length: float, mean_count: float, cell: float) -> float:
@@ -92,7 +92,12 @@ class Candidate:
             fit = "smoothing spline" + (
                 "" if setting is None else f", smoothing length {setting:g} m"
             )
-        return {"method": self.method, "options": dict(self.options), "fit": fit}
+        short = self.family if setting is None else (
+            f"poly m={int(setting)}" if self.family == "poly" else f"spline L={setting:g} m"
+        )
+        return {
+            "method": self.method, "options": dict(self.options), "fit": fit, "fit_short": short,
+        }  # fmt: skip
 
 
 #: What ``--auto`` tries, in order of preference on a tie.

@@ -23,7 +23,10 @@ from sonarproc.fit import Fit, FitFailure
 from sonarproc.methods.base import Beams
 from sonarproc.methods.echo_model import first_echo_path
 
-__all__ = ["firing_folds", "hull_excess", "range_loss", "subset_beams"]
+#: Points of a fitted curve the echo model looks at, at most.
+MAX_SAMPLES = 500
+
+__all__ = ["MAX_SAMPLES", "firing_folds", "hull_excess", "predicted_path", "range_loss", "subset_beams"]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -64,7 +67,9 @@ def predicted_path(fit: Fit, beams: Beams, rows: npt.NDArray[np.intp], step: flo
     """Path length the fitted curve predicts for readings ``rows`` (NaN: not in the beams)."""
     if isinstance(fit, FitFailure) or not hasattr(fit, "domain"):
         return np.full(rows.size, np.nan)
-    curve = fit.sample(step)
+    lo, hi = fit.domain
+    # at most MAX_SAMPLES points: a long profile is sampled more coarsely
+    curve = fit.sample(max(step, (hi - lo) / MAX_SAMPLES))
     p = beams.poses
     return first_echo_path(
         p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],

@@ -203,11 +203,15 @@ def _fold_scores(
         s.mean_counts.append(mc)
         for setting in c.settings:
             fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-            loss = range_loss(measured, predicted_path(fit, beams, held, step), cap)
-            s.losses.setdefault(setting, []).append(loss)
             if not isinstance(fit, FitFailure):
                 h = hull_excess(fit.sample(grid.cell), px, py, window=window)
                 s.hull[setting] = max(s.hull.get(setting, 0.0), h)
+            if s.hull.get(setting, 0.0) > HULL_CELLS * grid.cell:
+                # excluded whatever it predicts: spare the echo model
+                s.losses.setdefault(setting, []).append(np.full(held.size, cap))
+                continue
+            loss = range_loss(measured, predicted_path(fit, beams, held, step), cap)
+            s.losses.setdefault(setting, []).append(loss)
         if key not in baselines:
             best = np.full(held.size, cap)
             for order in (0, 1):
@@ -224,9 +228,9 @@ def choose(
     base: RunParams,
     *,
     candidates: tuple[Candidate, ...] = CANDIDATES,
-    folds: int = 3,
-    max_readings: int = 12_000,
-    heldout_per_fold: int = 400,
+    folds: int = 4,
+    max_readings: int = 8_000,
+    heldout_per_fold: int = 300,
     seed: int = 0,
 ) -> AutoChoice:
     """Score every candidate by its held-out range residual (no ground truth).

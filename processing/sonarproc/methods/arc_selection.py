@@ -21,7 +21,7 @@ concatenated cells of all arcs, with no loop per arc.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -35,6 +35,10 @@ from sonarproc.params import RunParams
 __all__ = ["ArcMedian", "DirectionalMaximum", "ordered_arc_cells", "vote_map"]
 
 IntArray = npt.NDArray[np.intp]
+
+# One entry: both methods of a comparison (or of an --auto fold) share one walk of the
+# arcs. Keyed on the Beams object itself (kept alive here, so its id cannot be reused).
+_LAST: list[Any] = []
 
 
 def ordered_arc_cells(beams: Beams, grid: Grid) -> tuple[IntArray, IntArray, IntArray, IntArray]:
@@ -50,6 +54,8 @@ def ordered_arc_cells(beams: Beams, grid: Grid) -> tuple[IntArray, IntArray, Int
     start : ndarray of intp
         Index into ``arc`` where each arc's run starts (one entry per arc with a cell).
     """
+    if _LAST and _LAST[0] is beams and _LAST[1] == grid:
+        return _LAST[2]
     arc, iy, ix = arc_cells(beams.arcs, grid)
     flat = iy * grid.nx + ix
     # keep each arc's own order (stable), only group arcs together
@@ -57,7 +63,9 @@ def ordered_arc_cells(beams: Beams, grid: Grid) -> tuple[IntArray, IntArray, Int
     arc, flat = arc[order], flat[order]
     counts = np.bincount(flat, minlength=grid.ny * grid.nx)
     start = np.flatnonzero(np.r_[True, arc[1:] != arc[:-1]]) if arc.size else arc
-    return arc, flat, counts[flat].astype(np.intp), start
+    out = (arc, flat, counts[flat].astype(np.intp), start)
+    _LAST[:] = [beams, grid, out]
+    return out
 
 
 def vote_map(flat: IntArray, grid: Grid) -> MethodMap:

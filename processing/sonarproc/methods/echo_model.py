@@ -87,9 +87,15 @@ def first_echo_path(
     for i in range(0, t.shape[0], step):
         sl = slice(i, i + step)
         tdx, tdy = px - t[sl, 0:1], py - t[sl, 1:2]
-        rdx, rdy = px - r[sl, 0:1], py - r[sl, 1:2]
-        ok = _in_beam(tdx, tdy, ht[sl], wt[sl]) & _in_beam(rdx, rdy, hr[sl], wr[sl])
-        path = np.hypot(tdx, tdy) + np.hypot(rdx, rdy)
+        ok = _in_beam(tdx, tdy, ht[sl], wt[sl])
+        if np.array_equal(t[sl], r[sl]) and np.array_equal(ht[sl], hr[sl]):
+            # monostatic: one beam, the path is twice the distance
+            ok &= _in_beam(tdx, tdy, hr[sl], wr[sl]) if not np.array_equal(wt[sl], wr[sl]) else ok
+            path = 2.0 * np.hypot(tdx, tdy)
+        else:
+            rdx, rdy = px - r[sl, 0:1], py - r[sl, 1:2]
+            ok &= _in_beam(rdx, rdy, hr[sl], wr[sl])
+            path = np.hypot(tdx, tdy) + np.hypot(rdx, rdy)
         mid = path[:, 1:-1]
         low = (mid <= path[:, :-2]) & (mid <= path[:, 2:])
         high = (mid >= path[:, :-2]) & (mid >= path[:, 2:])
