@@ -328,7 +328,10 @@ def run_auto(
         if last is None:
             last = (res, s)
         r = res.run
-        if s.excluded is None and not isinstance(r.fit, FitFailure):
+        if isinstance(r.fit, FitFailure):
+            s.excluded = f"on every reading, the fit failed: {r.fit.reason}"
+            continue
+        if s.excluded is None:
             excess = hull_excess(
                 r.fit.sample(r.grid.cell), r.points_x, r.points_y, window=10 * r.grid.cell
             )

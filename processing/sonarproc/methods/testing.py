@@ -60,7 +60,7 @@ def flat_wall_beams(n: int = 60) -> tuple[Beams, Grid]:
     return beams_facing(np.column_stack((sx, np.zeros(n))), heading, wall)
 
 
-def corner_beams(n: int = 80) -> tuple[Beams, Grid]:
+def corner_beams(n: int = 200) -> tuple[Beams, Grid]:
     """Sensors in the square (0.5, 1.5)^2 looking towards a right-angle corner at (2, 2)."""
     s = np.linspace(0.0, 2.0, 2001)
     corner = np.concatenate(
