@@ -53,5 +53,6 @@ def test_bench_auto_on_the_room_log(tmp_path: Path) -> None:
     _, chosen, choice = run_auto(lg, params)
     print(f"\n--auto on {n} readings ({choice.readings_scored} scored, {choice.folds} folds)")
     print(f"  single run {single:.2f} s; --auto {auto:.2f} s; ratio {auto / single:.2f}")
-    print(f"  --auto / target {TARGET_S:.0f} s = {auto / TARGET_S:.2f}; chose {chosen.candidate.name}")
+    print(f"  --auto / target {TARGET_S:.0f} s = {auto / TARGET_S:.2f}")
+    print(f"  chose {chosen.candidate.name}")
     assert chosen.candidate.name

@@ -92,8 +92,10 @@ class Candidate:
             fit = "smoothing spline" + (
                 "" if setting is None else f", smoothing length {setting:g} m"
             )
-        short = self.family if setting is None else (
-            f"poly m={int(setting)}" if self.family == "poly" else f"spline L={setting:g} m"
+        short = (
+            self.family
+            if setting is None
+            else (f"poly m={int(setting)}" if self.family == "poly" else f"spline L={setting:g} m")
         )
         return {
             "method": self.method, "options": dict(self.options), "fit": fit, "fit_short": short,

@@ -26,7 +26,14 @@ from sonarproc.methods.echo_model import first_echo_path
 #: Points of a fitted curve the echo model looks at, at most.
 MAX_SAMPLES = 500
 
-__all__ = ["MAX_SAMPLES", "firing_folds", "hull_excess", "predicted_path", "range_loss", "subset_beams"]
+__all__ = [
+    "MAX_SAMPLES",
+    "firing_folds",
+    "hull_excess",
+    "predicted_path",
+    "range_loss",
+    "subset_beams",
+]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]

@@ -1,4 +1,4 @@
-"""``--auto``: the held-out range criterion, its guard rails, the CLI record, and where it stands."""
+"""``--auto``: the held-out range criterion, guard rails, CLI record, and where it stands."""
 
 from __future__ import annotations
 

@@ -66,7 +66,7 @@ def test_cylinder(name: str) -> None:
 
 def test_directional_max_votes_once_per_arc_and_min_count() -> None:
     beams, grid = flat_wall_beams()
-    arc, flat, count, start = ordered_arc_cells(beams, grid)
+    arc, _, _, start = ordered_arc_cells(beams, grid)
     assert np.all(np.diff(arc) >= 0) and start.size == np.unique(arc).size
     m = make_method("directional-max", min_count=1).build(beams, grid, RunParams())
     assert int(m.evidence.sum()) == start.size  # one vote per arc
