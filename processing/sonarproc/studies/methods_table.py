@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from sonarproc.methods import DEFAULT_METHODS, make_method
+from sonarproc.methods import make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
@@ -43,6 +43,19 @@ START = "<!-- methods-table:start -->"
 END = "<!-- methods-table:end -->"
 
 Rows = dict[str, list[dict[str, object]]]
+
+#: The table's columns: every registered method (``compare``'s default set, then
+#: Barshan's directional methods).
+TABLE_METHODS = (
+    "morphological",
+    "arc-vote",
+    "directional-max",
+    "arc-median",
+    "triangulation",
+    "line-of-sight",
+    "histogram",
+    "occupancy",
+)
 
 _METRICS = (
     (
@@ -71,7 +84,7 @@ def run_scenarios(scenario_dir: Path, *, cell: float = 0.01) -> Rows:
             simulate_to_log(yml, path)
             lg = load_log(path)
             params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
-            methods = [make_method(m) for m in DEFAULT_METHODS]
+            methods = [make_method(m) for m in TABLE_METHODS]
             out[name] = comparison_rows(compare(lg, params, methods))
             log.info("%s done", name)
     return out
@@ -92,7 +105,7 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01) -> tuple[Rows, Rows]:
             simulate_to_log(yml, path)
             lg = load_log(path)
             params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
-            methods = [make_method(m) for m in DEFAULT_METHODS]
+            methods = [make_method(m) for m in TABLE_METHODS]
             out[name] = comparison_rows(compare(lg, params, methods))
             row = auto_row(lg, RunParams(cell=cell))
             row["readings"] = len(lg.readings)
@@ -130,7 +143,7 @@ def render_auto_table(auto: Rows) -> str:
 
 def render_tables(rows: Rows) -> str:
     """Markdown: one table per metric, scenarios down, methods across (best in bold)."""
-    names = list(DEFAULT_METHODS)
+    names = list(TABLE_METHODS)
     parts = []
     for key, title, scale, spec in _METRICS:
         head = "| scenario (ops, m) | " + " | ".join(f"`{n}`" for n in names) + " |"
