@@ -229,7 +229,7 @@ def choose(
     *,
     candidates: tuple[Candidate, ...] = CANDIDATES,
     folds: int = 4,
-    max_readings: int = 8_000,
+    max_readings: int = 6_000,
     heldout_per_fold: int = 300,
     seed: int = 0,
 ) -> AutoChoice:
