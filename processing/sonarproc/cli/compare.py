@@ -114,6 +114,12 @@ def compare_command(
     as_json: Annotated[
         bool, typer.Option("--json", help="Print compare.json to stdout instead of a table.")
     ] = False,
+    auto: Annotated[
+        bool,
+        typer.Option(
+            "--auto", help="Add a row 'auto': the configuration --auto chooses (no ground truth)."
+        ),
+    ] = False,
 ) -> None:
     """Run several map-building methods on one log with the same grid, fit and metrics."""
     from sonarproc.export import parse_formats, write_exports
@@ -140,7 +146,18 @@ def compare_command(
                 steps.describe(method.name)
                 results.extend(compare(lg, params, [method]))
                 steps(k + 1)
+        record = None
+        if auto:
+            from dataclasses import replace
+
+            from sonarproc.auto import add_record, run_auto
+
+            chosen_run, chosen, choice = run_auto(lg, params)
+            results.append(replace(chosen_run, method="auto"))
+            record = choice.to_json(chosen)
         doc = write_comparison(str(log), params, results, out_dir)
+        if record is not None:
+            doc = add_record(out_dir / "compare.json", doc, record)
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:
                 write_exports(r, out_dir / "export", formats, log=lg)
@@ -151,3 +168,9 @@ def compare_command(
         typer.echo(json.dumps(doc, indent=2))
     else:
         _table(doc, out_dir)
+        if record is not None:
+            from rich.console import Console
+
+            from sonarproc.auto import record_table
+
+            Console(width=max(Console().width, 120)).print(record_table(record))

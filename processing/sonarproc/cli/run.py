@@ -142,6 +142,14 @@ def run_command(
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
+    auto: Annotated[
+        bool,
+        typer.Option(
+            "--auto",
+            help="Choose the method, operations and fit by held-out range residual (no "
+            "ground truth); --ops, --fit, --order, --smooth, --robust, --span are then ignored.",
+        ),
+    ] = False,
 ) -> None:
     """Turn a sonar log into an arc map, a processed map, a fitted profile and a report."""
     from sonarproc.fit import FitFailure
@@ -155,13 +163,26 @@ def run_command(
         )  # fmt: skip
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
-        progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json)
+        progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
+        record = None
         try:
-            result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)
+            if auto:
+                from sonarproc.auto import run_auto
+                from sonarproc.pipeline import load_log
+
+                lg = load_log(log, sensors=sensors, truth=truth)
+                chosen_run, chosen, choice = run_auto(lg, params)
+                result, record = chosen_run.run, choice.to_json(chosen)
+            else:
+                result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
             doc = write_report(result, out_dir)
+            if record is not None:
+                from sonarproc.auto import add_record
+
+                doc = add_record(out_dir / "report.json", doc, record)
         finally:
             progress.close()
         if result.surfaces is not None and not result.surfaces.surfaces:
@@ -173,3 +194,9 @@ def run_command(
         typer.echo(json.dumps(doc, indent=2))
     else:
         _summary(doc, out_dir)
+        if record is not None:
+            from rich.console import Console
+
+            from sonarproc.auto import record_table
+
+            Console().print(record_table(record))

@@ -11,12 +11,16 @@ name               method
 ``line-of-sight``  one point per echo on the beam axis
 ``histogram``      Borenstein & Koren's histogram grid (VFH/HIMM certainty values)
 ``occupancy``      Elfes & Moravec's log-odds certainty grid, inverse sonar model
+``directional-``   Barshan (2007): each arc votes for its cell of maximum count
+``max``
+``arc-median``     Choset et al. (2003): each arc votes for the median of its crossings
+``triangulation``  Wijk & Christensen (2000): supported crossings of nearby readings
 =================  ==================================================================
 
 Examples
 --------
->>> sorted(METHODS)
-['arc-vote', 'histogram', 'line-of-sight', 'morphological', 'occupancy']
+>>> len(METHODS), sorted(METHODS)[:3]
+(8, ['arc-median', 'arc-vote', 'directional-max'])
 >>> make_method("histogram", threshold=6).options["threshold"]
 6
 """
@@ -24,10 +28,12 @@ Examples
 from __future__ import annotations
 
 from sonarproc.errors import ParameterError
+from sonarproc.methods.arc_selection import ArcMedian, DirectionalMaximum
 from sonarproc.methods.base import Beams, MapMethod, MethodMap, MethodResult, OptionValue
 from sonarproc.methods.line_of_sight import Histogram, LineOfSight
 from sonarproc.methods.morphological import ArcVote, Morphological
 from sonarproc.methods.occupancy import Occupancy
+from sonarproc.methods.triangulation import Triangulation
 
 __all__ = [
     "DEFAULT_METHODS",
@@ -44,7 +50,17 @@ __all__ = [
 
 #: Registered methods by name.
 METHODS: dict[str, type[MapMethod]] = {
-    cls.name: cls for cls in (Morphological, ArcVote, LineOfSight, Histogram, Occupancy)
+    cls.name: cls
+    for cls in (
+        Morphological,
+        ArcVote,
+        LineOfSight,
+        Histogram,
+        Occupancy,
+        DirectionalMaximum,
+        ArcMedian,
+        Triangulation,
+    )
 }
 #: What ``sonarproc compare`` runs without ``--methods``.
 DEFAULT_METHODS = ("morphological", "arc-vote", "line-of-sight", "histogram", "occupancy")

@@ -4,8 +4,10 @@
 every ``configs/scenarios/*.yaml`` (with its own seed), runs every registered method with
 the paper's operations and polynomial order for that figure
 (:data:`sonarproc.studies.reproduce.PAPER`; the order applies to every method's fit, the
-operations to ``morphological``) and rewrites the part of the doc between
-``<!-- methods-table:start -->`` and ``<!-- methods-table:end -->``.
+operations to ``morphological``), then ``--auto`` and every one of its candidates
+(:mod:`sonarproc.studies.auto_study`: E1 by the truth, which auto never sees), and
+rewrites the part of the doc between ``<!-- methods-table:start -->`` and
+``<!-- methods-table:end -->``.
 """
 
 from __future__ import annotations
@@ -17,14 +19,23 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from sonarproc.methods import DEFAULT_METHODS, make_method
+from sonarproc.methods import make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
 from sonarproc.studies.reproduce import PAPER, PaperRow
 from sonarsim.shipped import shipped_dir
 
-__all__ = ["END", "START", "main", "render_tables", "run_scenarios", "splice"]
+__all__ = [
+    "END",
+    "START",
+    "main",
+    "render_auto_table",
+    "render_tables",
+    "run_all",
+    "run_scenarios",
+    "splice",
+]
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +43,19 @@ START = "<!-- methods-table:start -->"
 END = "<!-- methods-table:end -->"
 
 Rows = dict[str, list[dict[str, object]]]
+
+#: The table's columns: every registered method (``compare``'s default set, then
+#: Barshan's directional methods).
+TABLE_METHODS = (
+    "morphological",
+    "arc-vote",
+    "directional-max",
+    "arc-median",
+    "triangulation",
+    "line-of-sight",
+    "histogram",
+    "occupancy",
+)
 
 _METRICS = (
     (
@@ -60,15 +84,66 @@ def run_scenarios(scenario_dir: Path, *, cell: float = 0.01) -> Rows:
             simulate_to_log(yml, path)
             lg = load_log(path)
             params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
-            methods = [make_method(m) for m in DEFAULT_METHODS]
+            methods = [make_method(m) for m in TABLE_METHODS]
             out[name] = comparison_rows(compare(lg, params, methods))
             log.info("%s done", name)
     return out
 
 
+def run_all(scenario_dir: Path, *, cell: float = 0.01) -> tuple[Rows, Rows]:
+    """Every method (as :func:`run_scenarios`) and ``--auto`` (:func:`auto_row`) per scenario."""
+    from sonarproc.simulate import simulate_to_log
+    from sonarproc.studies.auto_study import auto_row
+
+    out: Rows = {}
+    auto: Rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for yml in sorted(scenario_dir.glob("*.yaml")):
+            name = yml.stem
+            paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
+            path = Path(tmp) / f"{name}.h5"
+            simulate_to_log(yml, path)
+            lg = load_log(path)
+            params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
+            methods = [make_method(m) for m in TABLE_METHODS]
+            out[name] = comparison_rows(compare(lg, params, methods))
+            row = auto_row(lg, RunParams(cell=cell))
+            row["readings"] = len(lg.readings)
+            auto[name] = [row]
+            log.info("%s done: auto %s", name, row["choice"])
+    return out, auto
+
+
+def render_auto_table(auto: Rows) -> str:
+    """Markdown: auto's choice and E1 against the best candidate's, per scenario."""
+    head = (
+        "| scenario | readings | `--auto` chose | auto E1 (cm) | best candidate | best E1 (cm) "
+        "| ratio | auto wall (s) |"
+    )
+    lines = [
+        "**`--auto` against its best candidate (E1 by the truth, columns with points; auto "
+        "never sees the truth)**",
+        "",
+        head,
+        "|---" * 8 + "|",
+    ]
+    for scen, recs in auto.items():
+        r = recs[0]
+
+        def cm(v: object) -> str:
+            return f"{100 * float(v):.2f}" if isinstance(v, (int, float)) else "—"
+
+        ratio = r["ratio"]
+        lines.append(
+            f"| {scen} | {r['readings']} | {r['choice']} | {cm(r['auto_E1_m'])} | {r['best']} "
+            f"| {cm(r['best_E1_m'])} | {float(ratio):.2f} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
+        )
+    return "\n".join(lines) + "\n"
+
+
 def render_tables(rows: Rows) -> str:
     """Markdown: one table per metric, scenarios down, methods across (best in bold)."""
-    names = list(DEFAULT_METHODS)
+    names = list(TABLE_METHODS)
     parts = []
     for key, title, scale, spec in _METRICS:
         head = "| scenario (ops, m) | " + " | ".join(f"`{n}`" for n in names) + " |"
@@ -110,7 +185,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--stdout", action="store_true", help="print the tables, leave the doc")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
-    tables = render_tables(run_scenarios(args.scenarios))
+    rows, auto = run_all(args.scenarios)
+    tables = render_tables(rows) + "\n" + render_auto_table(auto)
     if args.stdout:
         sys.stdout.write(tables)
         return 0

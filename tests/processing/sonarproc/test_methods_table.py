@@ -6,7 +6,14 @@ from pathlib import Path
 
 import pytest
 
-from sonarproc.studies.methods_table import END, START, main, render_tables, splice
+from sonarproc.studies.methods_table import (
+    END,
+    START,
+    main,
+    render_auto_table,
+    render_tables,
+    splice,
+)
 
 
 def _row(method: str, e1: float | None, fc: float) -> dict[str, object]:
@@ -24,9 +31,12 @@ def test_render_tables_values_and_best() -> None:
         ]
     }
     text = render_tables(rows)
-    assert "| fig16 (erosion,pruning, 10) | 19.59 | 2.80 | — | 50.00 | **2.06** |" in text
-    assert "| fig16 (erosion,pruning, 10) | 0.864 | 0.900 | 0.364 | 0.364 | **1.000** |" in text
-    assert "| fig16 (erosion,pruning, 10) | 2.0 | 2.0 | 2.0 | 2.0 | 2.0 |" in text  # t_cpu, no bold
+    # columns: morphological, arc-vote, directional-max, arc-median, triangulation,
+    # line-of-sight, histogram, occupancy (the three without a row here: —)
+    row = "| fig16 (erosion,pruning, 10) | "
+    assert row + "19.59 | 2.80 | — | — | — | — | 50.00 | **2.06** |" in text
+    assert row + "0.864 | 0.900 | — | — | — | 0.364 | 0.364 | **1.000** |" in text
+    assert row + "2.0 | 2.0 | — | — | — | 2.0 | 2.0 | 2.0 |" in text  # t_cpu, no bold
 
 
 def test_splice_and_main(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -44,3 +54,16 @@ def test_splice_and_main(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     bad.write_text("nothing")
     assert main(["--doc", str(bad), "--scenarios", str(empty)]) == 2
     assert "markers" in capsys.readouterr().err
+
+
+def test_render_auto_table() -> None:
+    row = {
+        "choice": "dirmax/spline@0.1", "auto_E1_m": 0.0036, "best": "dirmax/spline@0.1",
+        "best_E1_m": 0.0036, "ratio": 1.0, "auto_s": 1.84, "readings": 10794,
+    }  # fmt: skip
+    text = render_auto_table({"wavy-bistatic": [row]})
+    want = (
+        "| wavy-bistatic | 10794 | dirmax/spline@0.1 | 0.36 | dirmax/spline@0.1 | 0.36 "
+        "| 1.00 | 1.8 |"
+    )
+    assert want in text and text.count("\n|") == 3

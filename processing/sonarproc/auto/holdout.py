@@ -1,0 +1,127 @@
+"""The physical criterion of ``--auto``: predict held-out readings from a fitted profile.
+
+Firings (one transmitter burst: every reading sharing a time and a transmitter) are
+split into ``k`` folds. For each fold a candidate maps the other folds' readings, fits
+its profile, and predicts each held-out reading's path length with the first-echo model
+(:func:`sonarproc.methods.echo_model.first_echo_path`: the nearest point of the fitted
+curve inside the reading's beams, the ellipse path for a bistatic pair). The loss of a
+reading is its absolute range residual ``|measured - predicted| / 2``, capped at
+``cap`` (spurious echoes and echoes off other surfaces cost every candidate the same);
+a reading whose beams the curve does not cross costs the cap (a profile that explains
+less of the log is worse). No ground truth is used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarlog import TransducerPoses
+from sonarproc.fit import Fit, FitFailure
+from sonarproc.methods.base import Beams
+from sonarproc.methods.echo_model import first_echo_path
+
+#: Points of a fitted curve the echo model looks at, at most.
+MAX_SAMPLES = 500
+
+__all__ = [
+    "MAX_SAMPLES",
+    "firing_folds",
+    "hull_excess",
+    "predicted_path",
+    "range_loss",
+    "subset_beams",
+]
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+
+
+def firing_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:
+    """Fold (0 .. k-1) of each reading; all readings of one firing share a fold.
+
+    Examples
+    --------
+    >>> from sonarlog.schema import empty_readings
+    >>> r = empty_readings(6)
+    >>> r["t"] = [0, 0, 1, 1, 2, 2]
+    >>> f = firing_folds(r, 3)
+    >>> bool(f[0] == f[1] and f[2] == f[3] and len(set(f.tolist())) == 3)
+    True
+    """
+    keys = np.column_stack((r_t := np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
+    _, firing = np.unique(keys, axis=0, return_inverse=True)
+    firing = firing.reshape(r_t.shape)
+    rng = np.random.default_rng(seed)
+    n = int(firing.max()) + 1 if firing.size else 0
+    fold_of_firing = rng.permutation(n) % k
+    return fold_of_firing[firing].astype(np.intp)
+
+
+def subset_beams(beams: Beams, keep: BoolArray) -> Beams:
+    """The readings ``keep`` of ``beams``, with their arcs (renumbered)."""
+    p = beams.poses
+    poses = TransducerPoses(**{f.name: getattr(p, f.name)[keep] for f in fields(p)})
+    new_index = np.cumsum(keep) - 1
+    arcs = beams.arcs[keep[beams.arcs.arc]]  # type: ignore[index]
+    arcs = replace(arcs, arc=new_index[arcs.arc].astype(np.intp))
+    return Beams(beams.readings[keep], poses, beams.path[keep], arcs)
+
+
+def predicted_path(fit: Fit, beams: Beams, rows: npt.NDArray[np.intp], step: float) -> FloatArray:
+    """Path length the fitted curve predicts for readings ``rows`` (NaN: not in the beams)."""
+    if isinstance(fit, FitFailure) or not hasattr(fit, "domain"):
+        return np.full(rows.size, np.nan)
+    lo, hi = fit.domain
+    # at most MAX_SAMPLES points: a long profile is sampled more coarsely
+    curve = fit.sample(max(step, (hi - lo) / MAX_SAMPLES))
+    p = beams.poses
+    return first_echo_path(
+        p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],
+        p.rx_xy[rows], p.rx_heading[rows], p.rx_half_beamwidth[rows], curve,
+        beams.readings["echo"][rows],
+    )  # fmt: skip
+
+
+def range_loss(measured: FloatArray, predicted: FloatArray, cap: float) -> FloatArray:
+    """Capped absolute range residual of each reading (the cap where there is no prediction).
+
+    Examples
+    --------
+    >>> range_loss(np.array([2.0, 2.0, 2.0]), np.array([2.02, np.nan, 3.0]), 0.1).round(3)
+    array([0.01, 0.1 , 0.1 ])
+    """
+    r = 0.5 * np.abs(measured - predicted)
+    return np.where(np.isfinite(r), np.minimum(r, cap), cap)
+
+
+def hull_excess(curve: FloatArray, px: FloatArray, py: FloatArray, *, window: float) -> float:
+    """How far (m) a fitted curve leaves the points' local vertical hull.
+
+    The hull at x is the range of the points' y within ``window`` of x (widened to the
+    nearest points where there is a gap); 0 when the curve stays inside it.
+    """
+    if curve.shape[0] == 0 or px.size == 0:
+        return 0.0
+    lo_x = float(px.min())
+    nb = max(1, int(np.ceil((float(px.max()) - lo_x) / window)) + 1)
+    b = np.minimum(((px - lo_x) / window).astype(np.intp), nb - 1)
+    lo = np.full(nb, np.inf)
+    hi = np.full(nb, -np.inf)
+    np.minimum.at(lo, b, py)
+    np.maximum.at(hi, b, py)
+    filled = np.isfinite(lo)
+    idx = np.flatnonzero(filled)
+    # an empty bin takes the hull of both nearest bins with points
+    left = idx[np.clip(np.searchsorted(idx, np.arange(nb), side="right") - 1, 0, idx.size - 1)]
+    right = idx[np.clip(np.searchsorted(idx, np.arange(nb)), 0, idx.size - 1)]
+    lo = np.minimum(lo[left], lo[right])
+    hi = np.maximum(hi[left], hi[right])
+    # and every bin the hull of its neighbours too (a slope crossing a bin edge)
+    lo = np.minimum(lo, np.minimum(np.r_[lo[:1], lo[:-1]], np.r_[lo[1:], lo[-1:]]))
+    hi = np.maximum(hi, np.maximum(np.r_[hi[:1], hi[:-1]], np.r_[hi[1:], hi[-1:]]))
+    cb = np.clip(((curve[:, 0] - lo_x) / window).astype(np.intp), 0, nb - 1)
+    excess = np.maximum(curve[:, 1] - hi[cb], lo[cb] - curve[:, 1])
+    return float(max(0.0, np.nanmax(excess)))

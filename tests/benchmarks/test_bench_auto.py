@@ -1,0 +1,58 @@
+"""Benchmark: ``sonarproc run --auto`` on the 90 000-reading room log (target: under 5 s).
+
+The log is the one of ``test_bench_run.py`` (a 16-sonar ring wandering for an hour in a
+20 m x 20 m room, mapped at 1 cm: 2001 x 2001 cells). ``--auto`` scores its candidates
+on a subset of whole firings (:func:`sonarproc.auto.choose`) and then runs the winner on
+every reading; the figure is printed as a ratio to one plain ``sonarproc run`` of the
+same log measured in the same process (best of two each: the machine is shared).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import time
+from pathlib import Path
+
+import pytest
+
+TARGET_S = 5.0
+
+
+def _room_log_writer():  # type: ignore[no-untyped-def]
+    spec = importlib.util.spec_from_file_location(
+        "bench_run", Path(__file__).with_name("test_bench_run.py")
+    )
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.write_room_log, mod.ROOM
+
+
+@pytest.mark.benchmark
+def test_bench_auto_on_the_room_log(tmp_path: Path) -> None:
+    from sonarproc.auto import run_auto
+    from sonarproc.params import RunParams
+    from sonarproc.pipeline import load_log, process
+
+    write_room_log, room = _room_log_writer()
+    path = tmp_path / "hour.h5"
+    n = write_room_log(path, 1.0)
+    lg = load_log(path)
+    params = RunParams(cell=0.01, bbox=(0.0, room, 0.0, room))
+
+    def best(fn) -> float:  # type: ignore[no-untyped-def]
+        times = []
+        for _ in range(2):
+            t0 = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - t0)
+        return min(times)
+
+    single = best(lambda: process(lg, params))
+    auto = best(lambda: run_auto(lg, params))
+    _, chosen, choice = run_auto(lg, params)
+    print(f"\n--auto on {n} readings ({choice.readings_scored} scored, {choice.folds} folds)")
+    print(f"  single run {single:.2f} s; --auto {auto:.2f} s; ratio {auto / single:.2f}")
+    print(f"  --auto / target {TARGET_S:.0f} s = {auto / TARGET_S:.2f}")
+    print(f"  chose {chosen.candidate.name}")
+    assert chosen.candidate.name
