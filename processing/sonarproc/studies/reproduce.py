@@ -534,7 +534,7 @@ def reproduce(
     """
     import yaml
 
-    from sonarproc.morphology._counts import auto_vote_threshold
+    from sonarproc.morphology import auto_vote_threshold
     from sonarproc.simulate import simulate_to_log
 
     rows: list[tuple[str, PaperRow, Outcome, str]] = []

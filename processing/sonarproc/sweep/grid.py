@@ -106,7 +106,7 @@ def _numbers(token: str, kind: str) -> list[Any]:
 
 def _ops_values(token: str) -> list[str]:
     """Expand one ``ops`` alternative (a chain) with integer ranges inside its steps."""
-    from sonarproc.morphology._counts import parse_chain
+    from sonarproc.morphology import parse_chain
 
     steps: list[list[str]] = []
     for step in token.split(","):
