@@ -297,10 +297,12 @@ def shard_indices(total: int, shard: tuple[int, int]) -> range:
 
 
 def is_scenario_path(inp: str) -> bool | None:
-    """True for a scenario YAML, False for a sonarlog, None when the suffix says neither."""
-    suffix = Path(inp).suffix.lower()
+    """True for a scenario YAML, False for a log (a sonarlog, a ROS 1 bag, a ROS 2 bag
+    directory or a Player log), None when the path is neither."""
+    p = Path(inp)
+    suffix = p.suffix.lower()
     if suffix in (".yaml", ".yml"):
         return True
-    if suffix in (".h5", ".hdf5"):
+    if suffix in (".h5", ".hdf5", ".bag", ".log") or (p / "metadata.yaml").is_file():
         return False
     return None

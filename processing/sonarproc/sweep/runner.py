@@ -90,6 +90,10 @@ COLUMNS = (
 )
 
 
+#: What a sweep takes as an input.
+INPUT_KINDS = "a sweep input must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml)"
+
+
 def _load(inp: str, values: dict[str, Any]) -> Any:
     """The log of a combination: read a sonarlog, or simulate a scenario."""
     from sonarlog import SonarLog
@@ -97,7 +101,7 @@ def _load(inp: str, values: dict[str, Any]) -> Any:
 
     scenario = is_scenario_path(inp)
     if scenario is None:
-        raise InputError(f"{inp}: a sweep input must be a sonarlog (.h5) or a scenario (.yaml)")
+        raise InputError(f"{inp}: {INPUT_KINDS}")
     if not scenario:
         return load_log(inp)
     from dataclasses import replace
@@ -251,10 +255,10 @@ def run_sweep(
         Rows sorted by combination index.
     """
     for inp in inputs:
-        if not Path(inp).is_file():
+        if not Path(inp).exists():
             raise FileNotFoundError(2, "no such file", inp)
         if is_scenario_path(inp) is None:
-            raise InputError(f"{inp}: a sweep input must be a sonarlog (.h5) or a scenario (.yaml)")
+            raise InputError(f"{inp}: {INPUT_KINDS}")
     grid = parse_grid(spec)
     combos = combinations(list(inputs), grid)
     mine = [combos[i] for i in shard_indices(len(combos), shard)]

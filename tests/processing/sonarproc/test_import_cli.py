@@ -83,3 +83,13 @@ def test_export_rosbag2_replays_the_run(
     assert main(args) == 2  # the bag exists: refused without --force
     assert "exists" in one_error_line(capsys.readouterr().err)
     assert main([*args, "--force"]) == 0
+
+
+def test_sweep_takes_a_bag(tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = tmp_path / "run.bag"
+    write_range_bag(bag, "ros1", run)
+    out = tmp_path / "sweep"
+    grid = "cell=0.02|0.03;ops=thinning:1"
+    assert main(["sweep", str(bag), "--grid", grid, "--jobs", "1", "--out", str(out)]) == 0
+    rows = (out / "results.csv").read_text().splitlines()
+    assert len(rows) == 3 and all("run.bag" in r for r in rows[1:])
