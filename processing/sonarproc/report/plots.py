@@ -152,7 +152,13 @@ def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) ->
     """The processed cells (grey), the true surface (dashed) and the fit or surfaces."""
     fit = result.fit
     m = result.metrics
-    if isinstance(fit, FitFailure):
+    if result.surfaces is not None:
+        what = f"{len(result.surfaces.surfaces)} surfaces, a line, arc or spline each"
+        if result.surface_metrics is not None:
+            sm = result.surface_metrics
+            what += f", precision {length_cm(sm['precision_m'])}"
+            what += f", completeness {number(sm['completeness'])}"
+    elif isinstance(fit, FitFailure):
         what = f"{fit.kind} fit failed: {fit.reason}"
     else:
         what = f"{fit.kind} fit, order {fit.order}"
