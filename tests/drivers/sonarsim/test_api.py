@@ -1,4 +1,4 @@
-"""The minimum API the emulator codes against (team brief)."""
+"""The minimum API the emulator codes against."""
 
 from __future__ import annotations
 
