@@ -138,6 +138,7 @@ class Acquisition:
         )
         self.gap_s = max(len(plan.sonars) - 1, 1) * plan.interval
         self._last_reply_t: float | None = None
+        self._recovering = False
         # two firing intervals: the latest a reply can report a firing (see sonard.ordering)
         self.order = TimeOrder(hold=2.0 * plan.interval)
         self.poll_period = max(
@@ -193,6 +194,8 @@ class Acquisition:
         stall, a reconnect), firings between them may be missing from the log: the event
         (at the last good reply, detail ``until T``) says where.
         """
+        if self._recovering:
+            return  # replies while reconnecting do not end the outage: CT/CONF_SN reset firing
         prev, self._last_reply_t = self._last_reply_t, now
         if self.recording and prev is not None and now - prev > self.gap_s:
             self.sink.event(
@@ -365,6 +368,7 @@ class Acquisition:
     def recover(self, exc: BaseException) -> None:
         """Stop the robot, reconnect with backoff, then raise Resume (or FaultAbort)."""
         self.n_faults += 1
+        self._recovering = True
         detail = f"{type(exc).__name__}: {exc}"[:200]
         log.warning("link fault: %s", detail)
         self.sink.event("fault", detail)
@@ -406,6 +410,7 @@ class Acquisition:
         return True
 
     def _resumed(self, why: str) -> None:
+        self._recovering = False  # the next poll closes the gap the fault opened
         self.tagger.forget_pose()
         log.info("link back (%s); resuming", why)
         self.sink.event("reconnect", why)
