@@ -12,6 +12,7 @@ traceback (exit 1).
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, NoReturn
@@ -157,6 +158,16 @@ def os_message(err: OSError) -> str:
     return f"{name}: {what}" if name else what
 
 
+def is_simulator_error(err: BaseException) -> bool:
+    """Whether ``err`` is a world or scenario error of :mod:`sonarsim`.
+
+    The simulator is imported only by the commands that simulate; when it was never
+    imported, no error can be one of its own (and ``run`` does not pay for its import).
+    """
+    sim = sys.modules.get("sonarsim")
+    return sim is not None and isinstance(err, (sim.ScenarioError, sim.WorldError))
+
+
 @contextmanager
 def guarded() -> Iterator[None]:
     """Turn the project's own errors and ``OSError`` into one line and an exit code.
@@ -167,7 +178,6 @@ def guarded() -> Iterator[None]:
     is a bug: it propagates with its traceback.
     """
     from sonarlog import SonarLogError
-    from sonarsim import ScenarioError, WorldError
 
     try:
         yield
@@ -177,7 +187,11 @@ def guarded() -> Iterator[None]:
         fail(flag_message(err), 2)
     except (FitError, RuntimeProblem) as err:
         fail(str(err) or type(err).__name__, 1)
-    except (SonarprocError, SonarLogError, WorldError, ScenarioError) as err:
+    except (SonarprocError, SonarLogError) as err:
+        fail(str(err) or type(err).__name__, 2)
+    except ValueError as err:
+        if not is_simulator_error(err):
+            raise
         fail(str(err) or type(err).__name__, 2)
     except FileNotFoundError as err:
         fail(os_message(err), 2)
