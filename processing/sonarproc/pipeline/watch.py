@@ -22,7 +22,7 @@ from typing import Any
 from sonarproc.errors import NothingToMapError
 from sonarproc.params import RunParams
 from sonarproc.pipeline.live import LiveAccumulator
-from sonarproc.pipeline.run import process
+from sonarproc.pipeline.run import load_log, process
 from sonarproc.report.summary import summary_line
 
 __all__ = ["WatchOutcome", "watch"]
@@ -94,8 +94,14 @@ def watch(
     stop = stop or threading.Event()
     truth_xy = read_truth_csv(truth) if truth is not None else None
 
+    # A bag or a Player log is never being written by sonard: read it whole, once closed.
+    recorded = log_path.is_dir() or log_path.suffix.lower() not in (".h5", ".hdf5")
+
+    def is_closed() -> bool:
+        return recorded or writer_closed(log_path)
+
     def read() -> Any:
-        lg = read_log(log_path)
+        lg = load_log(log_path) if recorded else read_log(log_path)
         return lg if truth_xy is None else replace(lg, truth=truth_xy)
 
     first = None
@@ -105,7 +111,7 @@ def watch(
         except (SonarLogError, OSError):
             # A log its writer has only just created may not be readable yet: wait for
             # it while the writer holds it open (or until told to stop).
-            if not log_path.is_file() or writer_closed(log_path) or once or stop.is_set():
+            if not log_path.exists() or is_closed() or once or stop.is_set():
                 raise
             stop.wait(min(interval, 0.5))
     acc = LiveAccumulator(first, params)
@@ -116,7 +122,7 @@ def watch(
     lg = first
     reason = "once"
     while True:
-        closed = writer_closed(log_path)
+        closed = is_closed()
         if seen:  # the first pass uses the first read
             try:
                 lg = read()

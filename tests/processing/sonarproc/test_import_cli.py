@@ -93,3 +93,14 @@ def test_sweep_takes_a_bag(tmp_path: Path, run: SimRun, capsys: pytest.CaptureFi
     assert main(["sweep", str(bag), "--grid", grid, "--jobs", "1", "--out", str(out)]) == 0
     rows = (out / "results.csv").read_text().splitlines()
     assert len(rows) == 3 and all("run.bag" in r for r in rows[1:])
+
+
+def test_watch_once_takes_a_bag(
+    tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = tmp_path / "run-sqlite3"
+    write_range_bag(bag, "sqlite3", run)
+    out = tmp_path / "w"
+    assert main(["watch", str(bag), "--once", "--out", str(out), "--cell", "0.02"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    assert doc["live"]["writer_closed"] is True and doc["counts"]["readings_used"] > 50
