@@ -73,25 +73,12 @@ _METRICS = (
 
 def run_scenarios(scenario_dir: Path, *, cell: float = 0.01) -> Rows:
     """Simulate each scenario and compare every default method on it."""
-    from sonarproc.simulate import simulate_to_log
-
-    out: Rows = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for yml in sorted(scenario_dir.glob("*.yaml")):
-            name = yml.stem
-            paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
-            path = Path(tmp) / f"{name}.h5"
-            simulate_to_log(yml, path)
-            lg = load_log(path)
-            params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
-            methods = [make_method(m) for m in TABLE_METHODS]
-            out[name] = comparison_rows(compare(lg, params, methods))
-            log.info("%s done", name)
-    return out
+    rows, _ = run_all(scenario_dir, cell=cell, with_auto=False)
+    return rows
 
 
-def run_all(scenario_dir: Path, *, cell: float = 0.01) -> tuple[Rows, Rows]:
-    """Every method (as :func:`run_scenarios`) and ``--auto`` (:func:`auto_row`) per scenario."""
+def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -> tuple[Rows, Rows]:
+    """Every method and (``with_auto``) ``--auto`` (:func:`auto_row`) on each scenario."""
     from sonarproc.simulate import simulate_to_log
     from sonarproc.studies.auto_study import auto_row
 
@@ -107,6 +94,9 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01) -> tuple[Rows, Rows]:
             params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
             methods = [make_method(m) for m in TABLE_METHODS]
             out[name] = comparison_rows(compare(lg, params, methods))
+            if not with_auto:
+                log.info("%s done", name)
+                continue
             row = auto_row(lg, RunParams(cell=cell))
             row["readings"] = len(lg.readings)
             auto[name] = [row]
