@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import os
 import socket
+import threading
 import time
 from collections.abc import Callable, Mapping
 
@@ -63,6 +64,9 @@ class Notifier:
         self._last_ping = -float("inf")
         self._sock: socket.socket | None = None
         self._ready = False
+        self._stopping = False
+        # The poll loop pings from its own thread; STOPPING=1 must be the last word.
+        self._lock = threading.Lock()
 
     @property
     def enabled(self) -> bool:
@@ -97,19 +101,23 @@ class Notifier:
     def watchdog(self, *, force: bool = False) -> bool:
         """Ping the watchdog (``WATCHDOG=1``) at most every half ``WatchdogSec``.
 
-        Nothing is sent before :meth:`ready` (start-up is bounded by TimeoutStartSec).
+        Nothing is sent before :meth:`ready` (start-up is bounded by TimeoutStartSec), nor
+        after :meth:`stopping`.
         """
-        if (self.watchdog_period <= 0 or not self._ready) and not force:
-            return False
-        now = self._clock()
-        if not force and now - self._last_ping < self.watchdog_period:
-            return False
-        self._last_ping = now
-        return self.send("WATCHDOG=1")
+        with self._lock:
+            if self._stopping or ((self.watchdog_period <= 0 or not self._ready) and not force):
+                return False
+            now = self._clock()
+            if not force and now - self._last_ping < self.watchdog_period:
+                return False
+            self._last_ping = now
+            return self.send("WATCHDOG=1")
 
     def stopping(self, status: str = "") -> bool:
-        """Tell systemd the service is shutting down (``STOPPING=1``)."""
-        return self.send("STOPPING=1", *((f"STATUS={status}",) if status else ()))
+        """Tell systemd the service is shutting down (``STOPPING=1``); no ping follows it."""
+        with self._lock:
+            self._stopping = True
+            return self.send("STOPPING=1", *((f"STATUS={status}",) if status else ()))
 
     def close(self) -> None:
         """Close the socket (sends nothing)."""

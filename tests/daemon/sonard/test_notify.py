@@ -77,3 +77,20 @@ def test_vanished_socket_is_logged_not_raised(tmp_path: Path) -> None:
     n = Notifier(env={"NOTIFY_SOCKET": str(tmp_path / "gone.sock")})
     assert not n.ready()
     n.close()
+
+
+def test_no_watchdog_ping_after_stopping(tmp_path: Path) -> None:
+    addr = str(tmp_path / "notify.sock")
+    server = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    server.bind(addr)
+    server.settimeout(1.0)
+    n = Notifier(env={"NOTIFY_SOCKET": addr, "WATCHDOG_USEC": "1000"})
+    try:
+        assert n.ready()
+        assert n.stopping("done")
+        assert n.watchdog() is False and n.watchdog(force=True) is False
+        msgs = [server.recv(4096).decode() for _ in range(2)]
+        assert msgs[-1].startswith("STOPPING=1")
+    finally:
+        n.close()
+        server.close()
