@@ -73,6 +73,7 @@ PARAMETER_FLAGS = {
     "arc_step": "--arc-step",
     "sensors": "--sensors",
     "truth": "--truth",
+    "robot": "--robot",
     "formats": "--format",
     "method": "--method",
     "methods": "--methods",

@@ -21,6 +21,7 @@ from sonarproc.cli.options import (
     DropCrosstalkOption,
     FitOption,
     OrderOption,
+    RobotOption,
     SensorsOption,
     TruthOption,
     build_run_params,
@@ -102,6 +103,7 @@ def compare_command(
     fit: FitOption = "auto",
     order: OrderOption = None,
     sensors: SensorsOption = None,
+    robot: RobotOption = None,
     truth: TruthOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
     settings: SetOption = None,
@@ -135,7 +137,7 @@ def compare_command(
         names = parse_method_list(methods) if methods is not None else list(DEFAULT_METHODS)
         instances = build_methods(names, settings)
         formats = parse_formats(export) if export is not None else []
-        lg = load_log(log, sensors=sensors, truth=truth)
+        lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
         if lg.integrity_warning() is not None:
             typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")

@@ -20,6 +20,7 @@ from sonarproc.cli.options import (
     DropCrosstalkOption,
     FitOption,
     OrderOption,
+    RobotOption,
     SensorsOption,
     build_run_params,
 )
@@ -48,6 +49,7 @@ def export_command(
     fit: FitOption = "auto",
     order: OrderOption = None,
     sensors: SensorsOption = None,
+    robot: RobotOption = None,
     truth: Annotated[
         Path | None, typer.Option(help="True profile CSV (x,y), for the metrics in the GeoJSON.")
     ] = None,
@@ -71,7 +73,7 @@ def export_command(
             )
         (instance,) = build_methods(names, settings)
         formats = parse_formats(fmt)
-        lg = load_log(log, sensors=sensors, truth=truth)
+        lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
         if lg.integrity_warning() is not None:
             typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")

@@ -25,6 +25,7 @@ __all__ = [
     "DropCrosstalkOption",
     "FitOption",
     "OrderOption",
+    "RobotOption",
     "RobustOption",
     "SensorsOption",
     "SmoothOption",
@@ -57,7 +58,13 @@ SmoothOption = Annotated[
 CentreOption = Annotated[
     str | None, typer.Option(help="Polar fit centre 'x,y' (m); default: mean robot position.")
 ]
-SensorsOption = Annotated[Path | None, typer.Option(help="Sensors YAML, for a readings CSV log.")]
+SensorsOption = Annotated[
+    Path | None, typer.Option(help="Sensors YAML: the mounts of a readings CSV or a bag.")
+]
+RobotOption = Annotated[
+    str | None,
+    typer.Option(help="Mount preset of a bag or CSV log (pioneer3-dx, nomad200-ring, ...)."),
+]
 TruthOption = Annotated[
     Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
 ]

@@ -25,6 +25,7 @@ from sonarproc.cli.options import (
     DropCrosstalkOption,
     FitOption,
     OrderOption,
+    RobotOption,
     RobustOption,
     SensorsOption,
     SmoothOption,
@@ -134,6 +135,7 @@ def run_command(
     smooth: SmoothOption = None,
     centre: CentreOption = None,
     sensors: SensorsOption = None,
+    robot: RobotOption = None,
     truth: TruthOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
     robust: RobustOption = "none",
@@ -170,11 +172,13 @@ def run_command(
                 from sonarproc.auto import run_auto
                 from sonarproc.pipeline import load_log
 
-                lg = load_log(log, sensors=sensors, truth=truth)
+                lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
                 chosen_run, chosen, choice = run_auto(lg, params)
                 result, record = chosen_run.run, choice.to_json(chosen)
             else:
-                result = run_file(log, params, sensors=sensors, truth=truth, progress=progress)
+                result = run_file(
+                    log, params, sensors=sensors, truth=truth, robot=robot, progress=progress
+                )
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")

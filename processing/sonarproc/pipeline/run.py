@@ -70,13 +70,18 @@ def process(
 
 
 def load_log(
-    path: str | Path, *, sensors: str | Path | None = None, truth: str | Path | None = None
+    path: str | Path,
+    *,
+    sensors: str | Path | None = None,
+    truth: str | Path | None = None,
+    robot: str | None = None,
 ) -> SonarLog:
     """Read any log this tool reads, in memory.
 
     A sonarlog (``.h5``); with ``sensors``, a readings CSV; or, through
     :func:`sonarlog.sources.read_source`, a ROS 1 bag, a ROS 2 bag directory or a Player
-    log (``sensors`` then gives the mounts). ``truth``: a truth CSV replacing the log's.
+    log (``sensors``, a YAML, or ``robot``, a shipped preset such as ``pioneer3-dx``, then
+    gives the mounts). ``truth``: a truth CSV replacing the log's.
 
     Raises
     ------
@@ -97,7 +102,11 @@ def load_log(
         from sonarlog.csvlog import read_truth_csv
 
         truth_xy = read_truth_csv(truth)
+    is_sonarlog = p.is_file() and p.suffix.lower() in (".h5", ".hdf5")
+    if robot is not None and is_sonarlog:
+        raise ParameterError("robot", f"gives the mounts of a bag or a CSV log, not of {p}")
     if p.suffix.lower() == ".csv":
+        sensors = sensors if sensors is not None else robot
         if sensors is None:
             raise ParameterError("sensors", f"is required for a CSV log ({p})")
         from sonarlog.csvlog import read_csv_log
@@ -108,10 +117,10 @@ def load_log(
             f"{p}: is a directory, not a log (a sonarlog .h5, a readings CSV, a ROS 1 bag, "
             "a ROS 2 bag directory or a Player log)"
         )
-    if p.is_dir() or p.suffix.lower() not in (".h5", ".hdf5"):
+    if not is_sonarlog:
         from sonarlog.sources import read_source  # rosbags: only for the logs that need it
 
-        lg, _ = read_source(p, sensors=sensors)
+        lg, _ = read_source(p, sensors=sensors, robot=robot)
     else:
         lg = read_log(p)
     return lg if truth_xy is None else replace(lg, truth=truth_xy)
@@ -123,14 +132,15 @@ def run_file(
     *,
     sensors: str | Path | None = None,
     truth: str | Path | None = None,
+    robot: str | None = None,
     progress: Progress | None = None,
 ) -> RunResult:
-    """Read a log and :func:`process` it; ``t_cpu_s`` includes reading the file."""
+    """Read a log (:func:`load_log`) and :func:`process` it; ``t_cpu_s`` includes reading."""
     cpu0 = time.process_time()
     wall0 = time.perf_counter()
     if progress is not None:
         progress("read")
-    lg = load_log(path, sensors=sensors, truth=truth)
+    lg = load_log(path, sensors=sensors, truth=truth, robot=robot)
     read_s = time.perf_counter() - wall0
     result = process(lg, params, progress=progress, cpu_start=cpu0)
     result.timings_s = {"read": read_s, **result.timings_s}

@@ -104,3 +104,23 @@ def test_watch_once_takes_a_bag(
     assert main(["watch", str(bag), "--once", "--out", str(out), "--cell", "0.02"]) == 0
     doc = json.loads((out / "report.json").read_text())
     assert doc["live"]["writer_closed"] is True and doc["counts"]["readings_used"] > 50
+
+
+def test_run_a_rosaria_bag_with_a_preset(
+    tmp_path: Path, run: SimRun, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from bagbuilders import write_cloud_bag
+
+    bag = tmp_path / "pioneer.bag"
+    write_cloud_bag(bag, "ros1", run)
+    out = tmp_path / "rep"
+    assert main(["run", str(bag), "--out", str(out)]) == 2  # a cloud has no mounts of its own
+    assert str(bag) in one_error_line(capsys.readouterr().err)
+    assert main(["run", str(bag), "--robot", "pioneer3-dx", "--out", str(out), "--json"]) == 0
+    capsys.readouterr()
+    assert json.loads((out / "report.json").read_text())["counts"]["readings_used"] > 50
+    h5 = tmp_path / "p.h5"
+    assert main(["import", str(bag), "--robot", "pioneer3-dx", "--out", str(h5)]) == 0
+    capsys.readouterr()
+    assert main(["run", str(h5), "--robot", "pioneer3-dx", "--out", str(out)]) == 2
+    assert "--robot" in one_error_line(capsys.readouterr().err)
