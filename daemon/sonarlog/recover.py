@@ -68,7 +68,7 @@ def recover_log(
     if dst.exists() and dst.resolve() == src.resolve():
         raise InvalidLogError(f"{dst}: the recovered copy must not overwrite the source log")
     if dst.exists() and not force:
-        raise InvalidLogError(f"{dst}: exists already; pass --force to overwrite")
+        raise InvalidLogError(f"{dst}: exists already; pass force=True (--force) to overwrite")
     if not dst.resolve().parent.is_dir():
         raise InvalidLogError(f"{dst}: its folder {dst.resolve().parent} does not exist")
     return _copy_intact(src, dst, {})

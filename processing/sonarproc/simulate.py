@@ -109,7 +109,7 @@ def simulate_to_log(
     if not parent.is_dir():
         raise InputError(f"{out}: output directory {parent} does not exist")
     if Path(out).exists() and not force:
-        raise InputError(f"{out}: exists already; pass --force to overwrite")
+        raise InputError(f"{out}: exists already; pass force=True (--force) to overwrite")
     scn = load_scenario(scenario, seed=seed)
     log.info("simulating %s (seed %d)", scn.name, scn.seed)
     result = simulate(scn)

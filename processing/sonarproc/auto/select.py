@@ -340,5 +340,5 @@ def run_auto(
                 continue
             return res, s, choice
     if last is None:
-        raise NothingToMapError(f"{log_.path}: no --auto candidate left anything on the map")
+        raise NothingToMapError(f"{log_.path}: no automatic candidate left anything on the map")
     return last[0], last[1], choice

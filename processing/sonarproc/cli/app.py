@@ -15,14 +15,25 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 
 from sonarproc import __version__
 from sonarproc.errors import FitError, ParameterError, SonarprocError
 
-__all__ = ["PARAMETER_FLAGS", "RuntimeProblem", "app", "fail", "guarded", "version_callback"]
+if TYPE_CHECKING:
+    from sonarlog import SonarLog
+
+__all__ = [
+    "PARAMETER_FLAGS",
+    "RuntimeProblem",
+    "app",
+    "fail",
+    "guarded",
+    "version_callback",
+    "warn_if_damaged",
+]
 
 
 def _flags_show_as_flags() -> None:
@@ -104,6 +115,13 @@ def _root(
 
 class RuntimeProblem(SonarprocError):
     """A failure of a command that is not the user's fault: exit code 1, one line."""
+
+
+def warn_if_damaged(log: SonarLog) -> None:
+    """Print the one-line warning of a crashed or cut log (nothing for a closed one)."""
+    warning = log.integrity_warning()
+    if warning is not None:
+        typer.echo(f"sonarproc: warning: {warning}", err=True)
 
 
 def fail(message: str, code: int = 2) -> NoReturn:

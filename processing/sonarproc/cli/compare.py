@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from sonarproc.cli.app import app, guarded
+from sonarproc.cli.app import app, guarded, warn_if_damaged
 from sonarproc.cli.options import (
     BboxOption,
     CellOption,
@@ -138,8 +138,7 @@ def compare_command(
         instances = build_methods(names, settings)
         formats = parse_formats(export) if export is not None else []
         lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
-        if lg.integrity_warning() is not None:
-            typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
+        warn_if_damaged(lg)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
         check_output_dir(out_dir)
         results = []

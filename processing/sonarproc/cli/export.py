@@ -12,7 +12,7 @@ from typing import Annotated
 
 import typer
 
-from sonarproc.cli.app import app, guarded
+from sonarproc.cli.app import app, guarded, warn_if_damaged
 from sonarproc.cli.compare import SetOption, build_methods
 from sonarproc.cli.options import (
     BboxOption,
@@ -74,8 +74,7 @@ def export_command(
         (instance,) = build_methods(names, settings)
         formats = parse_formats(fmt)
         lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
-        if lg.integrity_warning() is not None:
-            typer.echo(f"sonarproc: warning: {lg.integrity_warning()}", err=True)
+        warn_if_damaged(lg)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
         check_output_dir(out_dir)
         result = instance.run(lg, params)

@@ -149,9 +149,8 @@ def evaluate_map(
     if auto is not None:
         result.auto = auto.to_json()
         result.surfaces = auto.surfaces
-    result.log_state = str(getattr(log_, "log_state", "closed"))
-    warning = getattr(log_, "integrity_warning", None)
-    result.log_warning = warning() if callable(warning) else None
+    result.log_state = log_.log_state
+    result.log_warning = log_.integrity_warning()
     return result
 
 
