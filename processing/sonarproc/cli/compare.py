@@ -20,6 +20,7 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OpsOption,
     OrderOption,
     RobotOption,
     SensorsOption,
@@ -97,9 +98,7 @@ def compare_command(
     ] = None,
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
-    ops: Annotated[
-        str, typer.Option(help="Morphological operations of the 'morphological' method.")
-    ] = "thinning:3",
+    ops: OpsOption = "thinning:3",
     fit: FitOption = "auto",
     order: OrderOption = None,
     sensors: SensorsOption = None,

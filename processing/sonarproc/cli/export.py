@@ -19,6 +19,7 @@ from sonarproc.cli.options import (
     CellOption,
     DropCrosstalkOption,
     FitOption,
+    OpsOption,
     OrderOption,
     RobotOption,
     SensorsOption,
@@ -43,9 +44,7 @@ def export_command(
     ] = None,
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
-    ops: Annotated[
-        str, typer.Option(help="Morphological operations of the 'morphological' method.")
-    ] = "thinning:3",
+    ops: OpsOption = "thinning:3",
     fit: FitOption = "auto",
     order: OrderOption = None,
     sensors: SensorsOption = None,

@@ -24,6 +24,7 @@ __all__ = [
     "CentreOption",
     "DropCrosstalkOption",
     "FitOption",
+    "OpsOption",
     "OrderOption",
     "RobotOption",
     "RobustOption",
@@ -60,6 +61,13 @@ CentreOption = Annotated[
 ]
 SensorsOption = Annotated[
     Path | None, typer.Option(help="Sensors YAML: the mounts of a readings CSV or a bag.")
+]
+OpsOption = Annotated[
+    str,
+    typer.Option(
+        help="Operations on the arc map (the paper's method), e.g. 'closing,thinning:3' or "
+        "'vote:auto,ridge'."
+    ),
 ]
 RobotOption = Annotated[
     str | None,

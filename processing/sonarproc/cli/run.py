@@ -24,6 +24,7 @@ from sonarproc.cli.options import (
     CentreOption,
     DropCrosstalkOption,
     FitOption,
+    OpsOption,
     OrderOption,
     RobotOption,
     RobustOption,
@@ -127,9 +128,7 @@ def run_command(
     ] = None,
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
-    ops: Annotated[
-        str, typer.Option(help="Morphological operations, e.g. 'closing,thinning:3'.")
-    ] = "thinning:3",
+    ops: OpsOption = "thinning:3",
     fit: FitOption = "auto",
     order: OrderOption = None,
     smooth: SmoothOption = None,
