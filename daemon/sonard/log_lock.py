@@ -20,6 +20,8 @@ import time
 from pathlib import Path
 from types import TracebackType
 
+from sonarlog.state import flock_held as is_locked
+
 __all__ = ["LockBusy", "LogExists", "LogLock", "flock_holders", "is_locked"]
 
 
@@ -65,21 +67,6 @@ def flock_holders(path: str | os.PathLike[str]) -> tuple[int, ...]:
         if key == want and pid not in pids:
             pids.append(pid)
     return tuple(pids)
-
-
-def is_locked(path: str | os.PathLike[str]) -> bool:
-    """Whether some process holds an exclusive ``flock`` on ``path`` right now."""
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
-    except OSError:
-        return False
-    try:
-        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return True
-    finally:
-        os.close(fd)
-    return False
 
 
 class LogLock:

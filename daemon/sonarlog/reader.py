@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import fcntl
 import logging
 import os
 from dataclasses import dataclass
@@ -26,7 +25,7 @@ from sonarlog.schema import (
     REQUIRED_SENSOR_FIELDS,
     SENSOR_DTYPE,
 )
-from sonarlog.state import CRASHED_ATTR, LogState, integrity_warning, read_superblock
+from sonarlog.state import CRASHED_ATTR, LogState, flock_held, integrity_warning, read_superblock
 
 log = logging.getLogger(__name__)
 
@@ -382,20 +381,4 @@ def _state_before_opening(path: Path) -> tuple[LogState, bool]:
         return "cut", False
     if not info.open_for_write:
         return "closed", False
-    return "crashed", _locked_by_writer(path)
-
-
-def _locked_by_writer(path: Path) -> bool:
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return False
-    try:
-        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return True
-    except OSError:
-        return False
-    finally:
-        os.close(fd)  # closing drops the shared lock if we took it
-    return False
+    return "crashed", flock_held(path)

@@ -20,6 +20,7 @@ cleanly.
 
 from __future__ import annotations
 
+import fcntl
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +30,7 @@ __all__ = [
     "CRASHED_ATTR",
     "LogState",
     "SuperblockInfo",
+    "flock_held",
     "integrity_warning",
     "read_superblock",
     "writer_closed",
@@ -143,3 +145,20 @@ def writer_closed(path: str | os.PathLike[str]) -> bool:
     """
     info = read_superblock(path)
     return info is None or not info.open_for_write
+
+
+def flock_held(path: str | os.PathLike[str]) -> bool:
+    """Whether some process holds an exclusive ``flock`` on ``path`` right now (a live writer)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return False
+    finally:
+        os.close(fd)  # closing drops the shared lock if we took it
+    return False
