@@ -14,9 +14,10 @@ extent and for drawing:
 >>> int(counts.max()), counts.shape == grid.shape
 (1, True)
 
-The engines are private modules: ``_geometry`` (ellipses and beam intervals), ``_raster``
-(gap-free 8-connected chains, vectorised over all arcs), ``_sampled`` (paper-style samples
-at a fixed angular step) and ``_cells`` (count maps and per-arc cells).
+The engines are private modules: ``_geometry`` (ellipses and beam intervals), ``_plan``,
+``_bounds``, ``_fill`` and ``_raster`` (gap-free 8-connected chains, vectorised over all arcs:
+pieces, proven bounds, float32 cell keys, repeat removal and scattering), ``_sampled``
+(paper-style samples at a fixed angular step) and ``_cells`` (count maps and per-arc cells).
 """
 
 from __future__ import annotations

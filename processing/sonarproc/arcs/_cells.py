@@ -15,7 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sonarproc.arcs._geometry import ArcGeometry
-from sonarproc.arcs._raster import IntArray, accumulate, batch_keys, batches, plan_pieces, ranges
+from sonarproc.arcs._plan import IntArray, plan_pieces
+from sonarproc.arcs._raster import accumulate, batch_keys, batches, ranges
 from sonarproc.arcs._sampled import arc_samples
 from sonarproc.grid import Grid
 

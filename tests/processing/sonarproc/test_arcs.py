@@ -10,6 +10,8 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from sonarproc.arcs import _fill as arcs_fill
+from sonarproc.arcs import _plan as arcs_plan
 from sonarproc.arcs import _raster as arcs_raster
 from sonarproc.arcs import arc_geometry
 from sonarproc.grid import Grid
@@ -305,11 +307,11 @@ def test_chunking_and_exact_path_do_not_change_the_map(monkeypatch: pytest.Monke
     grid = Grid.covering(-1.5, 1.5, -1.5, 1.5, cell=0.01)
     ref = counts(r, grid)
     ref_cells = cells(r, grid)
-    monkeypatch.setattr(arcs_raster, "_CHUNK", 50)
+    monkeypatch.setattr(arcs_fill, "_CHUNK", 50)
     monkeypatch.setattr(arcs_raster, "_BATCH", 3000)
-    monkeypatch.setattr(arcs_raster, "_PLAN_CHUNK", 37)
+    monkeypatch.setattr(arcs_plan, "_PLAN_CHUNK", 37)
     np.testing.assert_array_equal(counts(r, grid), ref)
-    monkeypatch.setattr(arcs_raster, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
+    monkeypatch.setattr(arcs_plan, "_SIMPLE_TURNING", -1.0)  # every arc takes the exact check
     np.testing.assert_array_equal(counts(r, grid), ref)
     for got, want in zip(cells(r, grid), ref_cells, strict=True):
         np.testing.assert_array_equal(got, want)
@@ -433,16 +435,21 @@ def test_float32_path_matches_float64(
     ref = counts(r, grid)
     ref_cells = cells(r, grid)
     assert ref.sum() > 0
-    for name, value in (("_F32_MAX_ERROR", -1.0), ("_F32_KEY_LIMIT", 0), ("_TRIM_ROUNDS", 0)):
+    knobs = (
+        (arcs_plan, "_F32_MAX_ERROR", -1.0),
+        (arcs_fill, "_F32_KEY_LIMIT", 0),
+        (arcs_plan, "_TRIM_ROUNDS", 0),
+    )
+    for module, name, value in knobs:
         with monkeypatch.context() as m:
-            m.setattr(arcs_raster, name, value)
+            m.setattr(module, name, value)
             np.testing.assert_array_equal(counts(r, grid), ref)
             for got, want in zip(cells(r, grid), ref_cells, strict=True):
                 np.testing.assert_array_equal(got, want)
 
 
 def _f32_values(
-    plan: arcs_raster.RasterPlan, i: int
+    plan: arcs_plan.RasterPlan, i: int
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Piece i's computed coordinate plus its eps, as the float32 engine makes it and exact."""
     n = int(plan.n[i])
@@ -451,18 +458,18 @@ def _f32_values(
     eps = np.float32(plan.eps[i])
     for dt in (np.float32, np.float64):
         k = np.arange(n, dtype=dt)
-        u = dt(plan.u0[i]) + k if kind & arcs_raster._UP else dt(plan.u0[i]) - k
+        u = dt(plan.u0[i]) + k if kind & arcs_plan.UP else dt(plan.u0[i]) - k
         q = u * u
-        if kind & arcs_raster._ELLIPSE:
+        if kind & arcs_plan.ELLIPSE:
             q = q * dt(plan.beta[i]) + dt(plan.gamma[i])
         else:
             q = dt(plan.gamma[i]) - q
         s = np.sqrt(q)
-        if kind & arcs_raster._ELLIPSE:
+        if kind & arcs_plan.ELLIPSE:
             au = u * dt(plan.c_alpha[i])
-            s = s + au if kind & arcs_raster._PLUS else s - au
+            s = s + au if kind & arcs_plan.PLUS else s - au
         f = dt(plan.c_frac[i]) + dt(eps)
-        out.append((f + s if kind & arcs_raster._PLUS else f - s).astype(np.float64))
+        out.append((f + s if kind & arcs_plan.PLUS else f - s).astype(np.float64))
     return out[0], out[1]
 
 
@@ -482,7 +489,7 @@ def test_float32_error_bound_holds(seed: int, max_path: float, cell: float) -> N
         r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
         tx_half_beamwidth=r["tx_half_beamwidth"], rx_half_beamwidth=r["rx_half_beamwidth"],
     )  # fmt: skip
-    plan = arcs_raster.plan_pieces(arcs, grid)
+    plan = arcs_plan.plan_pieces(arcs, grid)
     for i in np.flatnonzero(plan.n > 0):
         v32, v64 = _f32_values(plan, int(i))
         assert np.abs(v32 - v64).max() <= plan.eps[i]
@@ -507,7 +514,7 @@ def test_overlap_bound_holds(seed: int, cell: float) -> None:
         r["tx_xy"], r["tx_heading"], r["rx_xy"], r["rx_heading"], r["path"],
         tx_half_beamwidth=r["tx_half_beamwidth"], rx_half_beamwidth=r["rx_half_beamwidth"],
     )  # fmt: skip
-    plan = arcs_raster.plan_pieces(arcs, grid)
+    plan = arcs_plan.plan_pieces(arcs, grid)
     assert plan.overlap >= counts(r, grid).max()
 
 
