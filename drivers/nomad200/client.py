@@ -1,93 +1,28 @@
-"""Serial client for the Nomad 200 host link, in SI units.
+"""Nomad 200 commands in SI units, over :class:`nomad200.link.Link`.
 
-The client opens its port with :func:`serial.serial_for_url`, so ``port`` may be a device
-path (``/dev/ttyUSB0``), a pyserial URL such as ``spy:///dev/ttyUSB0`` (hex trace of the
-traffic) or the emulator's ``nomad://?world=...`` scheme (importing :mod:`nomad200`
-registers it). Every command is one request and one reply (the robot's strict protocol);
-the input is flushed before each request, replies of the wrong type are dropped, and
-damaged bytes are skipped by a resynchronising decoder.
-
-Idempotent commands (GS, GET_SN, GET_RC, GET_RV and the setters CT, CONF_SN, CONF_TM, AC,
-SP, DP, DA, VM, ST, LP) are retried up to ``retries`` times after a timeout, a damaged reply
-or a NAK; PR, PA, MV, ZR and WS are never retried. Damage on the way TO the robot shows up
-as a NAK (the robot refused a packet with a bad checksum or end byte and did nothing) or as
-a timeout (the robot never saw a whole packet); damage on the way back as a damaged reply or
-a timeout. A failed exchange raises a :class:`~nomad200.errors.NomadError` whose message
-names the command and says whether the robot may have executed it (also in its
-``command`` and ``executed`` attributes); the caller of a non-idempotent command decides
-(e.g. reads the state and commands again).
-
-Counters are plain attributes; ``counters()`` returns them as a dict for logging. Every
-exchange (``requests``) ends in exactly one of ``replies``, ``naks``, ``timeouts``,
-``frame_errors`` (a reply that arrived damaged or incomplete) or a lost port; ``retry_count``
-counts the repeated exchanges among them. ``skipped_bytes`` and ``stale_packets`` count
-received bytes and packets that were thrown away.
+Metres, radians and seconds in, metres, radians and seconds out: the robot's 1/10 inch and
+1/10 degree exist only here and in :mod:`nomad200.state`. A value the robot cannot carry
+raises ``ValueError`` naming the axis before a byte is sent. State replies are decoded with
+the layout of the last CT mask sent (:attr:`Client.mask`), which the client sends again on
+every (re)open when ``sync_on_open``.
 """
 
 from __future__ import annotations
 
-import logging
 import math
-import threading
-import time
-import weakref
 from collections.abc import Sequence
-from types import TracebackType
-from typing import Any, Final
+from typing import Final
 
-import serial
-
-try:  # a hung-up pty makes termios calls (tcflush) fail with termios.error
-    from termios import error as _TermiosError
-except ImportError:  # pragma: no cover - not POSIX
-    _TermiosError = OSError  # type: ignore[assignment,misc]
-
-from nomad200.codec import Cmd, MvMode, Packet, encode_command
-from nomad200.errors import (
-    FrameError,
-    NomadDisconnected,
-    NomadError,
-    NomadNak,
-    NomadPortBusy,
-    NomadProtocolError,
-    NomadTimeout,
-    TruncatedPacketError,
-)
+from nomad200.codec import Cmd, MvMode
+from nomad200.link import Link, open_clients
 from nomad200.mask import StateMask
 from nomad200.replies import Configuration, SonarScan, decode_get_rc, decode_get_rv, decode_get_sn
 from nomad200.state import DEG10, IN10, State, StateLayout, layout_for
-from nomad200.stream import StreamDecoder
 
 __all__ = ["ZR_TIMEOUT", "Client", "open_clients"]
 
-logger = logging.getLogger(__name__)
-
 #: seconds a ZR (zeroing) may take
 ZR_TIMEOUT: Final = 120.0
-_IDEMPOTENT: Final = frozenset(
-    {
-        Cmd.GS,
-        Cmd.GET_SN,
-        Cmd.GET_RC,
-        Cmd.GET_RV,
-        Cmd.CT,
-        Cmd.CONF_SN,
-        Cmd.CONF_TM,
-        Cmd.AC,
-        Cmd.SP,
-        Cmd.DP,
-        Cmd.DA,
-        Cmd.VM,
-        Cmd.ST,
-        Cmd.LP,
-    }
-)
-_OPEN: weakref.WeakSet[Client] = weakref.WeakSet()
-
-
-def open_clients() -> list[Client]:
-    """Clients whose port is open (for leak checks in tests)."""
-    return [c for c in _OPEN if c.is_open]
 
 
 def _ticks(value: float, unit: float, what: str, *, unsigned: bool = False) -> int:
@@ -100,7 +35,7 @@ def _ticks(value: float, unit: float, what: str, *, unsigned: bool = False) -> i
     return n
 
 
-class Client:
+class Client(Link):
     """A Nomad 200 on a serial port.
 
     Parameters
@@ -131,260 +66,19 @@ class Client:
         exclusive: bool = True,
         sync_on_open: bool = True,
     ) -> None:
-        self.port = port
-        self.baud = baud
-        self.timeout = timeout
-        self.retries = retries
-        self.exclusive = exclusive
+        super().__init__(port, baud=baud, timeout=timeout, retries=retries, exclusive=exclusive)
         self.sync_on_open = sync_on_open
-        self._ser: Any = None
-        self._io_timeout: float | None = None
-        self._lock = threading.RLock()
         self._mask = StateMask()
         self._layout: StateLayout = layout_for(self._mask)
-        self._decoder = StreamDecoder()
-        self.requests = 0
-        self.replies = 0
-        self.retry_count = 0
-        self.timeouts = 0
-        self.naks = 0
-        self.frame_errors = 0
-        self.stale_packets = 0
-        self.reconnects = 0
-        self._skipped_before = 0
-
-    # ------------------------------------------------------------ port handling
-    @property
-    def is_open(self) -> bool:
-        """Whether the serial port is open."""
-        return self._ser is not None
 
     @property
     def mask(self) -> StateMask:
         """The mask the client decodes state replies with (the last CT sent)."""
         return self._mask
 
-    @property
-    def skipped_bytes(self) -> int:
-        """Received bytes discarded as garbage, damaged or stale (all time)."""
-        return self._skipped_before + self._decoder.skipped_bytes
-
-    def counters(self) -> dict[str, int]:
-        """All counters as a dict."""
-        return {
-            "requests": self.requests,
-            "replies": self.replies,
-            "retries": self.retry_count,
-            "timeouts": self.timeouts,
-            "naks": self.naks,
-            "frame_errors": self.frame_errors,
-            "skipped_bytes": self.skipped_bytes,
-            "stale_packets": self.stale_packets,
-            "reconnects": self.reconnects,
-        }
-
-    def open(self) -> None:
-        """Open (and lock) the port; with ``sync_on_open`` send the current mask.
-
-        Raises
-        ------
-        NomadPortBusy
-            Another process holds the port.
-        NomadDisconnected
-            The port does not exist or cannot be opened.
-        NomadTimeout, NomadProtocolError
-            The port opened but the robot did not answer the mask (the port is closed again).
-        """
-        with self._lock:
-            if self._ser is not None:
-                return
-            try:
-                self._ser = serial.serial_for_url(
-                    self.port,
-                    baudrate=self.baud,
-                    timeout=self.timeout,
-                    write_timeout=self.timeout,
-                    exclusive=self.exclusive,
-                )
-            except serial.SerialException as err:
-                if "lock" in str(err).lower() or "busy" in str(err).lower():
-                    raise NomadPortBusy(f"{self.port}: port is in use ({err})") from err
-                raise NomadDisconnected(f"{self.port}: cannot open ({err})") from err
-            except (OSError, ValueError) as err:
-                raise NomadDisconnected(f"{self.port}: cannot open ({err})") from err
-            self._io_timeout = self.timeout
-            _OPEN.add(self)
-            if self.sync_on_open:
-                try:
-                    self.configure_mask(self._mask)
-                except NomadError:
-                    self._drop_port()
-                    raise
-
-    def close(self) -> None:
-        """Close the port (idempotent)."""
-        with self._lock:
-            self._drop_port()
-
-    def __enter__(self) -> Client:
-        self.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
-
-    def reconnect(self, deadline_s: float = 30.0) -> None:
-        """Close and reopen the port, retrying with backoff for up to ``deadline_s`` seconds.
-
-        Raises
-        ------
-        NomadDisconnected
-            The port did not come back in time (chained to the last error).
-        """
-        with self._lock:
-            self._drop_port()
-            end = time.monotonic() + deadline_s
-            delay = 0.05
-            while True:
-                try:
-                    self.open()
-                except NomadError as err:
-                    last: NomadError = err
-                else:
-                    self.reconnects += 1
-                    logger.info("reconnected to %s", self.port)
-                    return
-                if time.monotonic() + delay > end:
-                    raise NomadDisconnected(
-                        f"{self.port}: not back within {deadline_s:g} s ({last})"
-                    ) from last
-                time.sleep(delay)
-                delay = min(delay * 2, 1.0)
-
-    def _drop_port(self) -> None:
-        ser, self._ser = self._ser, None
-        _OPEN.discard(self)
-        if ser is not None:
-            try:
-                ser.close()
-            except (OSError, serial.SerialException) as err:  # pragma: no cover - best effort
-                logger.debug("closing %s: %s", self.port, err)
-
-    # ------------------------------------------------------------ transactions
-    def _transact(self, code: Cmd, args: tuple[int, ...], reply_len: int, timeout: float) -> Packet:
-        frame = encode_command(code, *args)
-        idempotent = code in _IDEMPOTENT
-        attempts = 1 + (self.retries if idempotent else 0)
-        with self._lock:
-            last: NomadError | None = None
-            for attempt in range(attempts):
-                if attempt:
-                    self.retry_count += 1
-                    logger.debug("retry %d of %s after %s", attempt, code.name, last)
-                try:
-                    return self._exchange(frame, code, reply_len, timeout)
-                except (NomadTimeout, NomadProtocolError, NomadNak) as err:
-                    last = err
-                except NomadError as err:  # the port is gone: no retry
-                    err.command = code.name
-                    raise
-            assert last is not None
-            last.command = code.name
-            last.executed = False if isinstance(last, NomadNak) else None
-            if isinstance(last, NomadNak):
-                note = "the robot did not execute it"
-            elif idempotent:
-                note = "no good reply"
-            else:
-                note = "the robot may or may not have executed it"
-            if idempotent:
-                note += f" after {attempts} attempt(s)"
-            else:
-                note += f"; {code.name} is not idempotent and was not retried"
-            last.args = (f"{last.args[0] if last.args else ''} ({note})", *last.args[1:])
-            raise last
-
-    def _exchange(self, frame: bytes, code: Cmd, reply_len: int, timeout: float) -> Packet:
-        """One request and its reply; counts exactly one outcome unless the port is lost."""
-        ser = self._ser
-        if ser is None:
-            raise NomadDisconnected(f"{self.port}: not open")
-        dec = self._decoder
-        dec.accept_lengths = (reply_len, 2)
-        self.requests += 1
-        last_err: FrameError | None = None
-        try:
-            ser.reset_input_buffer()
-            dec.reset()
-            ser.write(frame)
-            deadline = time.monotonic() + timeout
-            received = 0
-            while True:
-                need = dec.needed()
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                if received:
-                    # a reply that has begun arrives at line speed: a lost byte must not
-                    # cost the whole command timeout (no timeout change, which costs a
-                    # tcsetattr, when the bytes are already there)
-                    io = min(self._rest_timeout(need), remaining)
-                    if self._io_timeout is not None and ser.in_waiting >= need:
-                        io = self._io_timeout
-                else:
-                    io = timeout if remaining > 0.5 * timeout else remaining
-                if io != self._io_timeout:
-                    ser.timeout = io
-                    self._io_timeout = io
-                data = ser.read(need)
-                received += len(data)
-                if data:
-                    for ev in dec.feed(data):
-                        if isinstance(ev, FrameError):
-                            last_err = ev
-                        elif ev.type == code:
-                            self.replies += 1
-                            return ev
-                        elif ev.type == Cmd.NAK:
-                            self.naks += 1
-                            raise NomadNak(f"robot refused {code.name} (NAK)")
-                        else:
-                            self.stale_packets += 1
-                if len(data) < need:
-                    break  # pyserial returns short reads only when its timeout expired
-                if last_err is not None and not dec.pending and received >= reply_len + 4:
-                    break  # the whole reply came, damaged: do not wait for the timeout
-        except NomadError:
-            raise
-        except serial.SerialTimeoutException as err:
-            self.timeouts += 1
-            raise NomadTimeout(f"{self.port}: write of {code.name} timed out") from err
-        except (serial.SerialException, OSError, _TermiosError, TypeError, AttributeError) as err:
-            # pyserial raises TypeError/AttributeError when the fd vanished under it
-            self._drop_port()
-            raise NomadDisconnected(f"{self.port}: {err}") from err
-        trunc = dec.flush()
-        if trunc is not None:
-            self.frame_errors += 1
-            raise TruncatedPacketError(
-                f"{code.name}: incomplete reply ({trunc})",
-                offset=trunc.offset,
-                skipped=trunc.skipped,
-            ) from trunc
-        if last_err is not None:
-            self.frame_errors += 1
-            raise NomadProtocolError(f"{code.name}: damaged reply ({last_err})") from last_err
-        self.timeouts += 1
-        raise NomadTimeout(f"{self.port}: no reply to {code.name} within {timeout:g} s")
-
-    def _rest_timeout(self, need: int) -> float:
-        """Time allowed for the rest of a reply that has started (10 bits per byte, x2)."""
-        return math.ceil((0.05 + 20.0 * need / self.baud) * 100.0) / 100.0
+    def _on_open(self) -> None:
+        if self.sync_on_open:
+            self.configure_mask(self._mask)
 
     def _state_cmd(
         self, code: Cmd, args: tuple[int, ...] = (), timeout: float | None = None
