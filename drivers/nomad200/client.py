@@ -40,17 +40,8 @@ class Client(Link):
 
     Parameters
     ----------
-    port : str
-        Device path or pyserial URL.
-    baud : int
-        4800, 9600, 19200 or 38400 on a real robot.
-    timeout : float
-        Reply timeout in seconds for ordinary commands (ZR gets 120 s, WS its own + 1 s).
-    retries : int
-        Extra attempts for idempotent commands.
-    exclusive : bool
-        Lock the port (pyserial ``exclusive=True``: an ``flock`` on device files and ptys,
-        the emulator URL refuses a second open).
+    port, baud, timeout, retries, exclusive
+        As for :class:`nomad200.link.Link`.
     sync_on_open : bool
         Send CT with the current mask when the port opens, so a reopened robot replies in
         the layout the client expects.
