@@ -7,12 +7,12 @@ Each candidate is fitted to the surface's cells and scored by its RMS orthogonal
     ``1.25 * rms_spline + 0.25 * cell``
 
 i.e. a line or an arc is kept unless the flexible spline explains the cells clearly
-better. The spline (the costly fit: its smoothing is chosen by GCV) is fitted only when
-neither the line nor the arc passes the same test against a cheaper stand-in for its
-residual, the RMS distance of the cells to their own means over 5-cell bins of arc
-length (a curve that follows the cells as closely as the spline does) (by more than a quarter of the spline's own residual plus a quarter cell: the
+better (by more than a quarter of the spline's own residual plus a quarter cell: the
 cells are quantised to the grid, so differences below a fraction of a cell mean
-nothing). An arc must also bend: its radius at most 20 times its length and its centre
+nothing). The spline (the costly fit: its smoothing is chosen by GCV) is fitted only
+when neither the line nor the arc passes the same test against a cheaper stand-in for
+its residual, the RMS distance of the cells to their own means over 5-cell bins of arc
+length (a curve that follows the cells about as closely as the spline does). An arc must also bend: its radius at most 20 times its length and its centre
 on a side of the cells (otherwise the line, which fits as well, is taken).
 
 * line: total least squares (the principal axis of the cells), refitted once without the
