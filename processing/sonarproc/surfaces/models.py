@@ -12,8 +12,9 @@ cells are quantised to the grid, so differences below a fraction of a cell mean
 nothing). The spline (the costly fit: its smoothing is chosen by GCV) is fitted only
 when neither the line nor the arc passes the same test against a cheaper stand-in for
 its residual, the RMS distance of the cells to their own means over 5-cell bins of arc
-length (a curve that follows the cells about as closely as the spline does). An arc must also bend: its radius at most 20 times its length and its centre
-on a side of the cells (otherwise the line, which fits as well, is taken).
+length (a curve that follows the cells about as closely as the spline does). An arc
+must also bend: its radius at most 20 times its length and its centre on a side of the
+cells (otherwise the line, which fits as well, is taken).
 
 * line: total least squares (the principal axis of the cells), refitted once without the
   cells further than ``max(3 rms, 2 cells)`` from it (the corner cells of a neighbour);
