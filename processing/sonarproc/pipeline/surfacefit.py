@@ -43,7 +43,7 @@ MEDIAN_SPAN_M = 0.75
 #: ... and those of 90 % of the columns at most this (m): less than a corridor's width.
 P90_SPAN_M = 1.0
 #: Arc votes a cell needs before the ridge (a cell crossed by one arc is no evidence).
-SURFACE_VOTES = 2
+SURFACE_VOTES = 1
 
 
 @dataclass(frozen=True)

@@ -20,9 +20,11 @@ The direction of the foot is the surface normal even when the estimate is displa
 along it, so the echo points lie on the true surface: the refit removes the bias. Each
 surface is refitted (:func:`~sonarproc.surfaces.models.fit_surface`, same criterion)
 through its echo points, twice, with the tolerances of :data:`ROUNDS_M`; a surface that
-fewer than :data:`MIN_ECHOES` readings echo from is dropped (no reading reflected there).
+fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
+:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point).
 A refitted line or open arc spans its echo points and the ridge cells within the last
-tolerance of it (the ridge sees the surface further than the perpendiculars reach).
+tolerance of it (the ridge sees the surface further than the perpendiculars reach), by
+at most :data:`MAX_STRETCH_M` at each end.
 
 Bistatic readings are taken at the midpoint of transmitter and receiver with the
 ellipse's half minor axis as the range (exact for a surface parallel to the baseline).
@@ -50,6 +52,12 @@ IntArray = npt.NDArray[np.intp]
 ROUNDS_M = (0.08, 0.03)
 #: Fewest echoing readings a surface needs to be kept.
 MIN_ECHOES = 5
+#: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
+#: double reflections, arriving at the corner's distance) say nothing of a direction.
+MIN_SPREAD_M = 0.10
+#: A refitted line or arc is stretched over nearby ridge cells by at most this (m) at
+#: each end.
+MAX_STRETCH_M = 0.25
 
 
 @dataclass(frozen=True)
@@ -225,7 +233,9 @@ def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> Su
     if fit.model == "line":
         c, t = np.asarray(fit.params["point"]), np.asarray(fit.params["direction"])
         near = np.abs((x - c[0]) * -t[1] + (y - c[1]) * t[0]) <= tol
-        u = np.concatenate(((fit.polyline - c) @ t, (np.stack((x, y), 1)[near] - c) @ t))
+        u0 = (fit.polyline - c) @ t
+        u = (np.stack((x, y), 1)[near] - c) @ t
+        u = np.clip(np.concatenate((u0, u)), u0.min() - MAX_STRETCH_M, u0.max() + MAX_STRETCH_M)
         poly = resample(np.stack((c + t * u.min(), c + t * u.max())), cell)
         if (fit.polyline[-1] - fit.polyline[0]) @ t < 0:
             poly = poly[::-1]
@@ -240,7 +250,9 @@ def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> Su
         ends = np.array([start, start + sweep])
         lo, hi = float(ends.min()), float(ends.max())
         if ang.size:
-            lo, hi = min(lo, float(ang.min())), max(hi, float(ang.max()))
+            reach = MAX_STRETCH_M / r
+            lo = max(min(lo, float(ang.min())), lo - reach)
+            hi = min(max(hi, float(ang.max())), hi + reach)
         if hi - lo >= 2 * math.pi:
             return fit
         k = max(2, math.ceil((hi - lo) * r / cell) + 1)
@@ -294,7 +306,7 @@ def refine_fits(
         nxt_ridge: list[SurfaceCells] = []
         pts_cells = []
         for f, rc, (idx, pts, s) in zip(cur, ridge, got, strict=True):
-            if idx.size < min_echoes:
+            if idx.size < min_echoes or np.hypot(*np.ptp(pts, axis=0)) < MIN_SPREAD_M:
                 continue
             ec = SurfaceCells(pts[:, 0], pts[:, 1], s - s[0], np.ones(idx.size), f.closed)
             new = fit_surface(ec, cell=cell)
