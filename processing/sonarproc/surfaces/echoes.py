@@ -88,7 +88,7 @@ class EchoGeometry:
         >>> g = EchoGeometry.from_beams([[0.0, 0.0]], [0.0], [[0.0, 0.0]], [0.0], [2.0],
         ...                             tx_half_beamwidth=0.2, rx_half_beamwidth=0.2)
         >>> g.range_m.tolist(), g.xy.tolist()
-        [1.0], [[0.0, 0.0]]
+        ([1.0], [[0.0, 0.0]])
         """
         t = np.asarray(tx_xy, dtype=np.float64).reshape(-1, 2)
         r = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
