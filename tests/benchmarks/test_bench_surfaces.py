@@ -5,13 +5,16 @@ The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wanderin
 ``sonarproc.pipeline.process`` on it (in this process, best of three); the surface
 stage is :func:`sonarproc.surfaces.ridge_nms` on the processed map then
 :func:`sonarproc.surfaces.find_surfaces`, timed on the same map. Target: extraction +
-fits add at most 20 % to the whole run. Also prints the metrics time (seen truth).
+fits add at most 20 % to the whole run. Also prints the metrics time (seen truth), and
+the ratio the target speaks of with default options: ``process`` with ``fit = "auto"``
+(ridge, extraction, fits, echo refits) over ``process`` with ``fit = "poly"``.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +54,13 @@ def test_bench_surface_stage(tmp_path: Path) -> None:
     n = write_room_log(path, 1.0)
     lg = read_log(path)
     params = RunParams(cell=0.01, bbox=(0.0, ROOM, 0.0, ROOM), ops="vote:2", fit="polar")
+    defaults = RunParams(cell=0.01, bbox=(0.0, ROOM, 0.0, ROOM))
+    t_poly, _ = _best(lambda: process(lg, replace(defaults, fit="poly")), 1)
+    t_auto, _ = _best(lambda: process(lg, replace(defaults, fit="auto")), 1)
+    print(
+        f"\ndefault options: fit auto {t_auto:.2f} s, fit poly {t_poly:.2f} s: surfaces add "
+        f"{(t_auto - t_poly) / t_poly:.2f} of the run (target <= {TARGET:.2f})"
+    )
     whole, res = _best(lambda: process(lg, params))
     assert res is not None
     counts, processed, grid = res.counts_map, res.processed, res.grid  # type: ignore[attr-defined]

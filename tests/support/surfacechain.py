@@ -2,6 +2,7 @@
 
 simulate -> select readings -> arcs (count map) -> ``vote:2`` -> ridge across the wall
 (:func:`sonarproc.surfaces.ridge_nms`) -> :func:`sonarproc.surfaces.find_surfaces` ->
+refit through the readings' echo points (:func:`sonarproc.surfaces.refine_fits`) ->
 truth the sonars saw (:func:`sonarproc.surfaces.seen_truth`) -> precision / completeness.
 """
 
@@ -23,10 +24,12 @@ from sonarproc.pipeline import select_readings
 from sonarproc.pipeline.selection import make_grid
 from sonarproc.simulate import simulate_to_log
 from sonarproc.surfaces import (
+    EchoGeometry,
     SurfaceMetrics,
     SurfaceParams,
     SurfaceSet,
     find_surfaces,
+    refine_fits,
     ridge_nms,
     seen_truth,
     surface_metrics,
@@ -82,6 +85,12 @@ def run_chain(
     t["ridge"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     found = find_surfaces(processed, grid, counts, params=params)
+    if found.surfaces:
+        fits, cells = refine_fits(
+            found.surfaces, found.cells, EchoGeometry.from_beams(*args, **beams), cell=cell
+        )
+        found = SurfaceSet(fits, found.failures, found.cells_kept, found.cells_assigned,
+                           None if fits else "no echoes", cells)  # fmt: skip
     t["surfaces"] = time.perf_counter() - t2
     metrics = None
     if measure and log.truth is not None:

@@ -76,6 +76,7 @@ def evaluate_map(
     stage: Stage | None = None,
     timings: dict[str, float] | None = None,
     empty_message: str | None = None,
+    beams: Beams | None = None,
 ) -> RunResult:
     """Fit and measure a map; the record of the run.
 
@@ -101,6 +102,8 @@ def evaluate_map(
         Wall times of earlier stages, kept in the record.
     empty_message : str, optional
         The error when the map is empty (default: no arc touches the map or bbox).
+    beams : Beams, optional
+        The mapped readings: ``fit = "auto"`` refits surfaces through their echo points.
 
     Raises
     ------
@@ -118,7 +121,7 @@ def evaluate_map(
     if params.fit == "auto":
         from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
-        auto = choose_fit(mmap.processed, mmap.evidence, grid)
+        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams)
         fit_params = replace(params, fit="poly")
     # The paper's E1 and E2 compare one curve y = f(x) with one true curve y = f(x).
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
@@ -207,7 +210,7 @@ def map_log(
     mmap = build(beams, grid, params, stage)
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
-        stage=stage, timings=timings, empty_message=empty_message,
+        stage=stage, timings=timings, empty_message=empty_message, beams=beams,
     )  # fmt: skip
     if result.surfaces is not None and result.surfaces.surfaces and result.truth is not None:
         from sonarproc.pipeline.surfacefit import measure_surfaces

@@ -6,7 +6,10 @@ and the run fits the paper's polynomial. Otherwise it extracts the surfaces
 (:mod:`sonarproc.surfaces`) from the arc count map through the chain that keeps every
 wall (``vote:2``, then the ridge across each wall's own direction), and decides by
 :func:`sonarproc.surfaces.decide`: still one function of x, or several surfaces, each
-fitted with a line, an arc or a spline. :func:`measure_surfaces` gives precision and
+fitted with a line, an arc or a spline. Given the readings, each surface is then refitted
+through its readings' specular echo points (:mod:`sonarproc.surfaces.echoes`): the
+crest of the counts lies on the sensors' side of a surface, the echo points on it.
+:func:`measure_surfaces` gives precision and
 completeness against a truth of several surfaces.
 """
 
@@ -20,24 +23,27 @@ import numpy.typing as npt
 
 from sonarproc.grid import Grid
 from sonarproc.morphology import vote
+from sonarproc.pipeline.selection import Beams
 from sonarproc.surfaces import (
+    EchoGeometry,
     SurfaceSet,
     decide,
     find_surfaces,
+    refine_fits,
     ridge_nms,
     seen_truth,
     surface_metrics,
     truth_points,
 )
 
-__all__ = ["AutoFit", "choose_fit", "column_spans", "measure_surfaces"]
+__all__ = ["AutoFit", "choose_fit", "column_spans", "measure_surfaces", "refine_surfaces"]
 
 #: One function of x when the kept cells of a median column span at most this (m)...
 MEDIAN_SPAN_M = 0.75
 #: ... and those of 90 % of the columns at most this (m): less than a corridor's width.
 P90_SPAN_M = 1.0
 #: Arc votes a cell needs before the ridge (a cell crossed by one arc is no evidence).
-SURFACE_VOTES = 2
+SURFACE_VOTES = 1
 
 
 @dataclass(frozen=True)
@@ -75,6 +81,7 @@ def choose_fit(
     processed: npt.NDArray[np.bool_],
     counts: npt.NDArray[Any],
     grid: Grid,
+    beams: Beams | None = None,
 ) -> AutoFit:
     """Decide between the paper's polynomial and several surfaces (see the module notes).
 
@@ -86,6 +93,9 @@ def choose_fit(
         Arc counts per cell (the evidence of the map).
     grid : Grid
         The maps' grid.
+    beams : Beams, optional
+        The mapped readings: surfaces are refitted through their echo points (without
+        them, the fits to the ridge cells are kept).
 
     Returns
     -------
@@ -112,7 +122,23 @@ def choose_fit(
     criterion = detail.pop("criterion")
     if decision.single_function:
         return AutoFit("function", str(criterion), None, detail)
+    if beams is not None and found.surfaces:
+        found = refine_surfaces(found, beams, grid.cell)
+        detail["surfaces"] = len(found.surfaces)
     return AutoFit("surfaces", str(criterion), found, detail)
+
+
+def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
+    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
+    tp = beams.poses
+    echoes = EchoGeometry.from_beams(
+        tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
+        tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
+    )  # fmt: skip
+    fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    reason = None if fits else "no reading echoes from any surface found on the ridge"
+    assigned = found.cells_assigned if fits else 0
+    return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)
 
 
 def measure_surfaces(

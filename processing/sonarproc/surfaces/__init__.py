@@ -10,10 +10,13 @@ room sees several walls, corners, boxes and pillars; this package finds them sep
    (:func:`fit_surface`, model chosen by a stated criterion);
 3. :func:`decide` says whether the cells are after all one function of x (the paper's
    scenes, where the paper's polynomial applies);
+   then :func:`refine_fits` refits each through its readings' specular echo points
+   (the crest of the counts lies on the sensors' side of a surface);
 4. :func:`surface_metrics` and :func:`seen_truth` measure fits against a multi-surface
    truth; :func:`write_surfaces_csv` and :func:`write_surfaces_geojson` write them.
 """
 
+from sonarproc.surfaces.echoes import EchoGeometry, echo_points, refine_fits
 from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
 from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
 from sonarproc.surfaces.models import (
@@ -47,6 +50,7 @@ from sonarproc.surfaces.writers import (
 
 __all__ = [
     "Decision",
+    "EchoGeometry",
     "SurfaceCells",
     "SurfaceFailure",
     "SurfaceFit",
@@ -57,6 +61,7 @@ __all__ = [
     "choose_model",
     "decide",
     "distance_to_polylines",
+    "echo_points",
     "extract_surfaces",
     "find_surfaces",
     "fit_arc",
@@ -64,6 +69,7 @@ __all__ = [
     "fit_spline",
     "fit_surface",
     "join_polylines",
+    "refine_fits",
     "resample",
     "ridge_directions",
     "ridge_nms",

@@ -9,8 +9,12 @@ Each candidate is fitted to the surface's cells and scored by its RMS orthogonal
 i.e. a line or an arc is kept unless the flexible spline explains the cells clearly
 better (by more than a quarter of the spline's own residual plus a quarter cell: the
 cells are quantised to the grid, so differences below a fraction of a cell mean
-nothing). An arc must also bend: its radius at most 20 times its length and its centre
-on a side of the cells (otherwise the line, which fits as well, is taken).
+nothing). The spline (the costly fit: its smoothing is chosen by GCV) is fitted only
+when neither the line nor the arc passes the same test against a cheaper stand-in for
+its residual, the RMS distance of the cells to their own means over 5-cell bins of arc
+length (a curve that follows the cells about as closely as the spline does). An arc
+must also bend: its radius at most 20 times its length and its centre on a side of the
+cells (otherwise the line, which fits as well, is taken).
 
 * line: total least squares (the principal axis of the cells), refitted once without the
   cells further than ``max(3 rms, 2 cells)`` from it (the corner cells of a neighbour);
@@ -55,6 +59,8 @@ MIN_CELLS = 5
 #: The criterion's constants (see the module docstring).
 SPLINE_FACTOR = 1.25
 CELL_FACTOR = 0.25
+#: Arc-length bins (cells) of the spline's stand-in (see the module docstring).
+FLOOR_BIN_CELLS = 5
 #: An arc flatter than this (radius / length) is a line.
 MAX_RADIUS_PER_LENGTH = 20.0
 MODELS = ("line", "arc", "spline")
@@ -255,8 +261,10 @@ def fit_spline(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailu
     return _Candidate("spline", poly, rms, {"knots": int(cnt.size)})
 
 
-def choose_model(rms: dict[str, float], *, cell: float) -> str:
+def choose_model(rms: dict[str, float], *, cell: float, reference: float | None = None) -> str:
     """The model the criterion picks from the candidates' RMS residuals (m).
+
+    ``reference`` stands in for the spline's residual when no spline was fitted.
 
     Examples
     --------
@@ -264,14 +272,26 @@ def choose_model(rms: dict[str, float], *, cell: float) -> str:
     'line'
     >>> choose_model({"line": 0.03, "arc": 0.004, "spline": 0.0035}, cell=0.01)
     'arc'
+    >>> choose_model({"line": 0.03, "arc": 0.004}, cell=0.01, reference=0.0035)
+    'arc'
     """
-    ref = rms.get("spline")
+    ref = rms.get("spline", reference)
     for m in MODELS:
         if m not in rms:
             continue
         if ref is None or rms[m] <= SPLINE_FACTOR * ref + CELL_FACTOR * cell:
             return m
     return min(rms, key=lambda k: rms[k])
+
+
+def _floor_rms(cells: SurfaceCells, cell: float) -> float:
+    """RMS distance of the cells to their means over bins of arc length (m)."""
+    b = np.floor(cells.s / (FLOOR_BIN_CELLS * cell)).astype(np.int64)
+    _, inv, cnt = np.unique(b, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    mx = np.bincount(inv, weights=cells.x) / cnt
+    my = np.bincount(inv, weights=cells.y) / cnt
+    return float(np.sqrt(np.mean((cells.x - mx[inv]) ** 2 + (cells.y - my[inv]) ** 2)))
 
 
 def _lengths(poly: FloatArray) -> float:
@@ -306,7 +326,7 @@ def fit_surface(cells: SurfaceCells, *, cell: float) -> SurfaceFit | SurfaceFail
         return SurfaceFailure("all cells at one point", cells.size)
     found: dict[str, _Candidate] = {}
     reasons: list[str] = []
-    for fitter in (fit_line, fit_arc, fit_spline):
+    for fitter in (fit_line, fit_arc):
         got = fitter(cells, cell=cell)
         if isinstance(got, SurfaceFailure):
             reasons.append(got.reason)
@@ -317,10 +337,17 @@ def fit_surface(cells: SurfaceCells, *, cell: float) -> SurfaceFit | SurfaceFail
         length = max(_lengths(arc.polyline), cell)
         if arc.params["radius"] > MAX_RADIUS_PER_LENGTH * length:
             found.pop("arc")
+    floor = _floor_rms(cells, cell)
+    if not any(c.rms <= SPLINE_FACTOR * floor + CELL_FACTOR * cell for c in found.values()):
+        got = fit_spline(cells, cell=cell)
+        if isinstance(got, SurfaceFailure):
+            reasons.append(got.reason)
+        else:
+            found[got.model] = got
     if not found:
         return SurfaceFailure("; ".join(reasons) or "no model fits", cells.size)
     rms = {m: c.rms for m, c in found.items()}
-    best = found[choose_model(rms, cell=cell)]
+    best = found[choose_model(rms, cell=cell, reference=floor)]
     poly = best.polyline
     if best.closed and len(poly) > 1:
         poly = np.vstack((poly[:-1], poly[:1])) if np.allclose(poly[0], poly[-1]) else poly

@@ -11,6 +11,7 @@ import pytest
 from sonarproc.grid import Grid
 from sonarproc.morphology import ridge as column_ridge
 from sonarproc.surfaces import (
+    EchoGeometry,
     SurfaceCells,
     SurfaceFailure,
     SurfaceParams,
@@ -18,6 +19,7 @@ from sonarproc.surfaces import (
     extract_surfaces,
     find_surfaces,
     fit_surface,
+    refine_fits,
     ridge_nms,
     write_surfaces_csv,
     write_surfaces_geojson,
@@ -207,3 +209,26 @@ def test_writers_write_the_contract(tmp_path: Path) -> None:
     rep = found.to_json()
     assert [r["surface"] for r in rep] == [0, 1] and rep[0]["model"] == "line"
     json.dumps(rep)
+
+
+def test_echo_refit_moves_a_biased_wall_onto_the_echoes() -> None:
+    # sensors along y = 0 looking up at a wall y = 1 (ranges 1 m, 5 mm noise); the ridge's
+    # line sits 3 cm short of the wall, on the sensors' side
+    rng = np.random.default_rng(4)
+    xs = np.linspace(0.0, 2.0, 41)
+    echoes = EchoGeometry(
+        np.column_stack((xs, np.zeros_like(xs))), np.full(xs.size, np.pi / 2),
+        np.full(xs.size, 0.22), 1.0 + rng.normal(0.0, 0.005, xs.size),
+    )  # fmt: skip
+    x = np.arange(0.0, 2.0, CELL)
+    ridge = SurfaceCells(x, 0.97 + 0 * x, x, 1 + 0 * x, False)
+    first = fit_surface(ridge, cell=CELL)
+    assert not isinstance(first, SurfaceFailure)
+    fits, cells = refine_fits([first], [ridge], echoes, cell=CELL)
+    assert [f.model for f in fits] == ["line"] and cells[0].size >= 35
+    assert abs(float(np.mean(fits[0].polyline[:, 1])) - 1.0) <= 0.005
+    # nothing echoes from a line 0.5 m off: dropped
+    far = SurfaceCells(x, 0.5 + 0 * x, x, 1 + 0 * x, False)
+    other = fit_surface(far, cell=CELL)
+    assert not isinstance(other, SurfaceFailure)
+    assert refine_fits([other], [far], echoes, cell=CELL)[0] == []

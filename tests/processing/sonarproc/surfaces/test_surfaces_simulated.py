@@ -18,12 +18,6 @@ from sonarproc.surfaces import SurfaceFit
 from sonarsim import scenario_from_dict
 from sonarsim import simulate as sim
 
-BUNDLE_BIAS = (
-    "open: where many arcs touch a surface at one point (the robot driving towards a wall, "
-    "or round a pillar) the crest of the counts lies on the sensors' side of the surface"
-)
-
-
 RING = {"type": "circular", "count": 16, "radius": 0.22, "step_deg": 22.5}
 
 
@@ -63,7 +57,6 @@ def test_sonar_corridor_gives_two_walls_at_the_right_separation(tmp_path: Path) 
     assert all(abs(s.params["direction"][1]) < 0.01 for s in lines)
 
 
-@pytest.mark.xfail(strict=True, reason=BUNDLE_BIAS)
 def test_sonar_corner_gives_two_lines_meeting_at_it(tmp_path: Path) -> None:
     walls = [{"type": "polyline", "points": [[-1.0, 0.0], [3.0, 0.0], [3.0, 4.0]]}]
     res = _chain(tmp_path, _scenario(walls, [[0.0, 0.8], [2.2, 0.8], [2.2, 3.0]]))
@@ -77,7 +70,6 @@ def test_sonar_corner_gives_two_lines_meeting_at_it(tmp_path: Path) -> None:
     assert np.hypot(*(p0 + t[0] * d0 - np.array([3.0, 0.0]))) <= 0.02, summary(res)
 
 
-@pytest.mark.xfail(strict=True, reason=BUNDLE_BIAS)
 def test_sonar_cylinder_gives_an_arc_of_the_right_radius(tmp_path: Path) -> None:
     pillar = [{"type": "circle", "center": [0.0, 0.0], "radius": 0.4}]
     square = [[-1.3, -1.3], [1.3, -1.3], [1.3, 1.3], [-1.3, 1.3], [-1.3, -1.3]]
@@ -109,11 +101,7 @@ def test_shipped_scenarios_find_most_of_the_seen_truth(
 
 @pytest.mark.parametrize(
     "name",
-    [
-        "corridor-l",
-        pytest.param("room-box", marks=pytest.mark.xfail(strict=True, reason=BUNDLE_BIAS)),
-        pytest.param("hall-pillar", marks=pytest.mark.xfail(strict=True, reason=BUNDLE_BIAS)),
-    ],
+    SCENARIOS,
 )
 def test_shipped_scenarios_are_precise(shipped: dict[str, ChainResult], name: str) -> None:
     m = shipped[name].metrics

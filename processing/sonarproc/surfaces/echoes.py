@@ -1,0 +1,321 @@
+"""Where each reading reflected: surfaces refitted through their specular echo points.
+
+A sonar's range arc is tangent to the surface that reflected it, at the one point where
+the surface's normal points at the sensor, and lies on the sensor's side of the surface
+everywhere else. Where many arcs touch a surface at one point (the robot driving towards
+a wall, or round a pillar) the crest of the arc counts therefore lies on the sensors'
+side of the surface, and arcs crossing at a shallow angle (the tails of a bundle) make
+ridges where there is no surface at all. The ridge gives a first estimate of each
+surface; this module replaces it by the surface through the readings' echo points:
+
+* the *foot* of a reading on a surface is the surface point nearest its sensor (the
+  perpendicular from the sensor, so the surface normal there points at the sensor);
+* a reading *echoes* from a surface when its foot lies inside the surface (not at an
+  end), inside the sensor's beam, and the foot's distance is within ``tol`` of the
+  measured range; a reading echoing from several surfaces is given to the nearest match
+  (a first echo comes from one surface);
+* its *echo point* is the point at the measured range along the direction of the foot.
+
+The direction of the foot is the surface normal even when the estimate is displaced
+along it, so the echo points lie on the true surface: the refit removes the bias. Each
+surface is refitted (:func:`~sonarproc.surfaces.models.fit_surface`, same criterion)
+through its echo points, twice, with the tolerances of :data:`ROUNDS_M`; a surface that
+fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
+:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point).
+A refitted line or open arc spans its echo points and the ridge cells within the last
+tolerance of it (the ridge sees the surface further than the perpendiculars reach), by
+at most :data:`MAX_STRETCH_M` at each end.
+
+Bistatic readings are taken at the midpoint of transmitter and receiver with the
+ellipse's half minor axis as the range (exact for a surface parallel to the baseline).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from sonarproc.surfaces.extract import SurfaceCells
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.polylines import resample
+
+__all__ = ["MIN_ECHOES", "ROUNDS_M", "EchoGeometry", "echo_points", "refine_fits"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Range tolerances (m) of the refinement rounds: the first covers the ridge's bias.
+ROUNDS_M = (0.08, 0.03)
+#: Fewest echoing readings a surface needs to be kept.
+MIN_ECHOES = 5
+#: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
+#: double reflections, arriving at the corner's distance) say nothing of a direction.
+MIN_SPREAD_M = 0.10
+#: A refitted line or arc is stretched over nearby ridge cells by at most this (m) at
+#: each end.
+MAX_STRETCH_M = 0.25
+
+
+@dataclass(frozen=True)
+class EchoGeometry:
+    """Each reading as one sensor: position, heading, half beam width, range (SI)."""
+
+    xy: FloatArray
+    heading: FloatArray
+    half_beam: FloatArray
+    range_m: FloatArray
+
+    @classmethod
+    def from_beams(
+        cls,
+        tx_xy: npt.ArrayLike,
+        tx_heading: npt.ArrayLike,
+        rx_xy: npt.ArrayLike,
+        rx_heading: npt.ArrayLike,
+        path: npt.ArrayLike,
+        *,
+        tx_half_beamwidth: npt.ArrayLike,
+        rx_half_beamwidth: npt.ArrayLike,
+    ) -> EchoGeometry:
+        """From transmitter and receiver poses and path lengths (see the module notes).
+
+        Examples
+        --------
+        >>> g = EchoGeometry.from_beams([[0.0, 0.0]], [0.0], [[0.0, 0.0]], [0.0], [2.0],
+        ...                             tx_half_beamwidth=0.2, rx_half_beamwidth=0.2)
+        >>> g.range_m.tolist(), g.xy.tolist()
+        ([1.0], [[0.0, 0.0]])
+        """
+        t = np.asarray(tx_xy, dtype=np.float64).reshape(-1, 2)
+        r = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
+        n = t.shape[0]
+        path_m = np.broadcast_to(np.asarray(path, dtype=np.float64), (n,))
+        half_d = 0.5 * np.hypot(*(r - t).T)
+        rng = np.sqrt(np.maximum((0.5 * path_m) ** 2 - half_d**2, 0.0))
+        th = np.broadcast_to(np.asarray(tx_heading, dtype=np.float64), (n,))
+        rh = np.broadcast_to(np.asarray(rx_heading, dtype=np.float64), (n,))
+        heading = np.arctan2(np.sin(th) + np.sin(rh), np.cos(th) + np.cos(rh))
+        tb = np.broadcast_to(np.asarray(tx_half_beamwidth, dtype=np.float64), (n,))
+        rb = np.broadcast_to(np.asarray(rx_half_beamwidth, dtype=np.float64), (n,))
+        ok = np.isfinite(rng) & np.all(np.isfinite(t), axis=1) & np.all(np.isfinite(r), axis=1)
+        return cls(0.5 * (t + r)[ok], heading[ok], np.minimum(tb, rb)[ok], rng[ok])
+
+    @property
+    def size(self) -> int:
+        """Number of readings."""
+        return int(self.range_m.size)
+
+
+def _feet(
+    q: FloatArray, poly: FloatArray, closed: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """Nearest point of a finely sampled polyline to each of ``q``.
+
+    Returns the distance, the foot, its arc length along the polyline and whether it is
+    inside (not at an open end).
+    """
+    seg = np.hypot(*np.diff(poly, axis=0).T)
+    s_vert = np.concatenate(([0.0], np.cumsum(seg)))
+    _, k = cKDTree(poly).query(q)
+    k = np.asarray(k, dtype=np.intp)
+    best_d = np.hypot(*(q - poly[k]).T)
+    best_f = poly[k].copy()
+    best_s = s_vert[k].copy()
+    last = poly.shape[0] - 1
+    for side in (-1, 1):
+        j = k + side
+        ok = (j >= 0) & (j <= last)
+        a, b = poly[k[ok]], poly[j[ok]]
+        ab = b - a
+        den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / den, 0.0, 1.0)
+        foot = a + ab * t[:, None]
+        d = np.hypot(*(q[ok] - foot).T)
+        better = d < best_d[ok]
+        idx = np.flatnonzero(ok)[better]
+        best_d[idx] = d[better]
+        best_f[idx] = foot[better]
+        best_s[idx] = (s_vert[k[ok]] + t * (s_vert[j[ok]] - s_vert[k[ok]]))[better]
+    if closed:
+        inside = np.ones(q.shape[0], dtype=bool)
+    else:
+        step = float(np.median(seg)) if seg.size else 0.0
+        inside = (best_s > 0.5 * step) & (best_s < s_vert[-1] - 0.5 * step)
+    return best_d, best_f, best_s, inside
+
+
+def echo_points(
+    polylines: list[FloatArray],
+    closed: list[bool],
+    echoes: EchoGeometry,
+    *,
+    tol: float,
+) -> list[tuple[IntArray, FloatArray, FloatArray]]:
+    """The readings that echo from each surface, their echo points and the feet's arc length.
+
+    Parameters
+    ----------
+    polylines : list of ndarray, shape (K_i, 2)
+        Surfaces sampled finely (every cell).
+    closed : list of bool
+        Whether each surface closes on itself.
+    echoes : EchoGeometry
+        The readings.
+    tol : float
+        Range tolerance (m).
+
+    Returns
+    -------
+    list of (readings, points, s)
+        Per surface: indices into ``echoes``, echo points ``(E, 2)`` and the arc length
+        of each foot along the polyline (sorted by it).
+
+    Examples
+    --------
+    A wall along y = 1 and a sensor below it looking up, range 1.02 m: the echo point is
+    on the wall although the range is 2 cm long.
+
+    >>> wall = np.column_stack((np.linspace(-1, 1, 201), np.ones(201)))
+    >>> g = EchoGeometry(np.zeros((1, 2)), np.array([np.pi / 2]), np.array([0.2]),
+    ...                  np.array([1.02]))
+    >>> (idx, pts, s), = echo_points([wall], [False], g, tol=0.05)
+    >>> idx.tolist(), np.round(pts, 3).tolist()
+    ([0], [[0.0, 1.02]])
+    """
+    n, m = echoes.size, len(polylines)
+    resid = np.full((m, n), np.inf)
+    feet = np.zeros((m, n, 2))
+    svals = np.zeros((m, n))
+    for i, (poly, cl) in enumerate(zip(polylines, closed, strict=True)):
+        p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
+        if p.shape[0] < 2 or n == 0:
+            continue
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        gap = np.hypot(*np.maximum(np.maximum(lo - echoes.xy, echoes.xy - hi), 0.0).T)
+        near = np.flatnonzero(gap <= echoes.range_m + tol)
+        if near.size == 0:
+            continue
+        d, f, s, inside = _feet(echoes.xy[near], p, cl)
+        v = f - echoes.xy[near]
+        off = np.abs(
+            (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[near] + math.pi) % (2 * math.pi)
+            - math.pi
+        )
+        r = np.abs(d - echoes.range_m[near])
+        ok = inside & (off <= echoes.half_beam[near]) & (r <= tol)
+        resid[i, near[ok]] = r[ok]
+        feet[i, near[ok]] = f[ok]
+        svals[i, near[ok]] = s[ok]
+    out: list[tuple[IntArray, FloatArray, FloatArray]] = []
+    if m == 0:
+        return out
+    owner = np.argmin(resid, axis=0)
+    has = np.isfinite(resid[owner, np.arange(n)])
+    for i in range(m):
+        idx = np.flatnonzero(has & (owner == i))
+        v = feet[i, idx] - echoes.xy[idx]
+        unit = v / np.maximum(np.hypot(*v.T), 1e-12)[:, None]
+        pts = echoes.xy[idx] + unit * echoes.range_m[idx][:, None]
+        order = np.argsort(svals[i, idx], kind="stable")
+        out.append((idx[order], pts[order], svals[i, idx][order]))
+    return out
+
+
+def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> SurfaceFit:
+    """Stretch a refitted line or open arc over the ridge cells within ``tol`` of it."""
+    if fit.closed or cells.size == 0:
+        return fit
+    x, y = cells.x, cells.y
+    if fit.model == "line":
+        c, t = np.asarray(fit.params["point"]), np.asarray(fit.params["direction"])
+        near = np.abs((x - c[0]) * -t[1] + (y - c[1]) * t[0]) <= tol
+        u0 = (fit.polyline - c) @ t
+        u = (np.stack((x, y), 1)[near] - c) @ t
+        u = np.clip(np.concatenate((u0, u)), u0.min() - MAX_STRETCH_M, u0.max() + MAX_STRETCH_M)
+        poly = resample(np.stack((c + t * u.min(), c + t * u.max())), cell)
+        if (fit.polyline[-1] - fit.polyline[0]) @ t < 0:
+            poly = poly[::-1]
+    elif fit.model == "arc":
+        cx, cy = fit.params["centre"]
+        r = float(fit.params["radius"])
+        near = np.abs(np.hypot(x - cx, y - cy) - r) <= tol
+        start, sweep = float(fit.params["start_rad"]), float(fit.params["sweep_rad"])
+        mid = start + 0.5 * sweep
+        ang = mid + (np.arctan2(y[near] - cy, x[near] - cx) - mid + math.pi) % (2 * math.pi)
+        ang -= math.pi
+        ends = np.array([start, start + sweep])
+        lo, hi = float(ends.min()), float(ends.max())
+        if ang.size:
+            reach = MAX_STRETCH_M / r
+            lo = max(min(lo, float(ang.min())), lo - reach)
+            hi = min(max(hi, float(ang.max())), hi + reach)
+        if hi - lo >= 2 * math.pi:
+            return fit
+        k = max(2, math.ceil((hi - lo) * r / cell) + 1)
+        phi = np.linspace(lo, hi, k)
+        poly = np.stack((cx + r * np.cos(phi), cy + r * np.sin(phi)), axis=1)
+        if sweep < 0:
+            poly = poly[::-1]
+    else:
+        return fit
+    length = float(np.hypot(*np.diff(poly, axis=0).T).sum())
+    return replace(fit, polyline=poly, length_m=length)
+
+
+def refine_fits(
+    fits: list[SurfaceFit],
+    cells: list[SurfaceCells],
+    echoes: EchoGeometry,
+    *,
+    cell: float,
+    rounds: tuple[float, ...] = ROUNDS_M,
+    min_echoes: int = MIN_ECHOES,
+) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
+    """Refit surfaces through their readings' echo points (see the module notes).
+
+    Parameters
+    ----------
+    fits : list of SurfaceFit
+        The surfaces fitted to the ridge cells.
+    cells : list of SurfaceCells
+        Their ridge cells (same order).
+    echoes : EchoGeometry
+        The readings.
+    cell : float
+        Cell size (m): the polylines' step and the fits' unit.
+    rounds : tuple of float
+        Range tolerance (m) of each round.
+    min_echoes : int
+        A surface with fewer echoing readings is dropped.
+
+    Returns
+    -------
+    fits, cells : list of SurfaceFit, list of SurfaceCells
+        The refitted surfaces (longest first) and their echo points as cells.
+    """
+    cur = list(fits)
+    ridge = list(cells)
+    pts_cells: list[SurfaceCells] = []
+    for tol in rounds:
+        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], echoes, tol=tol)
+        nxt: list[SurfaceFit] = []
+        nxt_ridge: list[SurfaceCells] = []
+        pts_cells = []
+        for f, rc, (idx, pts, s) in zip(cur, ridge, got, strict=True):
+            if idx.size < min_echoes or np.hypot(*np.ptp(pts, axis=0)) < MIN_SPREAD_M:
+                continue
+            ec = SurfaceCells(pts[:, 0], pts[:, 1], s - s[0], np.ones(idx.size), f.closed)
+            new = fit_surface(ec, cell=cell)
+            if isinstance(new, SurfaceFailure):
+                continue
+            nxt.append(replace(new, arcs=int(idx.size)))
+            nxt_ridge.append(rc)
+            pts_cells.append(ec)
+        cur, ridge = nxt, nxt_ridge
+    out = [_extend(f, rc, rounds[-1], cell) for f, rc in zip(cur, ridge, strict=True)]
+    order = sorted(range(len(out)), key=lambda i: -out[i].length_m)
+    return [out[i] for i in order], [pts_cells[i] for i in order]
