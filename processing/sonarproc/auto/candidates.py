@@ -17,7 +17,7 @@ candidate            map                              fit family (settings tried
 ``triang/spline``    triangulation (Wijk)             spline
 ``los/spline``       line of sight                    spline
 ``paper/poly``       the paper's ``thinning:3``       polynomial
-``surfaces``         count vote + crest per column    ``fit = "auto"``: several surfaces (a
+``surfaces``         the paper's ``thinning:3``       ``fit = "auto"``: several surfaces (a
                                                       line, an arc or a spline each)
 ===================  ===============================  =====================================
 
@@ -127,5 +127,5 @@ CANDIDATES: tuple[Candidate, ...] = (
     Candidate("triang/spline", "triangulation", "spline"),
     Candidate("los/spline", "line-of-sight", "spline"),
     Candidate("paper/poly", "morphological", "poly", {"ops": "thinning:3"}),
-    Candidate("surfaces", "arc-vote", "surfaces"),
+    Candidate("surfaces", "morphological", "surfaces", {"ops": "thinning:3"}),
 )

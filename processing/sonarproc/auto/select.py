@@ -501,6 +501,8 @@ def run_auto(
         if last is None:
             last = (res, s)
         r = res.run
+        if r.surfaces is not None and r.surfaces.surfaces:
+            return res, s, choice  # several surfaces: no profile hull to check
         if isinstance(r.fit, FitFailure):
             s.excluded = f"on every reading, the fit failed: {r.fit.reason}"
             continue
