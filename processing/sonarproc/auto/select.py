@@ -114,6 +114,7 @@ class Score:
 
     def finish(self, cell: float) -> None:
         """Best setting within the hull and coverage; exclusion by the guard rails."""
+        self.excluded = None
         res = {k: robust_residual(np.concatenate(v)) for k, v in self.losses.items() if v}
         self.baseline_m = (
             robust_residual(np.concatenate(self.base_losses)) if self.base_losses else np.inf

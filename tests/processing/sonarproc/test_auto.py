@@ -10,8 +10,10 @@ import pytest
 
 from sonarlog.schema import empty_readings
 from sonarproc.arcs import arcs_of, rasterize
-from sonarproc.auto import CANDIDATES, HULL_CELLS, choose
+from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose
+from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
+from sonarproc.auto.select import COVERAGE_MIN, TRIM, robust_residual
 from sonarproc.cli import main
 from sonarproc.methods.testing import flat_wall_beams
 from sonarproc.params import RunParams
@@ -59,6 +61,25 @@ def test_range_loss_and_hull() -> None:
     assert hull_excess(wild, px, py, window=0.1) == pytest.approx(0.29, abs=0.02)
 
 
+def test_trimmed_residual_and_coverage_guard() -> None:
+    losses = np.r_[np.full(75, 0.002), np.full(25, 0.1)]  # a quarter capped: trimmed away
+    assert robust_residual(losses) == pytest.approx(0.002) and TRIM == 0.75
+    s = Score(Candidate("x", "arc-vote", "spline"))
+    s.losses = {0.1: [np.full(40, 0.001)], 0.4: [np.full(40, 0.004)]}
+    s.base_losses = [np.full(40, 0.01)]
+    s.coverage = {0.1: COVERAGE_MIN - 0.1, 0.4: 0.9}  # the better residual covers too little
+    s.finish(0.01)
+    assert s.setting == 0.4 and s.residual_m == pytest.approx(0.004) and s.excluded is None
+    s.coverage = {0.1: 0.2, 0.4: 0.3}
+    s.finish(0.01)
+    assert s.excluded is not None and "columns the readings imply" in s.excluded
+    s.coverage = {0.1: 1.0, 0.4: 1.0}
+    s.losses = {0.1: [np.full(40, 0.004)]}
+    s.base_losses = [np.full(40, 0.0005)]  # a line does better by > 1/4 cell: never chosen
+    s.finish(0.01)
+    assert s.excluded is not None and "constant or a line" in s.excluded
+
+
 def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     lg = load_log(sparse)
     choice = choose(lg, RunParams())
@@ -72,9 +93,14 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
             assert s.hull_m <= HULL_CELLS * 0.01
     # the long wave defeats every polynomial of order <= 15: all excluded
     assert all(s.excluded for s in choice.scores if s.candidate.family == "poly")
+    # one wavy wall is one function of x: the surfaces candidate stands aside
+    (surf,) = [s for s in choice.scores if s.candidate.family == "surfaces"]
+    assert surf.excluded is not None and "one function of x" in surf.excluded
+    assert choice.repeats == 3  # 374 readings: the folds are drawn three times
     doc = choice.to_json(best)
     assert doc["choice"] == best.candidate.name and len(doc["runners_up"]) == len(CANDIDATES) - 1
     assert "held-out range residual" in doc["criterion"] and doc["folds"] == 4
+    assert doc["repeats"] == 3 and "smallest 75%" in doc["criterion"]
 
 
 # Where auto stands on small scenarios (E1 by the truth, which auto never sees): the
