@@ -54,5 +54,8 @@ def test_bench_auto_on_the_room_log(tmp_path: Path) -> None:
     print(f"\n--auto on {n} readings ({choice.readings_scored} scored, {choice.folds} folds)")
     print(f"  single run {single:.2f} s; --auto {auto:.2f} s; ratio {auto / single:.2f}")
     print(f"  --auto / target {TARGET_S:.0f} s = {auto / TARGET_S:.2f}")
-    print(f"  chose {chosen.candidate.name}")
-    assert chosen.candidate.name
+    print(f"  chose {chosen.candidate.name} (held-out residual {100 * chosen.residual_m:.2f} cm)")
+    for s in choice.ranked:
+        if s.excluded and s.candidate.family == "surfaces":
+            print(f"  {s.candidate.name}: {s.excluded}")
+    assert chosen.candidate.name and choice.repeats == 1

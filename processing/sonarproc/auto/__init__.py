@@ -9,7 +9,7 @@ no better than a constant or a straight line (:mod:`sonarproc.auto.select`).
 """
 
 from sonarproc.auto.candidates import CANDIDATES, Candidate
-from sonarproc.auto.record import add_record, record_table
+from sonarproc.auto.record import record_table
 from sonarproc.auto.select import CRITERION, HULL_CELLS, AutoChoice, Score, choose, run_auto
 
 __all__ = [
@@ -19,7 +19,6 @@ __all__ = [
     "AutoChoice",
     "Candidate",
     "Score",
-    "add_record",
     "choose",
     "record_table",
     "run_auto",

@@ -17,7 +17,13 @@ candidate            map                              fit family (settings tried
 ``triang/spline``    triangulation (Wijk)             spline
 ``los/spline``       line of sight                    spline
 ``paper/poly``       the paper's ``thinning:3``       polynomial
+``surfaces``         the paper's ``thinning:3``       ``fit = "auto"``: several surfaces (a
+                                                      line, an arc or a spline each)
 ===================  ===============================  =====================================
+
+``surfaces`` is the fit of scenes that are not one profile ``y(x)`` (a room, a corridor,
+a pillar): :func:`sonarproc.pipeline.surfacefit.choose_fit` on the map; where it finds
+one function of ``x`` the candidate stands aside (the ``y(x)`` candidates cover it).
 
 A spline's smoothing length ``L`` sets its roughness penalty so that waves shorter than
 about ``L`` are smoothed away: ``lam = (mean column count / cell) * (L / 2 pi)**4``.
@@ -66,6 +72,8 @@ class Candidate:
     @property
     def settings(self) -> tuple[float, ...]:
         """The complexities tried: orders, or smoothing lengths (m)."""
+        if self.family == "surfaces":
+            return (0.0,)
         return tuple(float(o) for o in ORDERS) if self.family == "poly" else SMOOTHING_LENGTHS
 
     def params(self, base: RunParams, setting: float, *, lam: float | None = None) -> RunParams:
@@ -73,6 +81,8 @@ class Candidate:
 
         ``lam``: the spline's roughness penalty (see :func:`spline_lambda`).
         """
+        if self.family == "surfaces":
+            return replace(base, fit="auto", auto_order=False, robust="none", span="points")
         fit = "poly" if self.family == "poly" else "spline"
         return replace(
             base,
@@ -86,6 +96,11 @@ class Candidate:
 
     def describe(self, setting: float | None = None) -> dict[str, object]:
         """JSON-ready description: method, options, fit (at ``setting``)."""
+        if self.family == "surfaces":
+            return {
+                "method": self.method, "options": dict(self.options),
+                "fit": "surfaces: a line, an arc or a spline each", "fit_short": "surfaces",
+            }  # fmt: skip
         if self.family == "poly":
             fit = "polynomial" + ("" if setting is None else f", order {int(setting)}")
         else:
@@ -112,4 +127,5 @@ CANDIDATES: tuple[Candidate, ...] = (
     Candidate("triang/spline", "triangulation", "spline"),
     Candidate("los/spline", "line-of-sight", "spline"),
     Candidate("paper/poly", "morphological", "poly", {"ops": "thinning:3"}),
+    Candidate("surfaces", "morphological", "surfaces", {"ops": "thinning:3"}),
 )

@@ -1,30 +1,17 @@
-"""What ``--auto`` adds to a report: the ``auto`` record in a JSON file, and a table.
+"""The terminal view of the ``--auto`` record.
 
 The record (:meth:`sonarproc.auto.AutoChoice.to_json`) holds the criterion, the choice
 (method, options, fit), its held-out residual and the runners-up with theirs (and why
-the guard rails excluded any). :func:`add_record` puts it into an already written
-``report.json`` or ``compare.json`` (rewritten atomically); :func:`record_table` is the
-terminal view of it.
+the guard rails excluded any). The report writers put it into ``report.json`` /
+``compare.json`` as ``auto`` and show it in the HTML pages
+(:mod:`sonarproc.report.auto_record`); :func:`record_table` is its table for the terminal.
 """
 
 from __future__ import annotations
 
-import json
-import os
-from pathlib import Path
 from typing import Any
 
-__all__ = ["add_record", "record_table"]
-
-
-def add_record(path: str | Path, doc: dict[str, Any], record: dict[str, Any]) -> dict[str, Any]:
-    """``doc`` with ``doc["auto"] = record``, written to ``path`` (atomic replace)."""
-    doc = {**doc, "auto": record}
-    target = Path(path)
-    tmp = target.with_name(target.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
-    return doc
+__all__ = ["record_table"]
 
 
 def _cm(v: float | None) -> str:
@@ -35,7 +22,10 @@ def record_table(record: dict[str, Any]) -> Any:
     """A rich Table: the choice and each runner-up, with held-out residuals."""
     from rich.table import Table
 
-    title = f"--auto: held-out range residual, {record['folds']} folds of firings"
+    reps = record.get("repeats", 1)
+    title = f"--auto: held-out range residual, {record['folds']} folds of firings" + (
+        f" x {reps}" if reps > 1 else ""
+    )
     table = Table(title=title, title_justify="left")
     for col in ("candidate", "fit", "residual", "note"):
         table.add_column(col, justify="right" if col == "residual" else "left", no_wrap=True)

@@ -30,10 +30,12 @@ from sonarproc.auto.holdout import (
     range_loss,
     subset_beams,
 )
+from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import Fit, FitFailure, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
-from sonarproc.methods import MethodResult
+from sonarproc.methods import MethodMap, MethodResult
+from sonarproc.methods.geometry import axis_points
 from sonarproc.metrics import Bins, bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import evaluate_map
@@ -49,13 +51,46 @@ FloatArray = npt.NDArray[np.float64]
 HULL_CELLS = 3.0
 #: A reading's loss is capped at this many cells (or 5 cm, if more).
 CAP_CELLS = 10.0
+#: The residual is the mean of this fraction of the held-out losses, the smallest ones: a
+#: trimmed mean, so echoes off other surfaces and spurious echoes (a quarter of the log at
+#: most) do not decide, and neither do the few readings at the ends of the profile that one
+#: candidate's fit reaches and another's does not.
+TRIM = 0.75
+#: A fit must reach this fraction of the columns the readings imply (the span of their
+#: line-of-sight points, 5th to 95th percentile) in every fold.
+COVERAGE_MIN = 0.5
+#: Logs smaller than this many readings are split into folds again with other seeds (up
+#: to :data:`MAX_REPEATS` times) so that about this many held-out predictions are scored.
+REPEAT_READINGS = 1_200
+MAX_REPEATS = 3
+#: Scoring fits merge adjacent columns down to at most this many (:func:`fit_columns`).
+FIT_COLUMNS = 500
+#: The ``surfaces`` candidate is scored on grids of at most this many cells: its fit
+#: (one surface model per group of cells) grows with the map, and a whole room at 1 cm
+#: would cost ``--auto`` minutes; above it the candidate stands aside, saying so.
+SURFACES_MAX_CELLS = 1_000_000
 #: What report.json says the criterion is.
 CRITERION = (
     "held-out range residual: firings split into {k} folds; each fold's readings predicted "
     "(first echo inside the beams, ellipse path for a pair) from the profile fitted to the "
     "other folds; mean |measured - predicted| range, capped at {cap:.3g} m (also where the "
-    "curve misses the beams)"
+    "curve misses the beams); the residual is the mean of the smallest {trim:.0%} of these "
+    "losses; {repeats} repetition(s) of the folds"
 )
+
+
+def robust_residual(losses: npt.NDArray[np.float64], trim: float = TRIM) -> float:
+    """Mean of the smallest ``trim`` fraction of ``losses`` (a trimmed mean).
+
+    Examples
+    --------
+    >>> robust_residual(np.array([0.01, 0.02, 0.03, 0.5]))
+    0.02
+    """
+    if losses.size == 0:
+        return float("inf")
+    k = max(1, int(np.ceil(trim * losses.size)))
+    return float(np.partition(losses, k - 1)[:k].mean())
 
 
 @dataclass
@@ -65,30 +100,50 @@ class Score:
     candidate: Candidate
     losses: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
     hull: dict[float, float] = field(default_factory=dict)
+    coverage: dict[float, float] = field(default_factory=dict)
     base_losses: list[npt.NDArray[np.float64]] = field(default_factory=list)
     mean_counts: list[float] = field(default_factory=list)
     setting: float | None = None
     residual_m: float = np.inf
     baseline_m: float = np.inf
     hull_m: float = 0.0
+    coverage_frac: float = 1.0
+    function_folds: int = 0
+    too_large: int = 0
     excluded: str | None = None
 
     def finish(self, cell: float) -> None:
-        """Best setting within the hull; exclusion by the guard rails."""
-        res = {k: float(np.concatenate(v).mean()) for k, v in self.losses.items() if v}
+        """Best setting within the hull and coverage; exclusion by the guard rails."""
+        self.excluded = None
+        res = {k: robust_residual(np.concatenate(v)) for k, v in self.losses.items() if v}
         self.baseline_m = (
-            float(np.concatenate(self.base_losses).mean()) if self.base_losses else np.inf
+            robust_residual(np.concatenate(self.base_losses)) if self.base_losses else np.inf
         )
         inside = {k: r for k, r in res.items() if self.hull.get(k, 0.0) <= HULL_CELLS * cell}
+        covering = {k: r for k, r in inside.items() if self.coverage.get(k, 1.0) >= COVERAGE_MIN}
+        if self.too_large:
+            self.excluded = (
+                f"not scored: the grid has {self.too_large} cells, more than "
+                f"{SURFACES_MAX_CELLS} (--auto's time budget for the surfaces fit)"
+            )
+            return
         if not res:
             self.excluded = "the method left nothing on the map"
             return
-        pool = inside or res
+        pool = covering or inside or res
         self.setting = min(pool, key=lambda k: pool[k])
         self.residual_m = pool[self.setting]
         self.hull_m = self.hull.get(self.setting, 0.0)
-        if not inside:
+        self.coverage_frac = self.coverage.get(self.setting, 1.0)
+        if self.function_folds:
+            self.excluded = "the map is one function of x (the y(x) candidates cover it)"
+        elif not inside:
             self.excluded = f"every fit leaves its points' hull (by {100 * self.hull_m:.3g} cm)"
+        elif not covering:
+            self.excluded = (
+                f"its fit reaches {self.coverage_frac:.0%} of the columns the readings imply "
+                f"(at least {COVERAGE_MIN:.0%} needed)"
+            )
         elif self.residual_m > self.baseline_m + 0.25 * cell:
             self.excluded = (
                 f"worse than a constant or a line on its points ({100 * self.baseline_m:.3g} cm)"
@@ -101,6 +156,7 @@ class Score:
             **self.candidate.describe(self.setting),
             "residual_m": _finite(self.residual_m),
             "baseline_residual_m": _finite(self.baseline_m),
+            "coverage": round(self.coverage_frac, 4),
             "excluded": self.excluded,
         }
 
@@ -117,6 +173,7 @@ class AutoChoice:
     criterion: str
     readings_scored: int
     folds: int
+    repeats: int = 1
 
     @property
     def ranked(self) -> list[Score]:
@@ -132,6 +189,7 @@ class AutoChoice:
             **chosen.candidate.describe(chosen.setting),
             "residual_m": _finite(chosen.residual_m),
             "folds": self.folds,
+            "repeats": self.repeats,
             "readings_scored": self.readings_scored,
             "runners_up": others,
         }
@@ -150,16 +208,72 @@ def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[
     return np.asarray(take[firing], dtype=bool)
 
 
+def fit_columns(bins: Bins, max_columns: int = FIT_COLUMNS) -> tuple[FloatArray, ...]:
+    """Column centres, means and counts, adjacent columns merged to at most ``max_columns``.
+
+    Scoring fits only: the smoothest wave a candidate may follow (orders <= 15, smoothing
+    lengths >= 0.1 m) is far longer than the merged columns, and a fit's cost grows with
+    its columns (a 20 m room at 1 cm has 2 000).
+
+    Examples
+    --------
+    >>> y = np.array([1.0, 3, 2, np.nan, 5, 5])
+    >>> b = Bins(np.arange(6.0), np.array([1, 1, 2, 0, 1, 1]), y, y)
+    >>> [a.tolist() for a in fit_columns(b, 3)]
+    [[0.5, 2.0, 4.5], [2.0, 2.0, 5.0], [2.0, 2.0, 2.0]]
+    """
+    x, y, w = bins.centres, np.nan_to_num(bins.mean), bins.count.astype(np.float64)
+    g = int(np.ceil(x.size / max_columns))
+    if g <= 1:
+        return x, y, w
+    n = x.size // g * g
+    wx = np.add.reduceat(w[:n] * x[:n], np.arange(0, n, g))
+    wy = np.add.reduceat(w[:n] * y[:n], np.arange(0, n, g))
+    ww = np.add.reduceat(w[:n], np.arange(0, n, g))
+    centre = x[:n].reshape(-1, g).mean(axis=1)
+    safe = np.maximum(ww, 1e-300)
+    xs = np.where(ww > 0, wx / safe, centre)
+    tail = w[n:].sum()
+    if tail > 0:
+        xs = np.r_[xs, (w[n:] * x[n:]).sum() / tail]
+        wy = np.r_[wy, (w[n:] * y[n:]).sum()]
+        ww = np.r_[ww, tail]
+        safe = np.maximum(ww, 1e-300)
+    return xs, np.where(ww > 0, wy / safe, 0.0), ww
+
+
 def _binned_fit(family: str, bins: Bins, setting: float, lam: float) -> Fit:
-    mean = np.nan_to_num(bins.mean)
+    x, y, w = fit_columns(bins)
     if family == "poly":
-        return fit_polynomial(bins.centres, mean, bins.count, order=int(setting))
-    return fit_spline(bins.centres, mean, bins.count, lam=lam)
+        return fit_polynomial(x, y, w, order=int(setting))
+    return fit_spline(x, y, w, lam=lam)
 
 
 def _mean_count(bins: Bins) -> float:
     c = bins.count[bins.count > 0]
     return float(c.mean()) if c.size else 1.0
+
+
+def _coverage(fit: Fit, implied: tuple[float, float]) -> float:
+    """Fraction of the implied span ``implied`` (x0, x1) inside the fit's domain."""
+    if isinstance(fit, FitFailure) or not hasattr(fit, "domain"):
+        return 0.0
+    lo, hi = fit.domain
+    width = implied[1] - implied[0]
+    if width <= 0:
+        return 1.0
+    return float(max(0.0, min(hi, implied[1]) - max(lo, implied[0])) / width)
+
+
+def implied_span(beams: Beams) -> tuple[float, float]:
+    """The columns the readings imply: 5th to 95th percentile of their line-of-sight x."""
+    p = beams.poses
+    apex, direction, dist = axis_points(p.tx_xy, p.tx_heading, p.rx_xy, p.rx_heading, beams.path)
+    x = (apex[:, 0] + dist * direction[:, 0])[np.isfinite(dist)]
+    if x.size == 0:
+        return (0.0, 0.0)
+    lo, hi = np.percentile(x, [5.0, 95.0])
+    return (float(lo), float(hi))
 
 
 def _fold_scores(
@@ -170,57 +284,109 @@ def _fold_scores(
     train: npt.NDArray[np.bool_],
     held: npt.NDArray[np.intp],
     cap: float,
+    implied: tuple[float, float],
 ) -> None:
     tb = subset_beams(beams, train)
-    maps: dict[
-        tuple[str, tuple[tuple[str, Any], ...]], tuple[Bins, FloatArray, FloatArray] | None
-    ] = {}
-    baselines: dict[tuple[str, tuple[tuple[str, Any], ...]], npt.NDArray[np.float64]] = {}
+    maps: dict[_MapKey, tuple[MethodMap, Bins, FloatArray, FloatArray] | None] = {}
+    baselines: dict[_MapKey, npt.NDArray[np.float64]] = {}
     measured = beams.path[held]
     step = 2 * grid.cell
-    window = 10 * grid.cell
     for s in scores:
         c = s.candidate
         key = (c.method, tuple(sorted(c.options.items())))
         if key not in maps:
-            method = c.make()
-            try:
-                mmap = method.build(tb, grid, method.params_for(base))
-            except (NothingToMapError, ValueError) as err:
-                log.debug("%s: %s", c.name, err)
-                mmap = None
-            if mmap is None or not mmap.processed.any():
-                maps[key] = None
-            else:
-                ix, iy = np.nonzero(mmap.processed.T)
-                px, py = grid.to_world(iy, ix)
-                maps[key] = (bin_stats(ix, py, grid.centres_x(), presorted=True), px, py)
+            maps[key] = _build(c, tb, grid, base)
         entry = maps[key]
         if entry is None:
             continue
-        bins, px, py = entry
-        mc = _mean_count(bins)
-        s.mean_counts.append(mc)
-        for setting in c.settings:
-            fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-            if not isinstance(fit, FitFailure):
-                h = hull_excess(fit.sample(grid.cell), px, py, window=window)
-                s.hull[setting] = max(s.hull.get(setting, 0.0), h)
-            if s.hull.get(setting, 0.0) > HULL_CELLS * grid.cell:
-                # excluded whatever it predicts: spare the echo model
-                s.losses.setdefault(setting, []).append(np.full(held.size, cap))
-                continue
-            loss = range_loss(measured, predicted_path(fit, beams, held, step), cap)
-            s.losses.setdefault(setting, []).append(loss)
+        mmap, bins, px, py = entry
+        if c.family == "surfaces":
+            _score_surfaces(s, mmap, grid, beams, held, measured, cap, step)
+        else:
+            _score_profiles(s, bins, px, py, grid, beams, held, measured, cap, implied)
         if key not in baselines:
             best = np.full(held.size, cap)
             for order in (0, 1):
                 f = fit_polynomial(bins.centres, np.nan_to_num(bins.mean), bins.count, order=order)
                 loss = range_loss(measured, predicted_path(f, beams, held, step), cap)
-                if loss.mean() < best.mean():
+                if robust_residual(loss) < robust_residual(best):
                     best = loss
             baselines[key] = best
         s.base_losses.append(baselines[key])
+
+
+_MapKey = tuple[str, tuple[tuple[str, Any], ...]]
+
+
+def _build(
+    c: Candidate, beams: Beams, grid: Grid, base: RunParams
+) -> tuple[MethodMap, Bins, FloatArray, FloatArray] | None:
+    """The candidate's map on ``beams``, its column statistics and points; None if empty."""
+    method = c.make()
+    try:
+        mmap = method.build(beams, grid, method.params_for(base))
+    except (NothingToMapError, ValueError) as err:
+        log.debug("%s: %s", c.name, err)
+        return None
+    if not mmap.processed.any():
+        return None
+    ix, iy = np.nonzero(mmap.processed.T)
+    px, py = grid.to_world(iy, ix)
+    return mmap, bin_stats(ix, py, grid.centres_x(), presorted=True), px, py
+
+
+def _score_profiles(
+    s: Score,
+    bins: Bins,
+    px: FloatArray,
+    py: FloatArray,
+    grid: Grid,
+    beams: Beams,
+    held: npt.NDArray[np.intp],
+    measured: FloatArray,
+    cap: float,
+    implied: tuple[float, float],
+) -> None:
+    """One fold of a profile y(x) candidate: every setting's fit, hull, coverage, losses."""
+    c = s.candidate
+    mc = _mean_count(bins)
+    s.mean_counts.append(mc)
+    for setting in c.settings:
+        fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
+        s.coverage[setting] = min(s.coverage.get(setting, 1.0), _coverage(fit, implied))
+        if not isinstance(fit, FitFailure):
+            h = hull_excess(fit.sample(grid.cell), px, py, window=10 * grid.cell)
+            s.hull[setting] = max(s.hull.get(setting, 0.0), h)
+        if s.hull.get(setting, 0.0) > HULL_CELLS * grid.cell:
+            # excluded whatever it predicts: spare the echo model
+            s.losses.setdefault(setting, []).append(np.full(held.size, cap))
+            continue
+        loss = range_loss(measured, predicted_path(fit, beams, held, 2 * grid.cell), cap)
+        s.losses.setdefault(setting, []).append(loss)
+
+
+def _score_surfaces(
+    s: Score,
+    mmap: MethodMap,
+    grid: Grid,
+    beams: Beams,
+    held: npt.NDArray[np.intp],
+    measured: FloatArray,
+    cap: float,
+    step: float,
+) -> None:
+    """One fold of the ``surfaces`` candidate (it stands aside where the map is y(x))."""
+    setting = s.candidate.settings[0]
+    if grid.nx * grid.ny > SURFACES_MAX_CELLS:
+        s.too_large = grid.nx * grid.ny
+        return
+    lines = fitted_surfaces(mmap, grid)
+    if lines is None:
+        s.function_folds += 1
+        s.losses.setdefault(setting, []).append(np.full(held.size, cap))
+        return
+    loss = range_loss(measured, surfaces_path(lines, beams, held, step), cap)
+    s.losses.setdefault(setting, []).append(loss)
 
 
 def choose(
@@ -229,6 +395,7 @@ def choose(
     *,
     candidates: tuple[Candidate, ...] = CANDIDATES,
     folds: int = 4,
+    repeats: int | None = None,
     max_readings: int = 6_000,
     heldout_per_fold: int = 300,
     seed: int = 0,
@@ -245,6 +412,9 @@ def choose(
         What to choose from.
     folds : int
         Number of folds of firings.
+    repeats : int, optional
+        Times the folds are drawn (with other seeds); default: enough for about
+        :data:`REPEAT_READINGS` held-out predictions, at most :data:`MAX_REPEATS`.
     max_readings : int
         Score on a random subset of at most about this many readings (whole firings).
     heldout_per_fold : int
@@ -263,23 +433,27 @@ def choose(
     """
     beams, _ = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
-    fold = firing_folds(beams.readings, folds, seed=seed)
     used = _sample_firings(beams.readings, max_readings, seed)
     beams = subset_beams(beams, used)
-    fold = fold[used]
+    n = int(used.sum())
+    if repeats is None:
+        repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
+    implied = implied_span(beams)
     rng = np.random.default_rng(seed + 2)
     scores = [Score(c) for c in candidates]
-    for f in range(folds):
-        test = np.flatnonzero(fold == f)
-        if test.size == 0:
-            continue
-        held = np.sort(rng.permutation(test)[:heldout_per_fold])
-        _fold_scores(scores, beams, grid, base, fold != f, held, cap)
+    for rep in range(repeats):
+        fold = firing_folds(beams.readings, folds, seed=seed + 1000 * rep)
+        for f in range(folds):
+            test = np.flatnonzero(fold == f)
+            if test.size == 0:
+                continue
+            held = np.sort(rng.permutation(test)[:heldout_per_fold])
+            _fold_scores(scores, beams, grid, base, fold != f, held, cap, implied)
     for s in scores:
         s.finish(grid.cell)
-    crit = CRITERION.format(k=folds, cap=cap)
-    return AutoChoice(scores, crit, int(used.sum()), folds)
+    crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
+    return AutoChoice(scores, crit, n, folds, repeats)
 
 
 def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult:
@@ -328,6 +502,8 @@ def run_auto(
         if last is None:
             last = (res, s)
         r = res.run
+        if r.surfaces is not None and r.surfaces.surfaces:
+            return res, s, choice  # several surfaces: no profile hull to check
         if isinstance(r.fit, FitFailure):
             s.excluded = f"on every reading, the fit failed: {r.fit.reason}"
             continue

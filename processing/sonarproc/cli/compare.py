@@ -150,14 +150,12 @@ def compare_command(
         if auto:
             from dataclasses import replace
 
-            from sonarproc.auto import add_record, run_auto
+            from sonarproc.auto import run_auto
 
             chosen_run, chosen, choice = run_auto(lg, params)
             results.append(replace(chosen_run, method="auto"))
             record = choice.to_json(chosen)
-        doc = write_comparison(str(log), params, results, out_dir)
-        if record is not None:
-            doc = add_record(out_dir / "compare.json", doc, record)
+        doc = write_comparison(str(log), params, results, out_dir, auto=record)
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:
                 write_exports(r, out_dir / "export", formats, log=lg)

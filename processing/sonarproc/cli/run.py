@@ -181,11 +181,7 @@ def run_command(
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            doc = write_report(result, out_dir)
-            if record is not None:
-                from sonarproc.auto import add_record
-
-                doc = add_record(out_dir / "report.json", doc, record)
+            doc = write_report(result, out_dir, auto=record)
         finally:
             progress.close()
         if result.surfaces is not None and not result.surfaces.surfaces:

@@ -63,7 +63,16 @@ METHODS: dict[str, type[MapMethod]] = {
     )
 }
 #: What ``sonarproc compare`` runs without ``--methods``.
-DEFAULT_METHODS = ("morphological", "arc-vote", "line-of-sight", "histogram", "occupancy")
+DEFAULT_METHODS = (
+    "morphological",
+    "arc-vote",
+    "directional-max",
+    "arc-median",
+    "triangulation",
+    "line-of-sight",
+    "histogram",
+    "occupancy",
+)
 
 
 def make_method(name: str, **options: OptionValue) -> MapMethod:

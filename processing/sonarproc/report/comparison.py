@@ -26,6 +26,7 @@ from sonarproc.fit import FitFailure
 from sonarproc.methods.base import MethodResult
 from sonarproc.methods.compare import COLUMNS, comparison_doc
 from sonarproc.params import RunParams
+from sonarproc.report.auto_record import auto_record_html
 from sonarproc.report.plots import block_max, broken_at_jumps, fit_curve
 from sonarproc.report.units import MISSING, length_cm, number, sig3
 
@@ -215,18 +216,29 @@ def render_compare_html(doc: Mapping[str, Any], png: bytes) -> str:
         f"<table><tr>{head}</tr>{body}</table>"
         f'<figure><img src="{uri}" alt="compare.png"><figcaption>each method\'s map '
         "(grey), the truth dashed, the fit solid</figcaption></figure>"
-        f"<h2>Run parameters</h2><pre>{params}</pre><h2>Method options</h2><pre>{opts}</pre>"
+        + (auto_record_html(doc["auto"]) if doc.get("auto") else "")
+        + f"<h2>Run parameters</h2><pre>{params}</pre><h2>Method options</h2><pre>{opts}</pre>"
         "</body></html>\n"
     )
 
 
 def write_comparison(
-    source: str, params: RunParams, results: Sequence[MethodResult], out_dir: str | Path
+    source: str,
+    params: RunParams,
+    results: Sequence[MethodResult],
+    out_dir: str | Path,
+    *,
+    auto: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """Write :data:`COMPARE_FILES` into ``out_dir``; return the ``compare.json`` dict."""
+    """Write :data:`COMPARE_FILES` into ``out_dir``; return the ``compare.json`` dict.
+
+    ``auto``: the ``--auto`` record (compare.json's ``auto``, a section of compare.html).
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     doc = comparison_doc(source, params, results)
+    if auto is not None:
+        doc["auto"] = auto
     (out / "compare.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     write_csv(out / "compare.csv", doc["methods"])
     png, svg = render_compare(results, source)

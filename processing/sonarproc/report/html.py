@@ -10,6 +10,7 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
+from sonarproc.report.auto_record import auto_record_html
 from sonarproc.report.units import MISSING, length_cm, metric, seconds
 
 __all__ = ["render_html"]
@@ -128,6 +129,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         + _table(doc["metrics"], _METRIC_LABELS, human=True)
         + "<h2>Fit</h2>"
         + fit_html
+        + (auto_record_html(doc["auto"]) if doc.get("auto") else "")
         + "<h2>Figures</h2>"
         + figures
         + "<h2>Parameters</h2>"

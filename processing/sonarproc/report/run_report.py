@@ -53,14 +53,14 @@ def default_out_dir(log_path: str | Path) -> Path:
     return p.with_name(f"{p.stem}_report")
 
 
-def report_dict(result: RunResult) -> dict[str, Any]:
+def report_dict(result: RunResult, *, auto: dict[str, Any] | None = None) -> dict[str, Any]:
     """The content of ``report.json``.
 
     Keys: ``format``, ``version``, ``software``, ``source``, ``method``, ``parameters``,
     ``grid``, ``counts``, ``log_state`` (``closed``, ``crashed``, ``cut``), ``intact_rows``,
     ``dropped_rows``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
     and, when the log has a truth profile, ``E1_m``, ``E2``, ``sigma_y_m``), ``truth``,
-    ``timings_s``.
+    ``timings_s``; with ``auto`` (``run --auto``'s record), ``auto``.
     """
     g = result.grid
     m = result.metrics.to_json()
@@ -105,6 +105,8 @@ def report_dict(result: RunResult) -> dict[str, Any]:
     }
     if result.auto is not None:
         doc["fit_choice"] = result.auto
+    if auto is not None:
+        doc["auto"] = auto
     if result.surfaces is not None:
         doc["surfaces"] = result.surfaces.to_json()
         if result.surfaces.reason:
@@ -127,14 +129,19 @@ def write_profile_csv(path: Path, points: npt.NDArray[np.float64]) -> None:
             np.savetxt(fh, points, delimiter=",", fmt="%.6f")
 
 
-def write_report(result: RunResult, out_dir: str | Path) -> dict[str, Any]:
-    """Write every file of :data:`REPORT_FILES` into ``out_dir``; return the report dict."""
+def write_report(
+    result: RunResult, out_dir: str | Path, *, auto: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """Write every file of :data:`REPORT_FILES` into ``out_dir``; return the report dict.
+
+    ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html).
+    """
     from sonarproc.report import plots
     from sonarproc.report.html import render_html
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    doc = report_dict(result)
+    doc = report_dict(result, auto=auto)
     (out / "report.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     write_profile_csv(out / "profile.csv", profile_points(result))
     if result.surfaces is not None:

@@ -2,34 +2,75 @@
 
 For one log, :func:`auto_row` runs ``--auto`` (which never sees the truth) and every
 candidate of :data:`sonarproc.auto.CANDIDATES` at every setting it tries, and reports
-E1 (by the truth) of auto's pick and of the best candidate. The table of
-``docs/methods.md`` (:mod:`sonarproc.studies.methods_table`) and a test use it.
+the error (by the truth) of auto's pick and of the best candidate. The error is the
+paper's E1 (columns with points) where the truth is one profile ``y(x)``, and the
+surfaces metric ``precision_m`` (mean distance of the fitted curves to the truth,
+:func:`sonarproc.surfaces.surface_metrics`) where it is several surfaces (a room, a
+corridor): E1 means nothing there. The table of ``docs/methods.md``
+(:mod:`sonarproc.studies.methods_table`) and a test use it.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto import CANDIDATES, run_auto
 from sonarproc.auto.candidates import spline_lambda
 from sonarproc.errors import NothingToMapError
+from sonarproc.fit import FitFailure
 from sonarproc.metrics import bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import evaluate_map
-from sonarproc.pipeline.selection import plan_grid, select_beams
+from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
+from sonarproc.surfaces import seen_truth, surface_metrics, truth_points
 
-__all__ = ["auto_row", "candidate_errors"]
+__all__ = ["Judge", "auto_row", "candidate_errors"]
+
+
+class Judge:
+    """The truth's verdict on a run: E1 for a profile, ``precision_m`` for several surfaces."""
+
+    def __init__(self, log_: SonarLog, beams: Beams) -> None:
+        truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
+        self.truth = truth
+        self.metric = "E1_m" if truth is None or not np.isnan(truth).any() else "precision_m"
+        self.seen: npt.NDArray[np.bool_] | None = None
+        if self.metric == "precision_m" and truth is not None:
+            tp = beams.poses
+            pts = np.concatenate(truth_points(truth))
+            self.seen = seen_truth(
+                pts, tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
+                tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
+            )  # fmt: skip
+
+    def error(self, r: RunResult) -> tuple[float, float | None]:
+        """The run's error (m; inf where undefined) and, for surfaces, its completeness."""
+        if self.metric == "E1_m":
+            e1 = r.metrics.E1_m
+            return (np.inf if e1 is None else float(e1)), None
+        if r.surfaces is not None and r.surfaces.surfaces:
+            lines = r.surfaces.polylines()
+        elif not isinstance(r.fit, FitFailure):
+            lines = [r.fit.sample(r.grid.cell)]
+        else:
+            return np.inf, None
+        assert self.truth is not None
+        m = surface_metrics(lines, self.truth, seen=self.seen)
+        p = np.inf if m.precision_m is None else float(m.precision_m)
+        return p, m.completeness
 
 
 def candidate_errors(log_: SonarLog, base: RunParams) -> dict[str, float]:
-    """E1 (m, by the truth) of every candidate at every setting: ``{"name@setting": E1}``."""
+    """The error (m, by the truth) of every candidate at every setting: ``{"name@setting": e}``."""
     beams, counts = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
+    judge = Judge(log_, beams)
     out: dict[str, float] = {}
     built: dict[str, Any] = {}
     for c in CANDIDATES:
@@ -53,28 +94,33 @@ def candidate_errors(log_: SonarLog, base: RunParams) -> dict[str, float]:
                 log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
                 cpu_start=time.process_time(),
             )  # fmt: skip
-            e1 = r.metrics.E1_m
-            out[f"{c.name}@{setting:g}"] = np.inf if e1 is None else float(e1)
+            if c.family == "surfaces" and (r.surfaces is None or not r.surfaces.surfaces):
+                continue  # one function of x: the y(x) candidates cover it
+            out[f"{c.name}@{setting:g}"] = judge.error(r)[0]
     return out
 
 
 def auto_row(log_: SonarLog, base: RunParams | None = None) -> dict[str, Any]:
-    """Auto's pick and E1, the best candidate's, their ratio, and auto's run time."""
+    """Auto's pick and error, the best candidate's, their ratio, and auto's run time."""
     base = base or RunParams()
     t0 = time.perf_counter()
     res, chosen, choice = run_auto(log_, base)
     wall = time.perf_counter() - t0
-    errors = candidate_errors(log_, replace(base))
+    errors = candidate_errors(log_, base)
+    beams, _ = select_beams(log_, base)
+    judge = Judge(log_, beams)
     best = min(errors, key=lambda k: errors[k])
-    e1 = res.run.metrics.E1_m
-    auto_e1 = np.inf if e1 is None else float(e1)
+    auto_e, completeness = judge.error(res.run)
+    setting = "" if chosen.candidate.family == "surfaces" else f"@{chosen.setting:g}"
     return {
-        "choice": f"{chosen.candidate.name}@{chosen.setting:g}",
-        "auto_E1_m": auto_e1,
+        "choice": f"{chosen.candidate.name}{setting}",
+        "metric": judge.metric,
+        "auto_error_m": auto_e,
+        "auto_completeness": completeness,
         "residual_m": chosen.residual_m,
-        "best": best,
-        "best_E1_m": errors[best],
-        "ratio": auto_e1 / errors[best] if errors[best] > 0 else np.inf,
+        "best": best.removesuffix("@0") if best.startswith("surfaces@") else best,
+        "best_error_m": errors[best],
+        "ratio": auto_e / errors[best] if errors[best] > 0 else np.inf,
         "auto_s": wall,
         "errors": errors,
         "record": choice.to_json(chosen),

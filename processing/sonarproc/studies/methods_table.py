@@ -5,7 +5,7 @@ every ``configs/scenarios/*.yaml`` (with its own seed), runs every registered me
 the paper's operations and polynomial order for that figure
 (:data:`sonarproc.studies.reproduce.PAPER`; the order applies to every method's fit, the
 operations to ``morphological``), then ``--auto`` and every one of its candidates
-(:mod:`sonarproc.studies.auto_study`: E1 by the truth, which auto never sees), and
+(:mod:`sonarproc.studies.auto_study`: the error by the truth, which auto never sees), and
 rewrites the part of the doc between ``<!-- methods-table:start -->`` and
 ``<!-- methods-table:end -->``.
 """
@@ -19,10 +19,13 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from sonarproc.methods import make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
+from sonarproc.pipeline.selection import select_beams
 from sonarproc.studies.reproduce import PAPER, PaperRow
 from sonarsim.shipped import shipped_dir
 
@@ -31,6 +34,7 @@ __all__ = [
     "START",
     "main",
     "render_auto_table",
+    "render_surface_table",
     "render_tables",
     "run_all",
     "run_scenarios",
@@ -78,9 +82,16 @@ def run_scenarios(scenario_dir: Path, *, cell: float = 0.01) -> Rows:
 
 
 def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -> tuple[Rows, Rows]:
-    """Every method and (``with_auto``) ``--auto`` (:func:`auto_row`) on each scenario."""
+    """Every method and (``with_auto``) ``--auto`` (:func:`auto_row`) on each scenario.
+
+    A scene whose truth is several surfaces (a room, a corridor) is run with
+    ``fit = "auto"`` (the surfaces fit) and its rows carry ``precision_m`` and
+    ``completeness`` instead of E1, E2 and e (``"surfaces": True``).
+    """
+    from dataclasses import replace
+
     from sonarproc.simulate import simulate_to_log
-    from sonarproc.studies.auto_study import auto_row
+    from sonarproc.studies.auto_study import Judge, auto_row
 
     out: Rows = {}
     auto: Rows = {}
@@ -92,8 +103,17 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -
             simulate_to_log(yml, path)
             lg = load_log(path)
             params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
+            judge = Judge(lg, select_beams(lg, params)[0])
+            if judge.metric == "precision_m":
+                params = replace(params, fit="auto")
             methods = [make_method(m) for m in TABLE_METHODS]
-            out[name] = comparison_rows(compare(lg, params, methods))
+            results = compare(lg, params, methods)
+            out[name] = comparison_rows(results)
+            if judge.metric == "precision_m":
+                for row, r in zip(out[name], results, strict=True):
+                    prec, comp = judge.error(r.run)
+                    row.update(surfaces=True, precision_m=prec, completeness=comp)
+                    row.update(E1_m=None, E2=None, e=None)
             if not with_auto:
                 log.info("%s done", name)
                 continue
@@ -104,30 +124,67 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -
     return out, auto
 
 
+def _cm(v: object) -> str:
+    if not isinstance(v, (int, float)):
+        return "—"
+    return f"{100 * float(v):.2f}" if np.isfinite(v) else "undefined"
+
+
 def render_auto_table(auto: Rows) -> str:
-    """Markdown: auto's choice and E1 against the best candidate's, per scenario."""
+    """Markdown: auto's choice and error against the best candidate's, per scenario."""
     head = (
-        "| scenario | readings | `--auto` chose | auto E1 (cm) | best candidate | best E1 (cm) "
+        "| scenario | readings | error | `--auto` chose | auto (cm) | best candidate | best (cm) "
         "| ratio | auto wall (s) |"
     )
     lines = [
-        "**`--auto` against its best candidate (E1 by the truth, columns with points; auto "
-        "never sees the truth)**",
+        "**`--auto` against its best candidate (by the truth, which auto never sees: E1 over "
+        "the columns with points for a profile; `precision_m`, the mean distance of the "
+        "fitted curves to the truth, with completeness, for several surfaces)**",
         "",
         head,
-        "|---" * 8 + "|",
+        "|---" * 9 + "|",
     ]
     for scen, recs in auto.items():
         r = recs[0]
-
-        def cm(v: object) -> str:
-            return f"{100 * float(v):.2f}" if isinstance(v, (int, float)) else "—"
-
-        ratio = r["ratio"]
+        metric = "E1" if r["metric"] == "E1_m" else "precision"
+        comp = r.get("auto_completeness")
+        if isinstance(comp, (int, float)):
+            metric += f" (auto complete {float(comp):.2f})"
+        ratio = float(r["ratio"])  # type: ignore[arg-type]
         lines.append(
-            f"| {scen} | {r['readings']} | {r['choice']} | {cm(r['auto_E1_m'])} | {r['best']} "
-            f"| {cm(r['best_E1_m'])} | {float(ratio):.2f} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
+            f"| {scen} | {r['readings']} | {metric} | {r['choice']} | {_cm(r['auto_error_m'])} "
+            f"| {r['best']} | {_cm(r['best_error_m'])} "
+            f"| {ratio:.2f} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
         )
+    return "\n".join(lines) + "\n"
+
+
+def render_surface_table(rows: Rows) -> str:
+    """Markdown: precision (cm) / completeness of each method on the multi-surface scenes."""
+    scenes = {k: v for k, v in rows.items() if v and v[0].get("surfaces")}
+    if not scenes:
+        return ""
+    names = list(TABLE_METHODS)
+    head = "| scenario | " + " | ".join(f"`{n}`" for n in names) + " |"
+    lines = [
+        "**Several surfaces (`--fit auto`): precision (cm, mean distance of the fitted curves "
+        "to the truth) / completeness (fraction of the seen truth within reach)**",
+        "",
+        head,
+        "|---" * (len(names) + 1) + "|",
+    ]
+    for scen, recs in scenes.items():
+        vals = {str(r["method"]): r for r in recs}
+        cells = []
+        for n in names:
+            r = vals.get(n)
+            if r is None:
+                cells.append("—")
+                continue
+            comp = r.get("completeness")
+            c = f"{float(comp):.2f}" if isinstance(comp, (int, float)) else "—"
+            cells.append(f"{_cm(r.get('precision_m'))} / {c}")
+        lines.append(f"| {scen} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -140,6 +197,8 @@ def render_tables(rows: Rows) -> str:
         lines = [f"**{title}**", "", head, "|---" * (len(names) + 1) + "|"]
         lower_better = key != "f_c"
         for scen, recs in rows.items():
+            if key in ("E1_m", "E2", "e") and recs and recs[0].get("surfaces"):
+                continue  # not one profile y(x): see the surfaces table
             vals = {str(r["method"]): r[key] for r in recs}
             nums = [v for v in vals.values() if isinstance(v, (int, float))]
             best = (min(nums) if lower_better else max(nums)) if nums and key != "t_cpu_s" else None
@@ -176,7 +235,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     rows, auto = run_all(args.scenarios)
-    tables = render_tables(rows) + "\n" + render_auto_table(auto)
+    surf = render_surface_table(rows)
+    tables = render_tables(rows) + "\n" + (surf + "\n" if surf else "") + render_auto_table(auto)
     if args.stdout:
         sys.stdout.write(tables)
         return 0

@@ -10,8 +10,10 @@ import pytest
 
 from sonarlog.schema import empty_readings
 from sonarproc.arcs import arcs_of, rasterize
-from sonarproc.auto import CANDIDATES, HULL_CELLS, choose
+from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose
+from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
+from sonarproc.auto.select import COVERAGE_MIN, TRIM, robust_residual
 from sonarproc.cli import main
 from sonarproc.methods.testing import flat_wall_beams
 from sonarproc.params import RunParams
@@ -59,6 +61,25 @@ def test_range_loss_and_hull() -> None:
     assert hull_excess(wild, px, py, window=0.1) == pytest.approx(0.29, abs=0.02)
 
 
+def test_trimmed_residual_and_coverage_guard() -> None:
+    losses = np.r_[np.full(75, 0.002), np.full(25, 0.1)]  # a quarter capped: trimmed away
+    assert robust_residual(losses) == pytest.approx(0.002) and TRIM == 0.75
+    s = Score(Candidate("x", "arc-vote", "spline"))
+    s.losses = {0.1: [np.full(40, 0.001)], 0.4: [np.full(40, 0.004)]}
+    s.base_losses = [np.full(40, 0.01)]
+    s.coverage = {0.1: COVERAGE_MIN - 0.1, 0.4: 0.9}  # the better residual covers too little
+    s.finish(0.01)
+    assert s.setting == 0.4 and s.residual_m == pytest.approx(0.004) and s.excluded is None
+    s.coverage = {0.1: 0.2, 0.4: 0.3}
+    s.finish(0.01)
+    assert s.excluded is not None and "columns the readings imply" in s.excluded
+    s.coverage = {0.1: 1.0, 0.4: 1.0}
+    s.losses = {0.1: [np.full(40, 0.004)]}
+    s.base_losses = [np.full(40, 0.0005)]  # a line does better by > 1/4 cell: never chosen
+    s.finish(0.01)
+    assert s.excluded is not None and "constant or a line" in s.excluded
+
+
 def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     lg = load_log(sparse)
     choice = choose(lg, RunParams())
@@ -72,9 +93,14 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
             assert s.hull_m <= HULL_CELLS * 0.01
     # the long wave defeats every polynomial of order <= 15: all excluded
     assert all(s.excluded for s in choice.scores if s.candidate.family == "poly")
+    # one wavy wall is one function of x: the surfaces candidate stands aside
+    (surf,) = [s for s in choice.scores if s.candidate.family == "surfaces"]
+    assert surf.excluded is not None and "one function of x" in surf.excluded
+    assert choice.repeats == 3  # 374 readings: the folds are drawn three times
     doc = choice.to_json(best)
     assert doc["choice"] == best.candidate.name and len(doc["runners_up"]) == len(CANDIDATES) - 1
     assert "held-out range residual" in doc["criterion"] and doc["folds"] == 4
+    assert doc["repeats"] == 3 and "smallest 75%" in doc["criterion"]
 
 
 # Where auto stands on small scenarios (E1 by the truth, which auto never sees): the
@@ -85,10 +111,10 @@ def test_auto_against_its_best_candidate(tmp_path: Path, scenario: str, max_rati
     path = tmp_path / f"{scenario}.h5"
     simulate_to_log(ROOT / f"configs/scenarios/{scenario}.yaml", path)
     row = auto_row(load_log(path))
-    assert row["auto_E1_m"] <= max_ratio * row["best_E1_m"]
-    if row["best_E1_m"] < 0.03:
-        assert row["auto_E1_m"] <= 0.05
-    assert row["auto_E1_m"] < 0.012  # every method of the paper's set was above 6 cm here
+    assert row["auto_error_m"] <= max_ratio * row["best_error_m"]
+    if row["best_error_m"] < 0.03:
+        assert row["auto_error_m"] <= 0.05
+    assert row["auto_error_m"] < 0.012  # every method of the paper's set was above 6 cm here
 
 
 def test_cli_run_and_compare_auto(
@@ -103,6 +129,8 @@ def test_cli_run_and_compare_auto(
     assert auto["residual_m"] > 0 and len(auto["runners_up"]) == len(CANDIDATES) - 1
     on_disk = json.loads((tmp_path / "r" / "report.json").read_text())
     assert on_disk["auto"] == auto and doc["parameters"]["span"] == "points"
+    page = (tmp_path / "r" / "report.html").read_text()
+    assert "--auto: the choice without ground truth" in page and auto["choice"] in page
     rc = main(["compare", str(sparse), "--methods", "line-of-sight", "--auto",
                "--out", str(tmp_path / "c")])  # fmt: skip
     out = capsys.readouterr()
@@ -110,3 +138,6 @@ def test_cli_run_and_compare_auto(
     comp = json.loads((tmp_path / "c" / "compare.json").read_text())
     assert [m["method"] for m in comp["methods"]] == ["line-of-sight", "auto"]
     assert comp["auto"]["choice"] in out.out and "held-out range residual" in out.out
+    assert (
+        "--auto: the choice without ground truth" in (tmp_path / "c" / "compare.html").read_text()
+    )

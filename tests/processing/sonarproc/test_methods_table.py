@@ -11,6 +11,7 @@ from sonarproc.studies.methods_table import (
     START,
     main,
     render_auto_table,
+    render_surface_table,
     render_tables,
     splice,
 )
@@ -58,12 +59,34 @@ def test_splice_and_main(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
 
 def test_render_auto_table() -> None:
     row = {
-        "choice": "dirmax/spline@0.1", "auto_E1_m": 0.0036, "best": "dirmax/spline@0.1",
-        "best_E1_m": 0.0036, "ratio": 1.0, "auto_s": 1.84, "readings": 10794,
+        "choice": "dirmax/spline@0.1", "metric": "E1_m", "auto_error_m": 0.0036,
+        "auto_completeness": None, "best": "dirmax/spline@0.1", "best_error_m": 0.0036,
+        "ratio": 1.0, "auto_s": 1.84, "readings": 10794,
     }  # fmt: skip
-    text = render_auto_table({"wavy-bistatic": [row]})
+    room = {
+        **row, "choice": "surfaces", "metric": "precision_m", "auto_error_m": 0.0672,
+        "auto_completeness": 0.933, "best": "surfaces", "best_error_m": 0.0672, "readings": 3216,
+    }  # fmt: skip
+    fig13 = {**row, "auto_error_m": float("inf"), "ratio": float("inf"), "readings": 47}
+    text = render_auto_table({"wavy-bistatic": [row], "room-box": [room], "fig13": [fig13]})
     want = (
-        "| wavy-bistatic | 10794 | dirmax/spline@0.1 | 0.36 | dirmax/spline@0.1 | 0.36 "
+        "| wavy-bistatic | 10794 | E1 | dirmax/spline@0.1 | 0.36 | dirmax/spline@0.1 | 0.36 "
         "| 1.00 | 1.8 |"
     )
-    assert want in text and text.count("\n|") == 3
+    assert want in text and text.count("\n|") == 5
+    assert "| room-box | 3216 | precision (auto complete 0.93) | surfaces | 6.72 |" in text
+    assert "| fig13 | 47 | E1 | dirmax/spline@0.1 | undefined |" in text
+
+
+def test_render_surface_table() -> None:
+    rows = {
+        "fig02": [{"method": "morphological", "E1_m": 0.06}],
+        "room-box": [
+            {"method": "morphological", "surfaces": True, "precision_m": 0.0523,
+             "completeness": 0.9},
+            {"method": "occupancy", "surfaces": True, "precision_m": None, "completeness": None},
+        ],
+    }  # fmt: skip
+    text = render_surface_table(rows)
+    assert "| room-box | 5.23 / 0.90 | — |" in text and "fig02" not in text
+    assert render_surface_table({"fig02": rows["fig02"]}) == ""

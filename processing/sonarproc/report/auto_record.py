@@ -1,0 +1,56 @@
+"""The ``--auto`` record on a report page: criterion, choice, residual and runners-up.
+
+``report.json`` and ``compare.json`` carry the record as ``auto``
+(:meth:`sonarproc.auto.AutoChoice.to_json`); :func:`auto_record_html` is its section of
+``report.html`` and ``compare.html``.
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Mapping
+from typing import Any
+
+from sonarproc.report.units import MISSING
+
+__all__ = ["auto_record_html"]
+
+
+def _cm(v: Any) -> str:
+    return MISSING if not isinstance(v, (int, float)) else f"{100 * float(v):.3g} cm"
+
+
+def auto_record_html(record: Mapping[str, Any]) -> str:
+    """An HTML section: the criterion, the choice with its residual, the runners-up table.
+
+    Examples
+    --------
+    >>> rec = {"criterion": "held-out", "choice": "a", "fit_short": "poly m=2",
+    ...        "residual_m": 0.004, "folds": 4, "runners_up": [
+    ...        {"name": "b", "fit_short": "spline", "residual_m": None, "excluded": "hull"}]}
+    >>> page = auto_record_html(rec)
+    >>> "0.4 cm" in page and "<td>b</td>" in page and "hull" in page
+    True
+    """
+    rows = [
+        (f"<b>{html.escape(str(record['choice']))}</b>", record.get("fit_short"),
+         record.get("residual_m"), "chosen"),
+    ] + [
+        (html.escape(str(r["name"])), r.get("fit_short"), r.get("residual_m"),
+         r.get("excluded") or "")
+        for r in record.get("runners_up", [])
+    ]  # fmt: skip
+    body = "".join(
+        f"<tr><td>{name}</td><td>{html.escape(str(fit or ''))}</td>"
+        f"<td>{html.escape(_cm(res))}</td><td>{html.escape(str(note))}</td></tr>"
+        for name, fit, res, note in rows
+    )
+    return (
+        "<h2>--auto: the choice without ground truth</h2>"
+        f"<p>Criterion: {html.escape(str(record['criterion']))}.</p>"
+        f"<p>Chosen: <b>{html.escape(str(record['choice']))}</b> "
+        f"({html.escape(str(record.get('fit_short', '')))}), held-out residual "
+        f"{html.escape(_cm(record.get('residual_m')))}.</p>"
+        "<table><tr><th>candidate</th><th>fit</th><th>residual</th><th>note</th></tr>"
+        f"{body}</table>"
+    )
