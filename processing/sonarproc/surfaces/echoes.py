@@ -187,16 +187,35 @@ def echo_points(
     ([0], [[0.0, 1.02]])
     """
     n, m = echoes.size, len(polylines)
-    resid = np.full((m, n), np.inf)
-    feet = np.zeros((m, n, 2))
-    svals = np.zeros((m, n))
+    out: list[tuple[IntArray, FloatArray, FloatArray]] = []
+    if m == 0:
+        return out
+    # Every point of a reading's arc band lies within ``reach`` of the arc's midpoint, so
+    # a surface (a box of half-diagonal h round c) can only echo readings whose midpoint
+    # is within h + reach of c: one ball query per surface instead of a test of every
+    # reading (rooms logged for an hour hold 10^5 readings).
+    half = np.minimum(echoes.half_beam, math.pi)
+    reach = 2.0 * echoes.range_m * np.sin(0.5 * half) + tol
+    mid = echoes.xy + echoes.range_m[:, None] * np.stack(
+        (np.cos(echoes.heading), np.sin(echoes.heading)), axis=1
+    )
+    tree = cKDTree(mid) if n else None
+    reach_max = float(reach.max()) if n else 0.0
+    pair_surface: list[IntArray] = []
+    pair_reading: list[IntArray] = []
+    pair_resid: list[FloatArray] = []
+    pair_foot: list[FloatArray] = []
+    pair_s: list[FloatArray] = []
     for i, (poly, cl) in enumerate(zip(polylines, closed, strict=True)):
         p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
-        if p.shape[0] < 2 or n == 0:
+        if p.shape[0] < 2 or tree is None:
             continue
         lo, hi = p.min(axis=0), p.max(axis=0)
-        gap = np.hypot(*np.maximum(np.maximum(lo - echoes.xy, echoes.xy - hi), 0.0).T)
-        near = np.flatnonzero(gap <= echoes.range_m + tol)
+        c, h = 0.5 * (lo + hi), 0.5 * float(np.hypot(*(hi - lo)))
+        near = np.asarray(tree.query_ball_point(c, h + reach_max), dtype=np.intp)
+        if near.size == 0:
+            continue
+        near = near[np.hypot(*(mid[near] - c).T) <= h + reach[near]]
         if near.size == 0:
             continue
         d, f, s, inside = _feet(echoes.xy[near], p, cl)
@@ -207,21 +226,35 @@ def echo_points(
         )
         r = np.abs(d - echoes.range_m[near])
         ok = inside & (off <= echoes.half_beam[near]) & (r <= tol)
-        resid[i, near[ok]] = r[ok]
-        feet[i, near[ok]] = f[ok]
-        svals[i, near[ok]] = s[ok]
-    out: list[tuple[IntArray, FloatArray, FloatArray]] = []
-    if m == 0:
-        return out
-    owner = np.argmin(resid, axis=0)
-    has = np.isfinite(resid[owner, np.arange(n)])
+        pair_surface.append(np.full(int(ok.sum()), i, dtype=np.intp))
+        pair_reading.append(near[ok])
+        pair_resid.append(r[ok])
+        pair_foot.append(f[ok])
+        pair_s.append(s[ok])
+    if not pair_reading:
+        return [(np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0)) for _ in range(m)]
+    surf = np.concatenate(pair_surface)
+    read = np.concatenate(pair_reading)
+    resid = np.concatenate(pair_resid)
+    feet = np.concatenate(pair_foot).reshape(-1, 2)
+    svals = np.concatenate(pair_s)
+    # A first echo comes from one surface: each reading goes to its best match (the
+    # lowest residual; ties to the lower surface index, as the stable sort keeps them).
+    order = np.lexsort((surf, resid, read))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = read[order][1:] != read[order][:-1]
+    best = order[first]
+    surf, read, feet, svals = surf[best], read[best], feet[best], svals[best]
+    by_surface = np.argsort(surf, kind="stable")
+    bounds = np.searchsorted(surf[by_surface], np.arange(m + 1))
     for i in range(m):
-        idx = np.flatnonzero(has & (owner == i))
-        v = feet[i, idx] - echoes.xy[idx]
+        sel = by_surface[bounds[i] : bounds[i + 1]]
+        idx = read[sel]
+        v = feet[sel] - echoes.xy[idx]
         unit = v / np.maximum(np.hypot(*v.T), 1e-12)[:, None]
         pts = echoes.xy[idx] + unit * echoes.range_m[idx][:, None]
-        order = np.argsort(svals[i, idx], kind="stable")
-        out.append((idx[order], pts[order], svals[i, idx][order]))
+        o = np.lexsort((idx, svals[sel]))
+        out.append((idx[o], pts[o], svals[sel][o]))
     return out
 
 

@@ -326,18 +326,22 @@ def fit_surface(cells: SurfaceCells, *, cell: float) -> SurfaceFit | SurfaceFail
         return SurfaceFailure("all cells at one point", cells.size)
     found: dict[str, _Candidate] = {}
     reasons: list[str] = []
+    floor = _floor_rms(cells, cell)
     for fitter in (fit_line, fit_arc):
         got = fitter(cells, cell=cell)
         if isinstance(got, SurfaceFailure):
             reasons.append(got.reason)
         else:
             found[got.model] = got
+            # A line within the criterion's bound is what the criterion picks whatever
+            # the arc gives (models are tried simplest first): skip the arc's fit.
+            if got.model == "line" and got.rms <= SPLINE_FACTOR * floor + CELL_FACTOR * cell:
+                break
     arc = found.get("arc")
     if arc is not None and not cells.closed:
         length = max(_lengths(arc.polyline), cell)
         if arc.params["radius"] > MAX_RADIUS_PER_LENGTH * length:
             found.pop("arc")
-    floor = _floor_rms(cells, cell)
     if not any(c.rms <= SPLINE_FACTOR * floor + CELL_FACTOR * cell for c in found.values()):
         got = fit_spline(cells, cell=cell)
         if isinstance(got, SurfaceFailure):
