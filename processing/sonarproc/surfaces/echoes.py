@@ -216,6 +216,21 @@ def echo_points(
         if near.size == 0:
             continue
         near = near[np.hypot(*(mid[near] - c).T) <= h + reach[near]]
+        # The surface lies between |s - c| - h and |s - c| + h from a sensor s and within
+        # asin(h / |s - c|) of the direction of c: the foot can only be in range and in
+        # the beam if those intervals meet (cheap; most readings of a big room fail it).
+        to_c = c - echoes.xy[near]
+        dist = np.hypot(*to_c.T)
+        spread = np.arcsin(np.minimum(h / np.maximum(dist, 1e-12), 1.0))
+        off_c = np.abs(
+            (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[near] + math.pi)
+            % (2 * math.pi)
+            - math.pi
+        )
+        near = near[
+            (np.abs(dist - echoes.range_m[near]) <= h + tol)
+            & (off_c <= echoes.half_beam[near] + spread)
+        ]
         if near.size == 0:
             continue
         d, f, s, inside = _feet(echoes.xy[near], p, cl)
