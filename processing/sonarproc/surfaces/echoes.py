@@ -40,7 +40,9 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from sonarproc.surfaces.extract import SurfaceCells
+from sonarproc.surfaces.merge import merge_collinear
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.occlusion import contradicted
 from sonarproc.surfaces.polylines import resample
 
 __all__ = ["MIN_ECHOES", "ROUNDS_M", "EchoGeometry", "echo_points", "refine_fits"]
@@ -223,8 +225,7 @@ def echo_points(
         dist = np.hypot(*to_c.T)
         spread = np.arcsin(np.minimum(h / np.maximum(dist, 1e-12), 1.0))
         off_c = np.abs(
-            (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[near] + math.pi)
-            % (2 * math.pi)
+            (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[near] + math.pi) % (2 * math.pi)
             - math.pi
         )
         near = near[
@@ -345,14 +346,15 @@ def refine_fits(
     fits, cells : list of SurfaceFit, list of SurfaceCells
         The refitted surfaces (longest first) and their echo points as cells.
     """
-    cur = list(fits)
-    ridge = list(cells)
+    # pieces of one wall cut apart on the ridge share its echoes: join them first
+    cur, ridge = merge_collinear(list(fits), list(cells), cell=cell)
     pts_cells: list[SurfaceCells] = []
+    pts_idx: list[IntArray] = []
     for tol in rounds:
         got = echo_points([f.polyline for f in cur], [f.closed for f in cur], echoes, tol=tol)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
-        pts_cells = []
+        pts_cells, pts_idx = [], []
         for f, rc, (idx, pts, s) in zip(cur, ridge, got, strict=True):
             if idx.size < min_echoes or np.hypot(*np.ptp(pts, axis=0)) < MIN_SPREAD_M:
                 continue
@@ -360,10 +362,22 @@ def refine_fits(
             new = fit_surface(ec, cell=cell)
             if isinstance(new, SurfaceFailure):
                 continue
-            nxt.append(replace(new, arcs=int(idx.size)))
+            # stretched over its ridge before the next round: a fit through echo points
+            # ends at the outermost ones, whose feet would then fall on its ends
+            nxt.append(_extend(replace(new, arcs=int(idx.size)), rc, tol, cell))
             nxt_ridge.append(rc)
             pts_cells.append(ec)
+            pts_idx.append(idx)
         cur, ridge = nxt, nxt_ridge
-    out = [_extend(f, rc, rounds[-1], cell) for f, rc in zip(cur, ridge, strict=True)]
+    drop = set(
+        contradicted(
+            [f.polyline for f in cur],
+            [echoes.xy[i] for i in pts_idx],
+            [np.stack((c.x, c.y), axis=1) for c in pts_cells],
+            cell=cell,
+        )
+    )
+    out = [f for i, f in enumerate(cur) if i not in drop]
+    pts_cells = [c for i, c in enumerate(pts_cells) if i not in drop]
     order = sorted(range(len(out)), key=lambda i: -out[i].length_m)
     return [out[i] for i in order], [pts_cells[i] for i in order]

@@ -1,0 +1,156 @@
+"""Sound does not pass through walls: of two surfaces that contradict, the weaker goes.
+
+An echo travelled in a straight line from the sensor to its echo point and back, so no
+surface can stand across that path. When the echo paths of surface ``a`` cross surface
+``b``, one of them is wrong: either ``a`` is a phantom seen through ``b`` (the double
+reflections of a room's corner arrive late and map to points behind the walls), or ``b``
+is a phantom standing in free space that the sound crossed. Where at least
+:data:`MIN_CROSSINGS` paths of one surface cross another, the surface with fewer echoes
+is dropped; the strongest contradictions are settled first. A path's last
+:data:`END_MARGIN_M` are not tested, so that surfaces meeting at a corner do not
+contradict each other. A surface's ends are uncertain (a fit is stretched over its ridge
+by up to :data:`~sonarproc.surfaces.echoes.MAX_STRETCH_M`): crossings within
+:data:`END_ZONE_M` of its ends do not make it lose, though they still count against the
+surface whose paths they are (a phantom seen through a wall near a corner).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["END_MARGIN_M", "END_ZONE_M", "MIN_CROSSINGS", "contradicted", "segment_crossings"]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Echo paths of one surface that must cross another before the two contradict.
+MIN_CROSSINGS = 3
+#: The end of each echo path (m) left out of the test.
+END_MARGIN_M = 0.15
+#: Crossings this close (m) to a surface's ends do not make it lose.
+END_ZONE_M = 0.30
+#: Echo paths tested against all segments at once, at most (bounds the memory).
+_CHUNK = 4096
+
+
+def _segments(polyline: FloatArray, step: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Segments of a polyline thinned to every ``step``-th vertex (ends kept), and the
+    arc length of each segment's start; a straight polyline is one segment."""
+    p = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
+    chord = p[-1] - p[0]
+    span = float(np.hypot(*chord))
+    if span > 0:
+        dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0]) / span
+        if dev.max() <= 1e-6 * max(span, 1.0):
+            return p[:1], p[-1:], np.zeros(1)
+    keep = np.unique(np.r_[np.arange(0, len(p), max(step, 1)), len(p) - 1])
+    q = p[keep]
+    s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(q, axis=0).T))))
+    return q[:-1], q[1:], s[:-1]
+
+
+def segment_crossings(
+    a0: FloatArray, a1: FloatArray, b0: FloatArray, b1: FloatArray
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray]:
+    """Proper crossings of segments ``a0 a1`` (rows) with ``b0 b1`` (columns).
+
+    Returns the row and column of every crossing and how far along its ``b`` segment
+    (0 to 1) it lies.
+    """
+    da = a1 - a0
+    db = b1 - b0
+
+    def cross(u: FloatArray, v: FloatArray) -> FloatArray:
+        return np.asarray(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0], dtype=np.float64)
+
+    ab = b0[None, :, :] - a0[:, None, :]  # (rows, cols, xy)
+    s1 = np.sign(cross(da[:, None, :], ab))
+    s2 = np.sign(cross(da[:, None, :], ab + db[None, :, :]))
+    s3 = np.sign(cross(db[None, :, :], -ab))
+    s4 = np.sign(cross(db[None, :, :], -ab + da[:, None, :]))
+    rows, cols = np.nonzero((s1 * s2 < 0) & (s3 * s4 < 0))
+    # a0 + t da = b0 + u db  ->  u = cross(a0 - b0, da) / cross(db, da)
+    u = cross(-ab[rows, cols], da[rows]) / cross(db[cols], da[rows])
+    return rows, cols, u
+
+
+def contradicted(
+    polylines: list[FloatArray],
+    sensors: list[FloatArray],
+    points: list[FloatArray],
+    *,
+    cell: float,
+) -> list[int]:
+    """Indices of the surfaces to drop (see the module notes).
+
+    Parameters
+    ----------
+    polylines : list of ndarray, shape (K_i, 2)
+        The surfaces, sampled every cell.
+    sensors, points : list of ndarray, shape (E_i, 2)
+        Each surface's echoes: where each was sensed from and its echo point.
+    cell : float
+        Cell size (m) of the polylines' sampling; curved ones are tested on chords of
+        five samples.
+
+    Returns
+    -------
+    list of int
+        Sorted indices of the surfaces that lose a contradiction.
+
+    Examples
+    --------
+    A wall y = 1 with 30 echoes from below, and a phantom line at y = 1.5 whose five
+    echo paths pass through the wall: the phantom goes.
+
+    >>> x = np.linspace(-1, 1, 201)
+    >>> wall, phantom = np.c_[x, 1 + 0 * x], np.c_[x, 1.5 + 0 * x]
+    >>> xs = np.linspace(-0.9, 0.9, 30); xp = np.linspace(-0.5, 0.5, 5)
+    >>> contradicted([wall, phantom], [np.c_[xs, 0 * xs], np.c_[xp, 0 * xp]],
+    ...              [np.c_[xs, 1 + 0 * xs], np.c_[xp, 1.5 + 0 * xp]], cell=0.01)
+    [1]
+    """
+    m = len(polylines)
+    if m < 2:
+        return []
+    segs = [_segments(p, 5) for p in polylines]
+    b0 = np.concatenate([g[0] for g in segs])
+    b1 = np.concatenate([g[1] for g in segs])
+    s0 = np.concatenate([g[2] for g in segs])
+    owner = np.repeat(np.arange(m), [len(g[0]) for g in segs])
+    total = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polylines])
+    echoes = np.array([len(p) for p in points], dtype=np.int64)
+    cross_any = np.zeros((m, m), dtype=np.int64)  # a's paths crossing b anywhere
+    cross_mid = np.zeros((m, m), dtype=np.int64)  # ... away from b's ends
+    for a in range(m):
+        s = np.asarray(sensors[a], dtype=np.float64).reshape(-1, 2)
+        e = np.asarray(points[a], dtype=np.float64).reshape(-1, 2)
+        if s.size == 0:
+            continue
+        v = e - s
+        length = np.hypot(*v.T)
+        e = s + v * (np.maximum(length - END_MARGIN_M, 0.0) / np.maximum(length, 1e-12))[:, None]
+        for c0 in range(0, len(s), _CHUNK):
+            rows, cols, u = segment_crossings(s[c0 : c0 + _CHUNK], e[c0 : c0 + _CHUNK], b0, b1)
+            crossed = owner[cols]
+            at = s0[cols] + u * np.hypot(*(b1 - b0)[cols].T)
+            mid = (at > END_ZONE_M) & (at < total[crossed] - END_ZONE_M)
+            for counts, sel in ((cross_any, slice(None)), (cross_mid, mid)):
+                # a path counts once per surface it crosses
+                pairs = np.unique(rows[sel] * m + crossed[sel])
+                np.add.at(counts[a], pairs % m, 1)
+    np.fill_diagonal(cross_any, 0)
+    np.fill_diagonal(cross_mid, 0)
+    # the pair's loser is the surface with fewer echoes; a crossed surface loses only to
+    # crossings away from its ends
+    a_loses = echoes[:, None] < echoes[None, :]
+    strength = np.where(a_loses, cross_any, cross_mid)
+    dropped: set[int] = set()
+    for flat in np.argsort(-strength, axis=None, kind="stable"):
+        owner_i, crossed_i = divmod(int(flat), m)
+        if strength[owner_i, crossed_i] < MIN_CROSSINGS:
+            break
+        if owner_i in dropped or crossed_i in dropped:
+            continue
+        dropped.add(owner_i if bool(a_loses[owner_i, crossed_i]) else crossed_i)
+    return sorted(dropped)
