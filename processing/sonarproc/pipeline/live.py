@@ -33,7 +33,7 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.arcmap import count_map
 from sonarproc.pipeline.mapping import MethodMap, evaluate_map
 from sonarproc.pipeline.result import RunResult
-from sonarproc.pipeline.selection import make_grid, select_readings
+from sonarproc.pipeline.selection import make_grid, select_beams, select_readings
 
 __all__ = ["LiveAccumulator"]
 
@@ -227,7 +227,8 @@ class LiveAccumulator:
         grid, counts_map = cm
         p = self.params
         lg = replace(self._template, readings=self.readings)
-        readings, counts = select_readings(lg, drop_crosstalk=p.drop_crosstalk)
+        # the readings themselves too: surfaces are refitted through their echo points
+        beams, counts = select_beams(lg, p)
         t_morph = time.perf_counter()
         processed = apply_chain(counts_map, self._ops)
         t_fit = time.perf_counter()
@@ -236,9 +237,10 @@ class LiveAccumulator:
             p,
             grid,
             MethodMap(processed, counts_map),
-            robot_xy=np.column_stack((readings["x"], readings["y"])).astype(np.float64),
+            robot_xy=beams.robot_xy,
             counts=counts,
             cpu_start=cpu0,
+            beams=beams,
         )
         result.t_cpu_s += self._cpu
         result.timings_s = {

@@ -93,6 +93,17 @@ def test_snapshot_equals_process_for_every_method(
     assert_equal_results(snap, process(lg, params))
 
 
+def test_snapshot_finds_the_surfaces_a_batch_run_finds(tmp_path: Path) -> None:
+    simulate_to_log(SCENARIOS / "corridor-l.yaml", tmp_path / "corridor.h5")
+    lg = read_log(tmp_path / "corridor.h5")
+    params = RunParams(fit="auto", ops="thinning:3")
+    snap = feed(lg, params, seed=2).snapshot()
+    batch = process(lg, params)
+    assert snap is not None and snap.surfaces is not None and batch.surfaces is not None
+    assert len(batch.surfaces.surfaces) >= 4
+    assert snap.surfaces.to_json() == batch.surfaces.to_json()
+
+
 def test_snapshots_along_the_way_equal_batch_on_the_prefix(logs: dict[str, SonarLog]) -> None:
     lg = logs["fig12"]
     acc = LiveAccumulator(lg, RunParams())
