@@ -63,11 +63,12 @@ def segment_crossings(
     def cross(u: FloatArray, v: FloatArray) -> FloatArray:
         return np.asarray(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0], dtype=np.float64)
 
+    # direct differences, so that touching ends give orientations of exactly 0
     ab = b0[None, :, :] - a0[:, None, :]  # (rows, cols, xy)
     s1 = np.sign(cross(da[:, None, :], ab))
-    s2 = np.sign(cross(da[:, None, :], ab + db[None, :, :]))
-    s3 = np.sign(cross(db[None, :, :], -ab))
-    s4 = np.sign(cross(db[None, :, :], -ab + da[:, None, :]))
+    s2 = np.sign(cross(da[:, None, :], b1[None, :, :] - a0[:, None, :]))
+    s3 = np.sign(cross(db[None, :, :], a0[:, None, :] - b0[None, :, :]))
+    s4 = np.sign(cross(db[None, :, :], a1[:, None, :] - b0[None, :, :]))
     rows, cols = np.nonzero((s1 * s2 < 0) & (s3 * s4 < 0))
     # a0 + t da = b0 + u db  ->  u = cross(a0 - b0, da) / cross(db, da)
     u = cross(-ab[rows, cols], da[rows]) / cross(db[cols], da[rows])

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from sonarproc.surfaces.extract import SurfaceCells
@@ -106,7 +106,8 @@ coords = st.floats(-5.0, 5.0, allow_nan=False).map(lambda v: round(v, 3))
 segments = st.lists(st.tuples(coords, coords, coords, coords), min_size=1, max_size=6)
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=300, deadline=None)
+@example([(1.004, 0.0, 0.0, 1.0)], [(-3.0, 0.0, 0.0, 1.0)])  # touching ends do not cross
 @given(segments, segments)
 def test_crossings_agree_with_the_orientation_test(
     a: list[tuple[float, ...]], b: list[tuple[float, ...]]

@@ -1,0 +1,13 @@
+"""Suite-wide settings: property tests draw the same examples on every run and machine."""
+
+from __future__ import annotations
+
+import os
+
+from hypothesis import settings
+
+# Seeded like every other random draw in the suite: a failure found once is found again,
+# and a run never depends on an example database left by an earlier one.
+settings.register_profile("repeatable", derandomize=True, database=None)
+settings.register_profile("explore", derandomize=False, max_examples=1000)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
