@@ -84,7 +84,9 @@ def test_simulate_variant_own_and_all(tmp_path: Path) -> None:
 
 def test_run_own_echo_one_draw(tmp_path: Path) -> None:
     runs = run_own_echo(SCENARIOS, tmp_path, cell=0.02, draws=(None,), repeats=1,
-                        only=["fig10b"])  # fmt: skip
+                        only=["fig10b"], reports=tmp_path / "rep")  # fmt: skip
+    assert (tmp_path / "rep" / "fig10b-own" / "arcmap.png").stat().st_size > 0
+    assert (tmp_path / "rep" / "fig10b-all" / "report.json").is_file()
     assert [(r.scenario, r.pairs) for r in runs] == [("fig10b", "own"), ("fig10b", "all")]
     own, every = runs
     assert own.arcs == own.outcome.readings < every.arcs == every.outcome.readings

@@ -155,9 +155,13 @@ def _echo_text(scenario: Path) -> str:
 
 def run_multi_surface(
     scenario_dir: Path, tmp: Path, *, cell: float = 0.01, ring: bool = True,
-    only: Sequence[str] | None = None,
+    only: Sequence[str] | None = None, reports: Path | None = None,
 ) -> tuple[list[SurfaceRow], list[str]]:  # fmt: skip
-    """Every scenario of :data:`SCENARIOS` (and the ring log): rows and their echo models."""
+    """Every scenario of :data:`SCENARIOS` (and the ring log): rows and their echo models.
+
+    ``reports``: also write each run's report to ``reports/NAME`` (``reports/ring-log``).
+    """
+    from sonarproc.report import write_report
     from sonarproc.simulate import simulate_to_log
 
     params = RunParams(cell=cell, fit="auto")
@@ -169,8 +173,10 @@ def run_multi_surface(
             continue
         logpath = tmp / f"{name}-surfaces.h5"
         summary = simulate_to_log(scenario, logpath)
-        rows.append(SurfaceRow.of(name, f"scenario, seed {summary.seed}",
-                                  run_file(logpath, params)))  # fmt: skip
+        result = run_file(logpath, params)
+        rows.append(SurfaceRow.of(name, f"scenario, seed {summary.seed}", result))
+        if reports is not None:
+            write_report(result, reports / name)
         echoes.append(_echo_text(scenario))
     if ring:
         logpath = tmp / "ring.h5"
@@ -181,6 +187,8 @@ def run_multi_surface(
         rows.append(SurfaceRow.of("ring log", f"sonard, {RING_PLAN}, emulator seed {RING_SEED}",
                                   result))  # fmt: skip
         echoes.append("first echo, up to 2nd-order (emulator)")
+        if reports is not None:
+            write_report(result, reports / "ring-log")
     return rows, echoes
 
 

@@ -124,8 +124,13 @@ def run_own_echo(
     draws: Sequence[int | None] = DRAWS,
     repeats: int = REPEATS,
     only: Sequence[str] | None = None,
+    reports: Path | None = None,
 ) -> list[VariantRun]:
-    """Both variants of every scenario of :data:`PAPER_TIMING` (or of those in ``only``)."""
+    """Both variants of every scenario of :data:`PAPER_TIMING` (or of those in ``only``).
+
+    ``reports``: also write the report (maps, fit) of each variant's shipped draw to
+    ``reports/SCENARIO-own`` and ``reports/SCENARIO-all``.
+    """
     out: list[VariantRun] = []
     for timing in PAPER_TIMING:
         scenario = scenario_dir / f"{timing.scenario}.yaml"
@@ -148,6 +153,10 @@ def run_own_echo(
                     span = run_file(logpath, replace(params, span="points"))
                     outcome = replace(Outcome.of(r, span), t_cpu_s=times[-1])
                     map_cells = int(r.counts["map_cells_set"])
+                    if reports is not None:
+                        from sonarproc.report import write_report
+
+                        write_report(r, reports / f"{timing.scenario}-{pairs}")
             if outcome is None:
                 raise ValueError("draws must hold None, the scenario's own seed")
             out.append(
@@ -303,17 +312,18 @@ def _verdict(by: dict[tuple[str, str], VariantRun]) -> list[str]:
         f"pair arcs like N² (×{expected['all']:.2f}). Our {len(DRAWS)} seeded draws of the "
         f"same scenes give ×{arc['own']:.2f} (slope "
         f"{math.log(arc['own']) / math.log(n_ratio):.2f} against N) and ×{arc['all']:.2f} "
-        f"(slope {math.log(arc['all']) / math.log(n_ratio):.2f}): tens of arcs per draw "
-        "make these ratios noisy. If t_CPU = a + b × arcs (a: reading, allocating and "
-        "writing the map, which the paper says took most of its CPU time), the fixed "
+        f"(slope {math.log(arc['all']) / math.log(n_ratio):.2f}); each draw places the sensors "
+        "anew and own echoes give only tens of arcs, so these ratios are noisy. If "
+        "t_CPU = a + b × arcs (a: what does not depend on the "
+        "data, such as allocating the map and writing it to disk; Sec. 4.3 says file "
+        "operations and allocation took most of the paper's CPU time), the fixed "
         f"share a of Fig. 11a's t_CPU that gives ×{r_t:.2f} is, with the expected ratios "
         f"/ our draws' ratios: own echoes {need('own', expected['own'])} / "
         f"{need('own', arc['own'])}, every pair {need('all', expected['all'])} / "
         f"{need('all', arc['all'])}. Own echoes fit the paper with t_CPU (nearly) "
         "proportional to the arcs; every pair fits only if most of the time did not depend "
-        "on the data. Table 1 does show a large fixed part (1.09-1.15 s for every n of "
-        "thinning), but that is the time besides the morphology on one map; it does not "
-        "say how drawing the arcs scales.",
+        "on the data. Table 1 shows that thinning itself costs little (t_CPU 1.09-1.15 s "
+        "for every n on one map); it does not say how the rest scales with the arcs.",
         "",
         f"**Fig. 12 fits neither.** 400 sensors (×4 sensors, ×16 pairs of Fig. 11a) took "
         f"×{t2.t_cpu_s / t0.t_cpu_s:.2f} the time, while our arcs grow ×{arc12['own']:.1f} "
@@ -339,7 +349,7 @@ def _verdict(by: dict[tuple[str, str], VariantRun]) -> list[str]:
         "clean comparison (Figs. 11a/11b: same scene, two sensor counts) grows exactly "
         f"with N; every pair would need a fixed cost of about "
         f"{100 * _fixed_share(expected['all'], r_t):.0f} % of the run, which the paper does "
-        "not rule out (it says file operations and allocation took most of the time). So "
+        "not rule out (Sec. 4.3: file operations and allocation took most of the time). So "
         "the timing favours own echoes but does not prove it; the errors agree. The paper "
         "never says which pairs listened in Sec. 3.3.3 "
         "(Secs. 2 and 3.3.1 describe the ellipses of pairs for arrays in general).",
@@ -364,7 +374,8 @@ def own_echo_section(runs: Sequence[VariantRun]) -> list[str]:
         f"of the random array (the scenario's seed, then {others}), "
         f"each log run {REPEATS} times with the paper's n and m (our t_CPU: the median, in "
         "ms; arcs, arc cells and t_CPU: means over the draws; e, f_c and E1: the "
-        "scenario's own draw).",
+        "scenario's own draw). `./scripts/reproduce --reports DIR` keeps the maps of both "
+        "variants (`DIR/fig10b-own/arcmap.png`, `DIR/fig10b-all/`, ...).",
         "",
         *_paper_table(),
         "",

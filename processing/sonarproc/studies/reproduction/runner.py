@@ -92,11 +92,11 @@ def reproduce(
                         sampled_t1.append(SampledRow(p.figure, p, o, outs))
         if progress is not None:
             progress("own echo", total - 2, total)
-        own_echo = run_own_echo(scenario_dir, tmp, cell=cell, only=only)
+        own_echo = run_own_echo(scenario_dir, tmp, cell=cell, only=only, reports=reports)
         if progress is not None:
             progress("surfaces", total - 1, total)
         surfaces, echoes = run_multi_surface(
-            scenario_dir, tmp, cell=cell, ring=ring and not only, only=only
+            scenario_dir, tmp, cell=cell, ring=ring and not only, only=only, reports=reports
         )
     return render_markdown(
         rows, tables, cell=cell, auto=autos, discussion=DISCUSSION, sampled=sampled,
