@@ -31,7 +31,7 @@ SCENARIOS = shipped_dir("scenarios")
 
 def _variant(name: str, pairs: str, sensors: int, arcs: float, e: float) -> VariantRun:
     o = Outcome(e, 0.9, 10 * e, e, 0.01, int(arcs), True, 5.0)
-    return VariantRun(name, pairs, sensors, o, 1000, arcs, 100 * arcs, 0.01)
+    return VariantRun(name, pairs, sensors, o, 1000, arcs, 100 * arcs, 0.01, 1e-5 * arcs)
 
 
 def _runs(own: tuple[float, ...], every: tuple[float, ...]) -> list[VariantRun]:
@@ -60,6 +60,7 @@ def test_own_echo_section_ratios_and_verdict() -> None:
     # fixed share for t = a + b arcs to grow x1.49: (1.5-1.49)/0.5 = 2 %, (2.25-1.49)/1.25 = 61 %
     assert "own echoes 2 % / 2 %, every pair 61 % / 61 %" in text
     # e and E1 nearer with own echoes on all three figures, f_c a tie
+    assert "grows ×1.50 (own) and ×2.25 (all), the arc cells it draws ×1.50 and ×2.25" in text
     assert "own echoes come nearer on 6 and every pair on 0" in text
     assert "| 30 / 700 | 0.296 / 0.200 / 0.900 |" in text
 
@@ -112,6 +113,8 @@ def test_multi_surface_section() -> None:
     assert "| ring log | sonard | e | 726 / 1781 | surfaces | 39 | 31.60 | 0.730 | no |" in text
     assert "| — | — | no |" in text
     assert multi_surface_section([], []) == []
+    other = "\n".join(multi_surface_section(rows[:1], ["every echo, max_order 2"]))
+    assert "max_order: 1" not in other and "the echo models of the column *echoes*" in other
 
 
 def test_world_truth_holds_every_surface() -> None:

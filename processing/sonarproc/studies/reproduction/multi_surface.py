@@ -30,7 +30,9 @@ from sonarproc.studies.reproduction.outcome import fmt, table_row
 
 __all__ = [
     "COMPLETENESS_TARGET",
+    "FIRST_ORDER",
     "PRECISION_TARGET_M",
+    "RING_NAME",
     "RING_PLAN",
     "RING_SEED",
     "RING_WORLD",
@@ -51,6 +53,10 @@ PRECISION_TARGET_M = 0.03
 #: ... and this fraction of the truth the sonars saw must lie within 5 cm of a surface.
 COMPLETENESS_TARGET = 0.8
 RING_PLAN = "wallfollow-ring"
+#: The ring log's name in the table.
+RING_NAME = "ring log"
+#: The echo model of a scenario with ``first_echo_only: true`` and ``max_order: 1``.
+FIRST_ORDER = "first echo, max_order 1"
 RING_WORLD = "lab"
 #: Seed of the emulator (``nomad://?seed=``): its fault generators; fast mode is virtual time.
 RING_SEED = 0
@@ -184,7 +190,7 @@ def run_multi_surface(
         cpu0 = time.process_time()
         lg = load_log(logpath)
         result = process(replace(lg, truth=world_truth(RING_WORLD)), params, cpu_start=cpu0)
-        rows.append(SurfaceRow.of("ring log", f"sonard, {RING_PLAN}, emulator seed {RING_SEED}",
+        rows.append(SurfaceRow.of(RING_NAME, f"sonard, {RING_PLAN}, emulator seed {RING_SEED}",
                                   result))  # fmt: skip
         echoes.append("first echo, up to 2nd-order (emulator)")
         if reports is not None:
@@ -197,6 +203,14 @@ def multi_surface_section(rows: Sequence[SurfaceRow], echoes: Sequence[str]) -> 
     if not rows:
         return []
     met = sum(r.met for r in rows)
+    simulated = {e for r, e in zip(rows, echoes, strict=True) if r.name != RING_NAME}
+    if simulated <= {FIRST_ORDER}:
+        echo_text = (
+            "use `max_order: 1`: first echoes only, no multiple reflections (no corner "
+            "double bounce)."
+        )
+    else:
+        echo_text = "use the echo models of the column *echoes*."
     lines = [
         "",
         "## Multi-surface scenes with the default `sonarproc run`",
@@ -205,9 +219,8 @@ def multi_surface_section(rows: Sequence[SurfaceRow], echoes: Sequence[str]) -> 
         "with `sonarproc run LOG` and nothing else (1 cm cells, `thinning:3`, `--fit "
         "auto`: the paper's polynomial where the kept cells are one curve y = f(x), else "
         "a line, arc or spline per surface). The shipped scenarios `corridor-l`, "
-        "`room-box` and `hall-pillar` are simulated with their own seeds and use "
-        "`max_order: 1`: first echoes only, no multiple reflections (no corner double "
-        "bounce). The ring log is recorded by a real `sonard` process driving the "
+        f"`room-box` and `hall-pillar` are simulated with their own seeds and {echo_text} "
+        "The ring log is recorded by a real `sonard` process driving the "
         f"`{RING_PLAN}` plan with all 16 sonars through the emulated lab "
         f"(`{ring_url()}`; the emulator's echoes include corners' second-order "
         "reflections); its truth is every surface of the lab world, the room's walls "
@@ -222,7 +235,7 @@ def multi_surface_section(rows: Sequence[SurfaceRow], echoes: Sequence[str]) -> 
     ]
     for r, echo in zip(rows, echoes, strict=True):
         lines.append(table_row([
-            f"`{r.name}`" if r.name != "ring log" else r.name, r.description, echo,
+            f"`{r.name}`" if r.name != RING_NAME else r.name, r.description, echo,
             f"{r.readings_used} / {r.readings_total}", r.choice, str(r.surfaces),
             fmt(None if r.precision_m is None else 100 * r.precision_m, 2),
             fmt(r.completeness, 3), "yes" if r.met else "no", f"{r.t_cpu_s:.2f}",
