@@ -10,6 +10,7 @@ import pytest
 from sonarlog import read_log
 from sonarproc.studies.reproduce import main
 from sonarproc.studies.reproduction.multi_surface import (
+    FIRST_ORDER,
     RingLogError,
     SurfaceRow,
     multi_surface_section,
@@ -103,7 +104,7 @@ def test_multi_surface_section() -> None:
         SurfaceRow("empty", "scenario", 0, 10, 0, "surfaces", None, None, 0.1),
     ]
     assert [r.met for r in rows] == [True, False, False]
-    text = "\n".join(multi_surface_section(rows, ["first echo, max_order 1", "e", "e"]))
+    text = "\n".join(multi_surface_section(rows, [FIRST_ORDER, "e", FIRST_ORDER]))
     assert "`max_order: 1`: first echoes only, no multiple reflections" in text
     assert "precision <= 3 cm and completeness >= 0.8; met by 1 of 3" in text
     assert (
@@ -111,7 +112,10 @@ def test_multi_surface_section() -> None:
         "| 10 | 1.27 | 0.990 | yes | 1.00 |" in text
     )
     assert "| ring log | sonard | e | 726 / 1781 | surfaces | 39 | 31.60 | 0.730 | no |" in text
-    assert "| — | — | no |" in text
+    assert (
+        "| `empty` | scenario | first echo, max_order 1 | 0 / 10 | surfaces | 0 | — | — | no |"
+        in text
+    )
     assert multi_surface_section([], []) == []
     other = "\n".join(multi_surface_section(rows[:1], ["every echo, max_order 2"]))
     assert "max_order: 1" not in other and "the echo models of the column *echoes*" in other
