@@ -61,7 +61,7 @@ def test_own_echo_section_ratios_and_verdict() -> None:
     # fixed share for t = a + b arcs to grow x1.49: (1.5-1.49)/0.5 = 2 %, (2.25-1.49)/1.25 = 61 %
     assert "own echoes 2 % / 2 %, every pair 61 % / 61 %" in text
     # e and E1 nearer with own echoes on all three figures, f_c a tie
-    assert "wall time) ×1.50 and ×2.25, the arc cells it draws ×1.50 and ×2.25" in text
+    assert "machine) ×1.50 and ×2.25, the arc cells it draws ×1.50 and ×2.25." in text
     assert "own echoes come nearer on 6 and every pair on 0" in text
     assert "| 30 / 700 | 0.296 / 0.200 / 0.900 |" in text
 

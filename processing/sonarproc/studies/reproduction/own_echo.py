@@ -344,10 +344,10 @@ def _verdict(by: dict[tuple[str, str], VariantRun]) -> list[str]:
         "**Our own timings measure our code, not the paper's.** From fig10b to fig10c our "
         f"t_CPU (milliseconds, much of it fixed: reading the log, planning the grid) grows "
         f"×{ours['own']:.2f} (own) and ×{ours['all']:.2f} (all); the time we spend drawing "
-        f"the arcs (*our drawing*, wall time) ×{draw['own']:.2f} and ×{draw['all']:.2f}, "
-        f"the arc cells it draws ×{cells['own']:.2f} and ×{cells['all']:.2f}. So in a "
-        "program whose cost follows the arcs, every pair grows faster than the sensors; "
-        "how much of the paper's C program's cost was fixed, our timings cannot say. The "
+        f"the arcs (*our drawing*, wall time, noisy on a shared machine) "
+        f"×{draw['own']:.2f} and ×{draw['all']:.2f}, the arc cells it draws "
+        f"×{cells['own']:.2f} and ×{cells['all']:.2f}. How much of the paper's C "
+        "program's cost was fixed, our timings cannot say; the "
         "arc counts and arc cells are the machine-independent measure of the work.",
         "",
         f"**The errors point the same way, but neither variant reproduces the paper.** Of "
