@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sonarproc.methods import make_method
+from sonarproc.methods import DEFAULT_METHODS, make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
@@ -48,18 +48,8 @@ END = "<!-- methods-table:end -->"
 
 Rows = dict[str, list[dict[str, object]]]
 
-#: The table's columns: every registered method (``compare``'s default set, then
-#: Barshan's directional methods).
-TABLE_METHODS = (
-    "morphological",
-    "arc-vote",
-    "directional-max",
-    "arc-median",
-    "triangulation",
-    "line-of-sight",
-    "histogram",
-    "occupancy",
-)
+#: The table's columns: every method ``compare`` runs by default.
+TABLE_METHODS = DEFAULT_METHODS
 
 _METRICS = (
     (
