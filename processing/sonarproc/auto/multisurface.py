@@ -23,11 +23,13 @@ __all__ = ["fitted_surfaces", "surfaces_path"]
 FloatArray = npt.NDArray[np.float64]
 
 
-def fitted_surfaces(mmap: MethodMap, grid: Grid) -> list[FloatArray] | None:
-    """The polylines ``fit = "auto"`` fits to ``mmap``; None where it finds one function of x."""
+def fitted_surfaces(mmap: MethodMap, grid: Grid, beams: Beams) -> list[FloatArray] | None:
+    """The polylines ``fit = "auto"`` fits to ``mmap`` and refits through the echo points of
+    ``beams`` (the readings ``mmap`` was built from); None where it finds one function of x.
+    """
     from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
-    found = choose_fit(mmap.processed, mmap.evidence, grid)
+    found = choose_fit(mmap.processed, mmap.evidence, grid, beams)
     if found.surfaces is None:
         return None
     return [np.asarray(p, dtype=np.float64) for p in found.surfaces.polylines() if len(p) >= 2]

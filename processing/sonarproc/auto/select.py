@@ -301,7 +301,7 @@ def _fold_scores(
             continue
         mmap, bins, px, py = entry
         if c.family == "surfaces":
-            _score_surfaces(s, mmap, grid, beams, held, measured, cap, step)
+            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step)
         else:
             _score_profiles(s, bins, px, py, grid, beams, held, measured, cap, implied)
         if key not in baselines:
@@ -370,6 +370,7 @@ def _score_surfaces(
     mmap: MethodMap,
     grid: Grid,
     beams: Beams,
+    train: Beams,
     held: npt.NDArray[np.intp],
     measured: FloatArray,
     cap: float,
@@ -380,7 +381,7 @@ def _score_surfaces(
     if grid.nx * grid.ny > SURFACES_MAX_CELLS:
         s.too_large = grid.nx * grid.ny
         return
-    lines = fitted_surfaces(mmap, grid)
+    lines = fitted_surfaces(mmap, grid, train)
     if lines is None:
         s.function_folds += 1
         s.losses.setdefault(setting, []).append(np.full(held.size, cap))
@@ -473,7 +474,7 @@ def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult
     params = method.params_for(c.params(base, setting, lam=lam))
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
-        empty_message=f"{log_.path}: the method left nothing on the map",
+        empty_message=f"{log_.path}: the method left nothing on the map", beams=beams,
     )  # fmt: skip
     return MethodResult(method.name, dict(method.options), result, mmap.probability)
 

@@ -92,7 +92,7 @@ def candidate_errors(log_: SonarLog, base: RunParams) -> dict[str, float]:
             params = method.params_for(c.params(base, setting, lam=lam))
             r = evaluate_map(
                 log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
-                cpu_start=time.process_time(),
+                cpu_start=time.process_time(), beams=beams,
             )  # fmt: skip
             if c.family == "surfaces" and (r.surfaces is None or not r.surfaces.surfaces):
                 continue  # one function of x: the y(x) candidates cover it
