@@ -380,7 +380,10 @@ def test_garbage_and_unplug(tmp_path: Path) -> None:
     r = log.readings
     assert (r["t"] < t_fault).sum() > 10 and (r["t"] > t_back).sum() > 10
     trace = load_trace(trace_path)
-    assert_poses_match_truth(log, trace, moving_tol=0.03)
+    # Without attachments a reading's time is inferred from its poll, and the match above
+    # accepts a firing within 0.25 s of it: at 0.2 m/s that is 5 cm (typically 1.5 cm is
+    # seen; a loaded machine delays the polls, and 3 cm has been seen).
+    assert_poses_match_truth(log, trace, moving_tol=0.2 * 0.25)
     assert np.isclose(r["x"].max(), -0.55, atol=0.003)  # the translation finished
     assert commands(trace)[-1]["cmd"] == "ST"
 
