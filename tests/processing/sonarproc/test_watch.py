@@ -21,22 +21,40 @@ from sonarproc.simulate import simulate_to_log
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
 
 # Copies a finished log's readings into a new log in CHUNKS appends over ~DURATION s,
-# flushing often, then closes it (or, with HOLD, keeps it open until killed).
+# flushing often, then closes it (or, with HOLD, keeps it open until killed). With a
+# REPORT path it waits, after the first chunk and after half of them, until watch has
+# published that many updates there: a loaded machine may start watch after a fast
+# writer has finished, and the test is about a log that grows while it is watched.
 WRITER = textwrap.dedent(
     """
-    import sys, time
+    import json, os, sys, time
     import numpy as np
     from sonarlog import LogWriter, read_log
     src, dst, chunks, duration, hold = sys.argv[1], sys.argv[2], int(sys.argv[3]), \\
         float(sys.argv[4]), sys.argv[5] == "1"
+    report = sys.argv[6] if len(sys.argv) > 6 else None
+
+    def wait_for_updates(n, timeout=30.0):
+        end = time.monotonic() + timeout
+        while report and time.monotonic() < end:
+            try:
+                with open(report, encoding="utf-8") as f:
+                    if json.load(f)["live"]["updates"] >= n:
+                        return
+            except (OSError, ValueError, KeyError):
+                pass
+            time.sleep(0.02)
+
     lg = read_log(src)
     w = LogWriter(dst, lg.sensors, speed_of_sound=lg.speed_of_sound, truth=lg.truth,
                   flush_interval=0.1)
     w.flush()
     print("ready", flush=True)
-    for part in np.array_split(lg.readings, chunks):
+    for i, part in enumerate(np.array_split(lg.readings, chunks)):
         w.append(part)
         w.flush()
+        if i in (0, chunks // 2):
+            wait_for_updates(1 if i == 0 else 2)
         time.sleep(duration / chunks)
     if hold:
         print("holding", flush=True)
@@ -55,9 +73,13 @@ def source_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def start_writer(src: Path, dst: Path, *, hold: bool = False) -> subprocess.Popen[str]:
+def start_writer(
+    src: Path, dst: Path, *, hold: bool = False, report: Path | None = None
+) -> subprocess.Popen[str]:
+    args = [str(src), str(dst), "12", "2.0", "1" if hold else "0"]
+    args += [str(report)] if report is not None else []
     proc = subprocess.Popen(
-        [sys.executable, "-c", WRITER, str(src), str(dst), "12", "2.0", "1" if hold else "0"],
+        [sys.executable, "-c", WRITER, *args],
         stdout=subprocess.PIPE,
         text=True,
     )
@@ -119,7 +141,7 @@ def test_watch_follows_a_live_writer_until_it_closes(
     source_log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     live_log, out = tmp_path / "live.h5", tmp_path / "live_report"
-    writer = start_writer(source_log, live_log)
+    writer = start_writer(source_log, live_log, report=out / "report.json")
     watch = start_watch(live_log, out, "--interval", "0.2", "--idle", "0.6")
     try:
         seen, reads, pages = poll_reports(out, watch, timeout=30)
