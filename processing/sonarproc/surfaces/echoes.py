@@ -22,9 +22,13 @@ surface is refitted (:func:`~sonarproc.surfaces.models.fit_surface`, same criter
 through its echo points, twice, with the tolerances of :data:`ROUNDS_M`; a surface that
 fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
 :data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point).
-A refitted line or open arc spans its echo points and the ridge cells within the last
-tolerance of it (the ridge sees the surface further than the perpendiculars reach), by
-at most :data:`MAX_STRETCH_M` at each end.
+After every round a refitted line or open arc is stretched over the ridge cells within
+that round's tolerance of it (the ridge sees the surface further than the perpendiculars
+reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
+its ends in the next round), by at most :data:`MAX_STRETCH_M` at each end. Before the
+first round the pieces of one wall are joined (:mod:`sonarproc.surfaces.merge`); after
+the last, of two surfaces that contradict each other the weaker goes
+(:mod:`sonarproc.surfaces.occlusion`).
 
 Bistatic readings are taken at the midpoint of transmitter and receiver with the
 ellipse's half minor axis as the range (exact for a surface parallel to the baseline).
