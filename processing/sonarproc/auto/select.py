@@ -1,10 +1,10 @@
 """``--auto``: score every candidate on held-out firings, run the best on the whole log.
 
 :func:`choose` scores :data:`~sonarproc.auto.candidates.CANDIDATES` by the held-out range
-residual (:mod:`sonarproc.auto.holdout`) and applies two guard rails: a candidate whose
-fit leaves its points' local hull by more than :data:`HULL_CELLS` cells (in any fold),
-or whose residual is worse than a constant's or a straight line's fitted to the same
-points, is never chosen. :func:`run_auto` then runs the winner on every reading (the
+residual (:mod:`sonarproc.auto.holdout`) and applies the guard rails of
+:mod:`sonarproc.auto.score` (a fit that leaves its points' hull, misses most of the
+columns the readings imply, or does no better than a constant or a line, is never
+chosen). :func:`run_auto` then runs the winner on every reading (the
 hull is checked again on that fit; a failure hands over to the runner-up).
 
 Large logs are scored on a random subset of at most ``max_readings`` readings (whole
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -31,6 +30,16 @@ from sonarproc.auto.holdout import (
     subset_beams,
 )
 from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
+from sonarproc.auto.score import (
+    CAP_CELLS,
+    CRITERION,
+    HULL_CELLS,
+    SURFACES_MAX_CELLS,
+    TRIM,
+    AutoChoice,
+    Score,
+    robust_residual,
+)
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import Fit, FitFailure, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
@@ -41,158 +50,18 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import evaluate_map
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["CRITERION", "HULL_CELLS", "AutoChoice", "Score", "choose", "run_auto", "run_candidate"]
+__all__ = ["choose", "run_auto", "run_candidate"]
 
 log = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
-#: A fit may leave its points' local hull by at most this many cells.
-HULL_CELLS = 3.0
-#: A reading's loss is capped at this many cells (or 5 cm, if more).
-CAP_CELLS = 10.0
-#: The residual is the mean of this fraction of the held-out losses, the smallest ones: a
-#: trimmed mean, so echoes off other surfaces and spurious echoes (a quarter of the log at
-#: most) do not decide, and neither do the few readings at the ends of the profile that one
-#: candidate's fit reaches and another's does not.
-TRIM = 0.75
-#: A fit must reach this fraction of the columns the readings imply (the span of their
-#: line-of-sight points, 5th to 95th percentile) in every fold.
-COVERAGE_MIN = 0.5
 #: Logs smaller than this many readings are split into folds again with other seeds (up
 #: to :data:`MAX_REPEATS` times) so that about this many held-out predictions are scored.
 REPEAT_READINGS = 1_200
 MAX_REPEATS = 3
 #: Scoring fits merge adjacent columns down to at most this many (:func:`fit_columns`).
 FIT_COLUMNS = 500
-#: The ``surfaces`` candidate is scored on grids of at most this many cells: its fit
-#: (one surface model per group of cells) grows with the map, and a whole room at 1 cm
-#: would cost ``--auto`` minutes; above it the candidate stands aside, saying so.
-SURFACES_MAX_CELLS = 1_000_000
-#: What report.json says the criterion is.
-CRITERION = (
-    "held-out range residual: firings split into {k} folds; each fold's readings predicted "
-    "(first echo inside the beams, ellipse path for a pair) from the profile fitted to the "
-    "other folds; mean |measured - predicted| range, capped at {cap:.3g} m (also where the "
-    "curve misses the beams); the residual is the mean of the smallest {trim:.0%} of these "
-    "losses; {repeats} repetition(s) of the folds"
-)
-
-
-def robust_residual(losses: npt.NDArray[np.float64], trim: float = TRIM) -> float:
-    """Mean of the smallest ``trim`` fraction of ``losses`` (a trimmed mean).
-
-    Examples
-    --------
-    >>> robust_residual(np.array([0.01, 0.02, 0.03, 0.5]))
-    0.02
-    """
-    if losses.size == 0:
-        return float("inf")
-    k = max(1, int(np.ceil(trim * losses.size)))
-    return float(np.partition(losses, k - 1)[:k].mean())
-
-
-@dataclass
-class Score:
-    """A candidate's held-out residual at each setting, its best, and the guard rails."""
-
-    candidate: Candidate
-    losses: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
-    hull: dict[float, float] = field(default_factory=dict)
-    coverage: dict[float, float] = field(default_factory=dict)
-    base_losses: list[npt.NDArray[np.float64]] = field(default_factory=list)
-    mean_counts: list[float] = field(default_factory=list)
-    setting: float | None = None
-    residual_m: float = np.inf
-    baseline_m: float = np.inf
-    hull_m: float = 0.0
-    coverage_frac: float = 1.0
-    function_folds: int = 0
-    too_large: int = 0
-    excluded: str | None = None
-
-    def finish(self, cell: float) -> None:
-        """Best setting within the hull and coverage; exclusion by the guard rails."""
-        self.excluded = None
-        res = {k: robust_residual(np.concatenate(v)) for k, v in self.losses.items() if v}
-        self.baseline_m = (
-            robust_residual(np.concatenate(self.base_losses)) if self.base_losses else np.inf
-        )
-        inside = {k: r for k, r in res.items() if self.hull.get(k, 0.0) <= HULL_CELLS * cell}
-        covering = {k: r for k, r in inside.items() if self.coverage.get(k, 1.0) >= COVERAGE_MIN}
-        if self.too_large:
-            self.excluded = (
-                f"not scored: the grid has {self.too_large} cells, more than "
-                f"{SURFACES_MAX_CELLS} (--auto's time budget for the surfaces fit)"
-            )
-            return
-        if not res:
-            self.excluded = "the method left nothing on the map"
-            return
-        pool = covering or inside or res
-        self.setting = min(pool, key=lambda k: pool[k])
-        self.residual_m = pool[self.setting]
-        self.hull_m = self.hull.get(self.setting, 0.0)
-        self.coverage_frac = self.coverage.get(self.setting, 1.0)
-        if self.function_folds:
-            self.excluded = "the map is one function of x (the y(x) candidates cover it)"
-        elif not inside:
-            self.excluded = f"every fit leaves its points' hull (by {100 * self.hull_m:.3g} cm)"
-        elif not covering:
-            self.excluded = (
-                f"its fit reaches {self.coverage_frac:.0%} of the columns the readings imply "
-                f"(at least {COVERAGE_MIN:.0%} needed)"
-            )
-        elif self.residual_m > self.baseline_m + 0.25 * cell:
-            self.excluded = (
-                f"worse than a constant or a line on its points ({100 * self.baseline_m:.3g} cm)"
-            )
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready row."""
-        return {
-            "name": self.candidate.name,
-            **self.candidate.describe(self.setting),
-            "residual_m": _finite(self.residual_m),
-            "baseline_residual_m": _finite(self.baseline_m),
-            "coverage": round(self.coverage_frac, 4),
-            "excluded": self.excluded,
-        }
-
-
-def _finite(v: float) -> float | None:
-    return float(v) if np.isfinite(v) else None
-
-
-@dataclass
-class AutoChoice:
-    """The outcome of :func:`choose`: the scores and the criterion."""
-
-    scores: list[Score]
-    criterion: str
-    readings_scored: int
-    folds: int
-    repeats: int = 1
-
-    @property
-    def ranked(self) -> list[Score]:
-        """Eligible candidates, best first (the ones the guard rails excluded last)."""
-        return sorted(self.scores, key=lambda s: (s.excluded is not None, s.residual_m))
-
-    def to_json(self, chosen: Score) -> dict[str, Any]:
-        """The ``auto`` record of report.json."""
-        others = [s.to_json() for s in self.ranked if s is not chosen]
-        return {
-            "criterion": self.criterion,
-            "choice": chosen.candidate.name,
-            **chosen.candidate.describe(chosen.setting),
-            "residual_m": _finite(chosen.residual_m),
-            "folds": self.folds,
-            "repeats": self.repeats,
-            "readings_scored": self.readings_scored,
-            "runners_up": others,
-        }
 
 
 def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[np.bool_]:

@@ -13,7 +13,7 @@ from sonarproc.arcs import arcs_of, rasterize
 from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose
 from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
-from sonarproc.auto.select import COVERAGE_MIN, TRIM, robust_residual
+from sonarproc.auto.score import COVERAGE_MIN, TRIM, robust_residual
 from sonarproc.cli import main
 from sonarproc.methods.testing import flat_wall_beams
 from sonarproc.params import RunParams
