@@ -4,13 +4,16 @@
 run of cells per column (the paper's scenes), it answers "function" without further work
 and the run fits the paper's polynomial. Otherwise it extracts the surfaces
 (:mod:`sonarproc.surfaces`) from the arc count map through the chain that keeps every
-wall (``vote:2``, then the ridge across each wall's own direction), and decides by
-:func:`sonarproc.surfaces.decide`: still one function of x, or several surfaces, each
-fitted with a line, an arc or a spline. Given the readings, each surface is then refitted
-through its readings' specular echo points (:mod:`sonarproc.surfaces.echoes`): the
-crest of the counts lies on the sensors' side of a surface, the echo points on it.
-:func:`measure_surfaces` gives precision and
-completeness against a truth of several surfaces.
+wall (a vote of :data:`SURFACE_VOTES` arcs, then the ridge across each wall's own
+direction), and decides by :func:`sonarproc.surfaces.decide`: still one function of x,
+or several surfaces, each fitted with a line, an arc or a spline. Given the readings,
+each surface is then refitted through its readings' specular echo points
+(:mod:`sonarproc.surfaces.echoes`): the crest of the counts lies on the sensors' side of
+a surface, the echo points on it. As that refit sets the precision, the surfaces are
+then extracted on a map of :data:`EXTRACT_CELL_M` cells (the counts summed over blocks;
+on a 1 cm map, a quarter of the cells and far fewer chance ridges).
+:func:`measure_surfaces` gives precision and completeness against a truth of several
+surfaces.
 """
 
 from __future__ import annotations
@@ -36,7 +39,15 @@ from sonarproc.surfaces import (
     truth_points,
 )
 
-__all__ = ["AutoFit", "choose_fit", "column_spans", "measure_surfaces", "refine_surfaces"]
+__all__ = [
+    "EXTRACT_CELL_M",
+    "AutoFit",
+    "choose_fit",
+    "coarse_counts",
+    "column_spans",
+    "measure_surfaces",
+    "refine_surfaces",
+]
 
 #: One function of x when the kept cells of a median column span at most this (m)...
 MEDIAN_SPAN_M = 0.75
@@ -44,6 +55,34 @@ MEDIAN_SPAN_M = 0.75
 P90_SPAN_M = 1.0
 #: Arc votes a cell needs before the ridge (a cell crossed by one arc is no evidence).
 SURFACE_VOTES = 1
+#: Given the readings, surfaces are extracted on a map of cells about this size (m): the
+#: refit through the echo points, not the map, sets their precision, and a coarser map
+#: has far fewer cells to suppress and far fewer chance ridges to fit.
+EXTRACT_CELL_M = 0.02
+
+
+def coarse_counts(
+    counts: npt.ArrayLike, grid: Grid, cell_m: float
+) -> tuple[npt.NDArray[np.int64], Grid]:
+    """Counts summed over blocks of ``k x k`` cells (``k = round(cell_m / grid.cell)``).
+
+    Examples
+    --------
+    >>> g = Grid(x0=0.0, y0=0.0, cell=0.01, nx=5, ny=4)
+    >>> c, cg = coarse_counts(np.ones((4, 5), int), g, 0.02)
+    >>> c.tolist(), (cg.x0, cg.cell, cg.nx, cg.ny)
+    ([[4, 4, 2], [4, 4, 2]], (0.005, 0.02, 3, 2))
+    """
+    c = np.asarray(counts)
+    k = max(1, round(cell_m / grid.cell))
+    if k == 1:
+        return c.astype(np.int64), grid
+    ny, nx = -(-grid.ny // k), -(-grid.nx // k)
+    padded = np.zeros((ny * k, nx * k), dtype=np.int64)
+    padded[: grid.ny, : grid.nx] = c
+    summed = padded.reshape(ny, k, nx, k).sum(axis=(1, 3))
+    half = 0.5 * (k - 1) * grid.cell
+    return summed, Grid(grid.x0 + half, grid.y0 + half, k * grid.cell, nx, ny)
 
 
 @dataclass(frozen=True)
@@ -114,8 +153,12 @@ def choose_fit(
     )
     if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
         return AutoFit("function", fast, None, spread)
-    kept = ridge_nms(vote(counts > 0, counts, SURFACE_VOTES), counts)
-    found = find_surfaces(kept, grid, counts)
+    if beams is not None:
+        ex_counts, ex_grid = coarse_counts(counts, grid, EXTRACT_CELL_M)
+    else:
+        ex_counts, ex_grid = np.asarray(counts), grid
+    kept = ridge_nms(vote(ex_counts > 0, ex_counts, SURFACE_VOTES), ex_counts)
+    found = find_surfaces(kept, ex_grid, ex_counts)
     decision = decide(found)
     detail = {**spread, **decision.to_json()}
     detail.pop("choice", None)

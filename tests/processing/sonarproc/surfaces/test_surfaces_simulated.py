@@ -118,3 +118,16 @@ def test_corridor_finds_the_walls_either_side_of_the_doorway(
     assert len(spans) >= 2, spans
     # nothing fitted across the doorway (x 1.8 .. 2.7)
     assert all(hi < 1.9 or lo > 2.6 for lo, hi in spans), spans
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_a_default_run_meets_the_targets(tmp_path: Path, name: str) -> None:
+    """`sonarproc run LOG` as a user runs it: surfaces extracted on the coarser map, then
+    refitted through the echoes; at most 3 cm from the truth and at least 0.8 of it."""
+    from sonarproc.params import RunParams
+    from sonarproc.pipeline import process
+
+    res = process(simulate(name, tmp_path), RunParams(fit="auto"))  # the CLI default
+    assert res.surfaces is not None and res.surface_metrics is not None
+    m = res.surface_metrics
+    assert m["precision_m"] <= 0.03 and m["completeness"] >= 0.8, m
