@@ -56,6 +56,9 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Fewest cells a surface needs for any fit.
 MIN_CELLS = 5
+#: Fewest cells (or echo points) a spline is fitted to: through fewer, a smoothing spline
+#: chosen by cross-validation says nothing a line or an arc does not, and costs as much.
+MIN_SPLINE_CELLS = 20
 #: The criterion's constants (see the module docstring).
 SPLINE_FACTOR = 1.25
 CELL_FACTOR = 0.25
@@ -342,7 +345,9 @@ def fit_surface(cells: SurfaceCells, *, cell: float) -> SurfaceFit | SurfaceFail
         length = max(_lengths(arc.polyline), cell)
         if arc.params["radius"] > MAX_RADIUS_PER_LENGTH * length:
             found.pop("arc")
-    if not any(c.rms <= SPLINE_FACTOR * floor + CELL_FACTOR * cell for c in found.values()):
+    if cells.size >= MIN_SPLINE_CELLS and not any(
+        c.rms <= SPLINE_FACTOR * floor + CELL_FACTOR * cell for c in found.values()
+    ):
         got = fit_spline(cells, cell=cell)
         if isinstance(got, SurfaceFailure):
             reasons.append(got.reason)
