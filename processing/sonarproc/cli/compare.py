@@ -89,8 +89,8 @@ def compare_command(
     methods: Annotated[
         str | None,
         typer.Option(
-            help="Comma-separated methods (default: morphological, arc-vote, "
-            "line-of-sight, histogram, occupancy)."
+            help="Comma-separated methods (default: all of morphological, arc-vote, "
+            "directional-max, arc-median, triangulation, line-of-sight, histogram, occupancy)."
         ),
     ] = None,
     out: Annotated[

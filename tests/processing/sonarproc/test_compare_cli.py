@@ -188,3 +188,11 @@ def test_compare_csv_log_without_truth(tmp_path: Path, capsys: pytest.CaptureFix
     with (out / "compare.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert [r["E1_m"] for r in rows] == [""] * len(DEFAULT_METHODS)
+
+
+def test_compare_help_names_every_default_method(capsys: pytest.CaptureFixture[str]) -> None:
+    # the help text is static (importing the methods would slow every command's start)
+    assert main(["compare", "--help"]) == 0
+    help_text = "".join(capsys.readouterr().out.split())
+    for name in DEFAULT_METHODS:
+        assert name in help_text, name
