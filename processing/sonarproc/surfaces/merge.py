@@ -92,18 +92,21 @@ def merge_collinear(
     _, label = connected_components(coo_matrix(join), directed=False)
     out_fits: list[SurfaceFit] = []
     out_cells: list[SurfaceCells] = []
-    merged_into = {line[k]: int(label[k]) for k in range(len(line))}
-    done: set[int] = set()
+    groups: dict[int, list[int]] = {}
+    for k, i in enumerate(line):
+        groups.setdefault(int(label[k]), []).append(i)
+    group_of = {i: g for g, members in groups.items() if len(members) > 1 for i in members}
+    emitted: set[int] = set()
     for i, (f, cc) in enumerate(zip(fits, cells, strict=True)):
-        g = merged_into.get(i)
-        members = [line[k] for k in np.flatnonzero(label == g)] if g is not None else [i]
-        if len(members) == 1:
+        g = group_of.get(i)
+        if g is None:
             out_fits.append(f)
             out_cells.append(cc)
             continue
-        if g in done:
+        if g in emitted:  # the group stands where its first piece stood
             continue
-        done.add(int(g))  # type: ignore[arg-type]
+        emitted.add(g)
+        members = groups[g]
         joined = _pool([cells[m] for m in members], [fits[m] for m in members])
         new = fit_surface(joined, cell=cell)
         if isinstance(new, SurfaceFailure):  # keep the pieces as they were
