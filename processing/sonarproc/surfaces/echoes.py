@@ -43,9 +43,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from sonarproc.surfaces.batchfit import fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.merge import merge_collinear
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.occlusion import contradicted
 from sonarproc.surfaces.polylines import resample
 
@@ -193,9 +194,60 @@ def echo_points(
     ([0], [[0.0, 1.02]])
     """
     n, m = echoes.size, len(polylines)
-    out: list[tuple[IntArray, FloatArray, FloatArray]] = []
-    if m == 0:
-        return out
+    empty = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0))
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    usable = np.array([p.shape[0] >= 2 for p in polys], dtype=bool)
+    if n == 0 or not usable.any():
+        return [empty for _ in range(m)]
+    surf, read = _candidate_pairs(polys, usable, echoes, tol)
+    straight = _straight(polys, usable)
+    d = np.empty(surf.size)
+    foot = np.empty((surf.size, 2))
+    along = np.empty(surf.size)
+    inside = np.empty(surf.size, dtype=bool)
+    line = straight[surf]
+    if line.any():
+        d[line], foot[line], along[line], inside[line] = _feet_on_segments(
+            echoes.xy[read[line]], polys, surf[line]
+        )
+    bounds = np.searchsorted(surf, np.arange(m + 1))
+    for i in np.flatnonzero(usable & ~straight):
+        sel = slice(bounds[i], bounds[i + 1])
+        if bounds[i] < bounds[i + 1]:
+            d[sel], foot[sel], along[sel], inside[sel] = _feet(
+                echoes.xy[read[sel]], polys[i], bool(closed[i])
+            )
+    v = foot - echoes.xy[read]
+    off = np.abs(
+        (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[read] + math.pi) % (2 * math.pi) - math.pi
+    )
+    resid = np.abs(d - echoes.range_m[read])
+    ok = inside & (off <= echoes.half_beam[read]) & (resid <= tol)
+    surf, read, resid, foot, along = surf[ok], read[ok], resid[ok], foot[ok], along[ok]
+    # A first echo comes from one surface: each reading goes to its best match (the
+    # lowest residual; ties to the lower surface index, as the stable sort keeps them).
+    order = np.lexsort((surf, resid, read))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = read[order][1:] != read[order][:-1]
+    best = order[first]
+    surf, read, foot, along = surf[best], read[best], foot[best], along[best]
+    v = foot - echoes.xy[read]
+    unit = v / np.maximum(np.hypot(*v.T), 1e-12)[:, None]
+    pts = echoes.xy[read] + unit * echoes.range_m[read][:, None]
+    o = np.lexsort((read, along, surf))
+    surf, read, pts, along = surf[o], read[o], pts[o], along[o]
+    bounds = np.searchsorted(surf, np.arange(m + 1))
+    return [
+        (read[bounds[i] : bounds[i + 1]], pts[bounds[i] : bounds[i + 1]],
+         along[bounds[i] : bounds[i + 1]])
+        for i in range(m)
+    ]  # fmt: skip
+
+
+def _candidate_pairs(
+    polys: list[FloatArray], usable: npt.NDArray[np.bool_], echoes: EchoGeometry, tol: float
+) -> tuple[IntArray, IntArray]:
+    """(surface, reading) pairs that may echo, sorted by surface (cheap tests only)."""
     # Every point of a reading's arc band lies within ``reach`` of the arc's midpoint, so
     # a surface (a box of half-diagonal h round c) can only echo readings whose midpoint
     # is within h + reach of c: one ball query per surface instead of a test of every
@@ -205,77 +257,93 @@ def echo_points(
     mid = echoes.xy + echoes.range_m[:, None] * np.stack(
         (np.cos(echoes.heading), np.sin(echoes.heading)), axis=1
     )
-    tree = cKDTree(mid) if n else None
-    reach_max = float(reach.max()) if n else 0.0
-    pair_surface: list[IntArray] = []
-    pair_reading: list[IntArray] = []
-    pair_resid: list[FloatArray] = []
-    pair_foot: list[FloatArray] = []
-    pair_s: list[FloatArray] = []
-    for i, (poly, cl) in enumerate(zip(polylines, closed, strict=True)):
-        p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
-        if p.shape[0] < 2 or tree is None:
-            continue
-        lo, hi = p.min(axis=0), p.max(axis=0)
-        c, h = 0.5 * (lo + hi), 0.5 * float(np.hypot(*(hi - lo)))
-        near = np.asarray(tree.query_ball_point(c, h + reach_max), dtype=np.intp)
-        if near.size == 0:
-            continue
-        near = near[np.hypot(*(mid[near] - c).T) <= h + reach[near]]
-        # The surface lies between |s - c| - h and |s - c| + h from a sensor s and within
-        # asin(h / |s - c|) of the direction of c: the foot can only be in range and in
-        # the beam if those intervals meet (cheap; most readings of a big room fail it).
-        to_c = c - echoes.xy[near]
-        dist = np.hypot(*to_c.T)
-        spread = np.arcsin(np.minimum(h / np.maximum(dist, 1e-12), 1.0))
-        off_c = np.abs(
-            (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[near] + math.pi) % (2 * math.pi)
-            - math.pi
-        )
-        near = near[
-            (np.abs(dist - echoes.range_m[near]) <= h + tol)
-            & (off_c <= echoes.half_beam[near] + spread)
-        ]
-        if near.size == 0:
-            continue
-        d, f, s, inside = _feet(echoes.xy[near], p, cl)
-        v = f - echoes.xy[near]
-        off = np.abs(
-            (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[near] + math.pi) % (2 * math.pi)
-            - math.pi
-        )
-        r = np.abs(d - echoes.range_m[near])
-        ok = inside & (off <= echoes.half_beam[near]) & (r <= tol)
-        pair_surface.append(np.full(int(ok.sum()), i, dtype=np.intp))
-        pair_reading.append(near[ok])
-        pair_resid.append(r[ok])
-        pair_foot.append(f[ok])
-        pair_s.append(s[ok])
-    if not pair_reading:
-        return [(np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0)) for _ in range(m)]
-    surf = np.concatenate(pair_surface)
-    read = np.concatenate(pair_reading)
-    resid = np.concatenate(pair_resid)
-    feet = np.concatenate(pair_foot).reshape(-1, 2)
-    svals = np.concatenate(pair_s)
-    # A first echo comes from one surface: each reading goes to its best match (the
-    # lowest residual; ties to the lower surface index, as the stable sort keeps them).
-    order = np.lexsort((surf, resid, read))
-    first = np.ones(order.size, dtype=bool)
-    first[1:] = read[order][1:] != read[order][:-1]
-    best = order[first]
-    surf, read, feet, svals = surf[best], read[best], feet[best], svals[best]
-    by_surface = np.argsort(surf, kind="stable")
-    bounds = np.searchsorted(surf[by_surface], np.arange(m + 1))
-    for i in range(m):
-        sel = by_surface[bounds[i] : bounds[i + 1]]
-        idx = read[sel]
-        v = feet[sel] - echoes.xy[idx]
-        unit = v / np.maximum(np.hypot(*v.T), 1e-12)[:, None]
-        pts = echoes.xy[idx] + unit * echoes.range_m[idx][:, None]
-        o = np.lexsort((idx, svals[sel]))
-        out.append((idx[o], pts[o], svals[sel][o]))
+    idx = np.flatnonzero(usable)
+    lo = np.array([polys[i].min(axis=0) for i in idx]).reshape(-1, 2)
+    hi = np.array([polys[i].max(axis=0) for i in idx]).reshape(-1, 2)
+    c, h = 0.5 * (lo + hi), 0.5 * np.hypot(*(hi - lo).T)
+    k, read = _ball_pairs(c, h, mid, reach)
+    # The surface lies between |s - c| - h and |s - c| + h from a sensor s and within
+    # asin(h / |s - c|) of the direction of c: the foot can only be in range and in the
+    # beam if those intervals meet (cheap; most readings of a big room fail it).
+    to_c = c[k] - echoes.xy[read]
+    dist = np.hypot(*to_c.T)
+    keep = np.abs(dist - echoes.range_m[read]) <= h[k] + tol
+    k, read, to_c, dist = k[keep], read[keep], to_c[keep], dist[keep]
+    spread = np.arcsin(np.minimum(h[k] / np.maximum(dist, 1e-12), 1.0))
+    off_c = np.abs(
+        (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[read] + math.pi) % (2 * math.pi)
+        - math.pi
+    )
+    keep = off_c <= echoes.half_beam[read] + spread
+    surf, read = idx[k[keep]], read[keep]
+    o = np.lexsort((read, surf))
+    return surf[o], read[o]
+
+
+def _ball_pairs(
+    c: FloatArray, h: FloatArray, mid: FloatArray, reach: FloatArray
+) -> tuple[IntArray, IntArray]:
+    """Pairs (surface k, reading j) with ``|mid_j - c_k| <= h_k + reach_j``.
+
+    Surfaces and readings are split into classes of similar size (powers of two of ``h``
+    and of ``reach``), so that each class pair is one radius search between two KD-trees
+    with a radius close to the pairs' own (one radius for all would take every reading
+    within the largest reach of every small surface).
+    """
+
+    def classes(v: FloatArray) -> IntArray:
+        return np.floor(np.log2(np.maximum(v, 0.125) / 0.125)).astype(np.intp)
+
+    hc, rc = classes(h), classes(reach)
+    by_reach = [np.flatnonzero(rc == b) for b in np.unique(rc)]
+    trees = [cKDTree(mid[rj]) for rj in by_reach]
+    ks: list[IntArray] = []
+    js: list[IntArray] = []
+    for a in np.unique(hc):
+        sk = np.flatnonzero(hc == a)
+        tree_s = cKDTree(c[sk])
+        for rj, tree_r in zip(by_reach, trees, strict=True):
+            radius = float(h[sk].max() + reach[rj].max())
+            got = tree_s.sparse_distance_matrix(tree_r, radius, output_type="ndarray")
+            kk, jj = sk[got["i"]], rj[got["j"]]
+            keep = got["v"] <= h[kk] + reach[jj]
+            ks.append(kk[keep])
+            js.append(jj[keep])
+    return np.concatenate(ks), np.concatenate(js)
+
+
+def _straight(polys: list[FloatArray], usable: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
+    """Which polylines are straight (every vertex on the chord, to rounding)."""
+    out = np.zeros(len(polys), dtype=bool)
+    for i in np.flatnonzero(usable):
+        p = polys[i]
+        chord = p[-1] - p[0]
+        span = float(np.hypot(*chord))
+        if span > 0:
+            dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0])
+            out[i] = dev.max() <= 1e-9 * span * max(span, 1.0)
     return out
+
+
+def _feet_on_segments(
+    q: FloatArray, polys: list[FloatArray], surf: IntArray
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """:func:`_feet` of each point ``q[k]`` on the straight polyline ``polys[surf[k]]``."""
+    ids = np.unique(surf)
+    a = np.array([polys[i][0] for i in ids])
+    b = np.array([polys[i][-1] for i in ids])
+    # a vertex this close to an open end counts as the end (as for curved polylines)
+    step = np.array([float(np.median(np.hypot(*np.diff(polys[i], axis=0).T))) for i in ids])
+    k = np.searchsorted(ids, surf)
+    ab = (b - a)[k]
+    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+    t = np.clip(np.einsum("ij,ij->i", q - a[k], ab) / length2, 0.0, 1.0)
+    foot = a[k] + ab * t[:, None]
+    d = np.hypot(*(q - foot).T)
+    length = np.sqrt(length2)
+    along = t * length
+    inside = (along > 0.5 * step[k]) & (along < length - 0.5 * step[k])
+    return d, foot, along, inside
 
 
 def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> SurfaceFit:
@@ -359,19 +427,25 @@ def refine_fits(
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
         pts_cells, pts_idx = [], []
-        for f, rc, (idx, pts, s) in zip(cur, ridge, got, strict=True):
-            if idx.size < min_echoes or np.hypot(*np.ptp(pts, axis=0)) < MIN_SPREAD_M:
-                continue
-            ec = SurfaceCells(pts[:, 0], pts[:, 1], s - s[0], np.ones(idx.size), f.closed)
-            new = fit_surface(ec, cell=cell)
+        todo = [
+            k
+            for k, (idx, pts, _) in enumerate(got)
+            if idx.size >= min_echoes and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
+        ]
+        sets = [
+            SurfaceCells(got[k][1][:, 0], got[k][1][:, 1], got[k][2] - got[k][2][0],
+                         np.ones(got[k][0].size), cur[k].closed)
+            for k in todo
+        ]  # fmt: skip
+        for k, ec, new in zip(todo, sets, fit_surfaces(sets, cell=cell), strict=True):
             if isinstance(new, SurfaceFailure):
                 continue
             # stretched over its ridge before the next round: a fit through echo points
             # ends at the outermost ones, whose feet would then fall on its ends
-            nxt.append(_extend(replace(new, arcs=int(idx.size)), rc, tol, cell))
-            nxt_ridge.append(rc)
+            nxt.append(_extend(replace(new, arcs=int(got[k][0].size)), ridge[k], tol, cell))
+            nxt_ridge.append(ridge[k])
             pts_cells.append(ec)
-            pts_idx.append(idx)
+            pts_idx.append(got[k][0])
         cur, ridge = nxt, nxt_ridge
     drop = set(
         contradicted(

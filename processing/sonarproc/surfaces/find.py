@@ -2,7 +2,8 @@
 
 :func:`find_surfaces` is the stage the pipeline runs after the morphological operations:
 kept cells -> :func:`~sonarproc.surfaces.extract.extract_surfaces` -> one
-:func:`~sonarproc.surfaces.models.fit_surface` per surface. Nothing kept (or nothing long
+:func:`~sonarproc.surfaces.models.fit_surface` per surface (all straight ones at once:
+:mod:`sonarproc.surfaces.batchfit`). Nothing kept (or nothing long
 enough) gives an empty :class:`SurfaceSet` with a ``reason``, never an exception.
 
 :func:`decide` says whether the kept cells are one surface that is a function of x (the
@@ -24,8 +25,9 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.grid import Grid
+from sonarproc.surfaces.batchfit import fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 
 __all__ = ["Decision", "SurfaceSet", "decide", "find_surfaces"]
 
@@ -121,8 +123,7 @@ def find_surfaces(
     fits: list[SurfaceFit] = []
     failures: list[SurfaceFailure] = []
     kept_cells: list[SurfaceCells] = []
-    for c in cells:
-        f = fit_surface(c, cell=grid.cell)
+    for c, f in zip(cells, fit_surfaces(cells, cell=grid.cell), strict=True):
         if isinstance(f, SurfaceFailure):
             failures.append(f)
         else:

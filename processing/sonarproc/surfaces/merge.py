@@ -17,12 +17,14 @@ import numpy.typing as npt
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from sonarproc.surfaces.batchfit import fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 
 __all__ = ["MERGE_ANGLE_RAD", "MERGE_GAP_M", "MERGE_OFFSET_M", "merge_collinear"]
 
 FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
 
 #: Largest angle between two pieces of one wall (rad).
 MERGE_ANGLE_RAD = np.deg2rad(5.0)
@@ -65,7 +67,7 @@ def merge_collinear(
 
     >>> x1, x2 = np.arange(0.0, 0.95, 0.01), np.arange(1.05, 2.0, 0.01)
     >>> pieces = [SurfaceCells(x, 1 + 0 * x, x - x[0], 1 + 0 * x, False) for x in (x1, x2)]
-    >>> fits = [fit_surface(c, cell=0.01) for c in pieces]
+    >>> fits = fit_surfaces(pieces, cell=0.01)
     >>> merged, _ = merge_collinear(fits, pieces, cell=0.01)
     >>> [(f.model, round(f.length_m, 2)) for f in merged]
     [('line', 1.99)]
@@ -74,31 +76,29 @@ def merge_collinear(
     if len(line) < 2:
         return list(fits), list(cells)
     c, t, ends = _line_frames([fits[i] for i in line])
-    cos = np.abs(t @ t.T)
-    normal = np.stack((-t[:, 1], t[:, 0]), axis=1)
-    # offsets of j's two ends from i's line, and both pieces' intervals along i's direction
-    rel = ends[None, :, :, :] - c[:, None, None, :]  # (i, j, end, xy)
-    offset = np.abs(np.einsum("ijex,ix->ije", rel, normal)).max(axis=2)
-    along_j = np.einsum("ijex,ix->ije", rel, t)
-    own = np.einsum("iex,ix->ie", ends - c[:, None, :], t)
-    lo_i, hi_i = own.min(axis=1)[:, None], own.max(axis=1)[:, None]
-    lo_j, hi_j = along_j.min(axis=2), along_j.max(axis=2)
-    gap = np.maximum(lo_j - hi_i, lo_i - hi_j)
-    join = (cos >= np.cos(MERGE_ANGLE_RAD)) & (offset <= MERGE_OFFSET_M) & (gap <= MERGE_GAP_M)
-    join &= join.T  # each piece must lie on the other's line
-    np.fill_diagonal(join, False)
-    if not join.any():
+    # only nearly parallel pairs are tested further (a few per cent of all pairs)
+    i, j = np.nonzero(np.triu(np.abs(t @ t.T) >= np.cos(MERGE_ANGLE_RAD), 1))
+    ok = _on_line(c[i], t[i], ends[i], ends[j]) & _on_line(c[j], t[j], ends[j], ends[i])
+    i, j = i[ok], j[ok]
+    if i.size == 0:
         return list(fits), list(cells)
-    _, label = connected_components(coo_matrix(join), directed=False)
+    join = coo_matrix((np.ones(i.size), (i, j)), shape=(len(line), len(line)))
+    _, label = connected_components(join, directed=False)
     out_fits: list[SurfaceFit] = []
     out_cells: list[SurfaceCells] = []
     groups: dict[int, list[int]] = {}
-    for k, i in enumerate(line):
-        groups.setdefault(int(label[k]), []).append(i)
+    for k, piece in enumerate(line):
+        groups.setdefault(int(label[k]), []).append(piece)
     group_of = {i: g for g, members in groups.items() if len(members) > 1 for i in members}
+    pooled = {
+        g: _pool([cells[m] for m in members], [fits[m] for m in members])
+        for g, members in groups.items()
+        if len(members) > 1
+    }
+    refit = dict(zip(pooled, fit_surfaces(list(pooled.values()), cell=cell), strict=True))
     emitted: set[int] = set()
-    for i, (f, cc) in enumerate(zip(fits, cells, strict=True)):
-        g = group_of.get(i)
+    for k, (f, cc) in enumerate(zip(fits, cells, strict=True)):
+        g = group_of.get(k)
         if g is None:
             out_fits.append(f)
             out_cells.append(cc)
@@ -106,16 +106,26 @@ def merge_collinear(
         if g in emitted:  # the group stands where its first piece stood
             continue
         emitted.add(g)
-        members = groups[g]
-        joined = _pool([cells[m] for m in members], [fits[m] for m in members])
-        new = fit_surface(joined, cell=cell)
+        new = refit[g]
         if isinstance(new, SurfaceFailure):  # keep the pieces as they were
-            out_fits += [fits[m] for m in members]
-            out_cells += [cells[m] for m in members]
+            out_fits += [fits[m] for m in groups[g]]
+            out_cells += [cells[m] for m in groups[g]]
         else:
             out_fits.append(new)
-            out_cells.append(joined)
+            out_cells.append(pooled[g])
     return out_fits, out_cells
+
+
+def _on_line(c: FloatArray, t: FloatArray, own: FloatArray, other: FloatArray) -> BoolArray:
+    """Whether each ``other`` segment lies on the line ``c + u t`` of its ``own`` partner:
+    both its ends within the offset, and the gap between the two along ``t`` short."""
+    normal = np.stack((-t[:, 1], t[:, 0]), axis=1)
+    rel = other - c[:, None, :]  # (pair, end, xy)
+    offset = np.abs(np.einsum("pex,px->pe", rel, normal)).max(axis=1)
+    along = np.einsum("pex,px->pe", rel, t)
+    mine = np.einsum("pex,px->pe", own - c[:, None, :], t)
+    gap = np.maximum(along.min(axis=1) - mine.max(axis=1), mine.min(axis=1) - along.max(axis=1))
+    return np.asarray((offset <= MERGE_OFFSET_M) & (gap <= MERGE_GAP_M))
 
 
 def _pool(pieces: list[SurfaceCells], fits: list[SurfaceFit]) -> SurfaceCells:

@@ -23,7 +23,8 @@ cells (otherwise the line, which fits as well, is taken).
   like the line; the arc spans the cells' angles in their order along the surface, or
   the whole circle for a closed surface.
 * spline: :func:`scipy.interpolate.make_smoothing_spline` of x(s) and y(s) over the
-  cells averaged in one-cell bins of arc length, smoothing chosen by GCV.
+  cells averaged in bins of arc length (one cell, or the length over
+  :data:`MAX_SPLINE_BINS` on long surfaces), smoothing chosen by GCV.
 
 Degenerate input (fewer than :data:`MIN_CELLS` cells, all cells in one place, a singular
 system) gives a :class:`SurfaceFailure` with the reason, never a curve.
@@ -59,6 +60,10 @@ MIN_CELLS = 5
 #: Fewest cells (or echo points) a spline is fitted to: through fewer, a smoothing spline
 #: chosen by cross-validation says nothing a line or an arc does not, and costs as much.
 MIN_SPLINE_CELLS = 20
+#: Most arc-length bins a spline is fitted over (longer surfaces get wider bins): the GCV
+#: choice of the smoothing costs a Python step per bin and per trial, and a surface's
+#: shape needs far fewer knots than a long ridge has cells.
+MAX_SPLINE_BINS = 64
 #: The criterion's constants (see the module docstring).
 SPLINE_FACTOR = 1.25
 CELL_FACTOR = 0.25
@@ -172,7 +177,10 @@ def fit_line(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure
         again = _tls(x[keep], y[keep])
         if again is not None:
             c, t = again
-    # orient along the surface's order
+    # orient along the surface's order (a group whose ends project alike keeps the
+    # direction of positive x, as :func:`~sonarproc.surfaces.batchfit.fit_lines` does)
+    if t[0] < 0 or (t[0] == 0 and t[1] < 0):
+        t = -t
     u = (x - c[0]) * t[0] + (y - c[1]) * t[1]
     if u[-1] < u[0]:
         t, u = -t, -u
@@ -236,10 +244,11 @@ def fit_arc(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure:
 
 
 def fit_spline(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure:
-    """Smoothing splines x(s), y(s) in arc length over one-cell bins, GCV smoothing."""
+    """Smoothing splines x(s), y(s) in arc length over arc-length bins, GCV smoothing."""
     from scipy.interpolate import make_smoothing_spline
 
-    b = np.floor(cells.s / cell).astype(np.int64)
+    width = max(cell, cells.extent_m / MAX_SPLINE_BINS)
+    b = np.floor(cells.s / width).astype(np.int64)
     _, inv, cnt = np.unique(b, return_inverse=True, return_counts=True)
     inv = inv.ravel()
     if cnt.size < MIN_CELLS:

@@ -1,0 +1,140 @@
+"""Fits of many groups at once and echo tests of many surfaces at once equal the one-by-one ones."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sonarproc.surfaces.batchfit import fit_lines, fit_surfaces
+from sonarproc.surfaces.echoes import EchoGeometry, echo_points
+from sonarproc.surfaces.extract import SurfaceCells
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.polylines import resample
+
+CELL = 0.01
+
+
+def _group(rng: np.random.Generator, kind: str) -> SurfaceCells:
+    """Noisy cells of a random line, arc, wiggle or degenerate group, in order."""
+    n = int(rng.integers(2, 160))
+    u = np.sort(rng.uniform(0.0, rng.uniform(0.05, 3.0), n))
+    a = rng.uniform(-math.pi, math.pi)
+    x0, y0 = rng.uniform(-5, 5, 2)
+    if kind == "line":
+        x, y = x0 + u * math.cos(a), y0 + u * math.sin(a)
+    elif kind == "arc":
+        r = rng.uniform(0.2, 2.0)
+        phi = a + u / r
+        x, y = x0 + r * np.cos(phi), y0 + r * np.sin(phi)
+    elif kind == "wiggle":
+        x = x0 + u
+        y = y0 + 0.2 * np.sin(u * rng.uniform(3, 12))
+    else:  # all at one point
+        x, y = np.full(n, x0), np.full(n, y0)
+    x = np.round((x + rng.normal(0, 0.004, n)) / CELL) * CELL
+    y = np.round((y + rng.normal(0, 0.004, n)) / CELL) * CELL
+    s = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    return SurfaceCells(x, y, s, rng.uniform(1, 9, n).round(), False)
+
+
+def _same(a: SurfaceFit | SurfaceFailure, b: SurfaceFit | SurfaceFailure) -> None:
+    assert type(a) is type(b)
+    if isinstance(a, SurfaceFailure):
+        assert isinstance(b, SurfaceFailure)
+        assert (a.reason, a.support) == (b.reason, b.support)
+        return
+    assert isinstance(b, SurfaceFit)
+    assert (a.model, a.support, a.arcs, a.closed) == (b.model, b.support, b.arcs, b.closed)
+    assert math.isclose(a.rms_m, b.rms_m, rel_tol=1e-7, abs_tol=1e-10)
+    assert a.polyline.shape == b.polyline.shape
+    np.testing.assert_allclose(a.polyline, b.polyline, atol=1e-7)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.lists(st.sampled_from(["line", "arc", "wiggle", "point"]),
+                                            min_size=1, max_size=12))  # fmt: skip
+def test_fit_surfaces_equals_fit_surface_one_by_one(seed: int, kinds: list[str]) -> None:
+    rng = np.random.default_rng(seed)
+    groups = [_group(rng, k) for k in kinds]
+    want = [fit_surface(g, cell=CELL) for g in groups]
+    for got, one in zip(fit_surfaces(groups, cell=CELL), want, strict=True):
+        _same(got, one)
+
+
+def test_fit_lines_of_two_walls() -> None:
+    x = np.r_[np.arange(0.0, 2.0, CELL), np.full(100, 3.0)]
+    y = np.r_[np.full(200, 1.0), np.arange(1.0, 0.0, -CELL)]
+    s = np.r_[np.arange(200) * CELL, np.arange(100) * CELL]
+    lines = fit_lines(x, y, s, np.array([200, 100]), cell=CELL)
+    np.testing.assert_allclose(lines.direction, [[1.0, 0.0], [0.0, -1.0]], atol=1e-12)
+    np.testing.assert_allclose(lines.point, [[0.995, 1.0], [3.0, 0.505]], atol=1e-9)
+    np.testing.assert_allclose(lines.hi - lines.lo, [1.99, 0.99], atol=1e-9)
+    np.testing.assert_allclose(lines.rms, 0.0, atol=1e-12)
+    assert lines.accepted(CELL).tolist() == [True, True]
+
+
+def _echo_points_one_by_one(
+    polylines: list[np.ndarray], closed: list[bool], g: EchoGeometry, tol: float
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The reference: every reading tested against every surface (no pruning)."""
+    best: dict[int, tuple[float, int, np.ndarray, float]] = {}
+    for i, (p, cl) in enumerate(zip(polylines, closed, strict=True)):
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        sv = np.concatenate(([0.0], np.cumsum(seg)))
+        for j in range(g.size):
+            q = g.xy[j]
+            ab = np.diff(p, axis=0)
+            t = np.clip(np.einsum("ij,ij->i", q - p[:-1], ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+            feet = p[:-1] + ab * t[:, None]
+            d = np.hypot(*(q - feet).T)
+            k = int(np.argmin(d))
+            s = sv[k] + t[k] * seg[k]
+            inside = cl or (0.5 * np.median(seg) < s < sv[-1] - 0.5 * np.median(seg))
+            v = feet[k] - q
+            off = abs((math.atan2(v[1], v[0]) - g.heading[j] + math.pi) % (2 * math.pi) - math.pi)
+            r = abs(d[k] - g.range_m[j])
+            if inside and off <= g.half_beam[j] and r <= tol and (j not in best or r < best[j][0]):
+                best[j] = (r, i, q + v / np.hypot(*v) * g.range_m[j], s)
+    out = []
+    for i in range(len(polylines)):
+        rows = sorted((s, j, pt) for j, (_, k, pt, s) in best.items() if k == i)
+        out.append((np.array([j for _, j, _ in rows], dtype=np.intp),
+                    np.array([pt for _, _, pt in rows]).reshape(-1, 2),
+                    np.array([s for s, _, _ in rows])))  # fmt: skip
+    return out
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_echo_points_equal_the_exhaustive_test(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    polylines: list[np.ndarray] = []
+    closed: list[bool] = []
+    for _ in range(int(rng.integers(1, 6))):
+        a, (x0, y0), length = (
+            rng.uniform(-math.pi, math.pi),
+            rng.uniform(-3, 3, 2),
+            rng.uniform(0.2, 4),
+        )
+        if rng.random() < 0.6:
+            ends = np.array([[x0, y0], [x0 + length * math.cos(a), y0 + length * math.sin(a)]])
+            polylines.append(resample(ends, CELL))
+            closed.append(False)
+        else:
+            r = rng.uniform(0.2, 1.5)
+            phi = np.linspace(a, a + length / r, max(3, int(length / CELL)))
+            polylines.append(np.c_[x0 + r * np.cos(phi), y0 + r * np.sin(phi)])
+            closed.append(False)
+    n = 300
+    xy = rng.uniform(-5, 5, (n, 2))
+    heading = rng.uniform(-math.pi, math.pi, n)
+    g = EchoGeometry(xy, heading, np.full(n, 0.22), rng.uniform(0.1, 6.0, n))
+    got = echo_points(polylines, closed, g, tol=0.5)
+    want = _echo_points_one_by_one(polylines, closed, g, tol=0.5)
+    for (gi, gp, gs), (wi, wp, ws) in zip(got, want, strict=True):
+        assert gi.tolist() == wi.tolist()
+        np.testing.assert_allclose(gp, wp, atol=1e-9)
+        np.testing.assert_allclose(gs, ws, atol=1e-9)
