@@ -22,7 +22,7 @@ cells (otherwise the line, which fits as well, is taken).
 * arc: algebraic circle (Kasa) refined by Gauss-Newton on the geometric distance, trimmed
   like the line; the arc spans the cells' angles in their order along the surface, or
   the whole circle for a closed surface.
-* spline: :func:`scipy.interpolate.make_smoothing_spline` of x(s) and y(s) over the
+* spline: cubic smoothing splines (:mod:`sonarproc.surfaces.smoothing`) of x(s) and y(s) over the
   cells averaged in bins of arc length (one cell, or the length over
   :data:`MAX_SPLINE_BINS` on long surfaces), smoothing chosen by GCV.
 
@@ -41,6 +41,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.polylines import distance_to_polylines, resample
+from sonarproc.surfaces.smoothing import smoothing_spline
 
 __all__ = [
     "MIN_CELLS",
@@ -245,8 +246,6 @@ def fit_arc(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure:
 
 def fit_spline(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure:
     """Smoothing splines x(s), y(s) in arc length over arc-length bins, GCV smoothing."""
-    from scipy.interpolate import make_smoothing_spline
-
     width = max(cell, cells.extent_m / MAX_SPLINE_BINS)
     b = np.floor(cells.s / width).astype(np.int64)
     _, inv, cnt = np.unique(b, return_inverse=True, return_counts=True)
@@ -258,12 +257,11 @@ def fit_spline(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailu
     yb = np.bincount(inv, weights=cells.y) / cnt
     w = cnt.astype(np.float64)
     try:
-        sx = make_smoothing_spline(sb, xb, w=w)
-        sy = make_smoothing_spline(sb, yb, w=w)
+        spline = smoothing_spline(sb, np.stack((xb, yb), axis=1), w)
     except (ValueError, np.linalg.LinAlgError) as err:
         return SurfaceFailure(f"spline: {err}", cells.size)
     fine = np.linspace(sb[0], sb[-1], max(2, 4 * cnt.size))
-    dense = np.stack((sx(fine), sy(fine)), axis=1)
+    dense = spline(fine)
     if not np.all(np.isfinite(dense)):
         return SurfaceFailure("spline: not finite", cells.size)
     poly = resample(dense, cell)
