@@ -325,6 +325,24 @@ def _straight(polys: list[FloatArray], usable: npt.NDArray[np.bool_]) -> npt.NDA
     return out
 
 
+def _median_steps(polys: list[FloatArray]) -> FloatArray:
+    """The median segment length of each polyline (all at once: one sort)."""
+    seg = np.hypot(*np.diff(np.concatenate(polys), axis=0).T)
+    sizes = np.array([len(p) for p in polys])
+    last = np.cumsum(sizes) - 1
+    mask = np.ones(seg.size, dtype=bool)
+    mask[last[:-1]] = False  # the gaps between one polyline and the next
+    n = sizes - 1
+    owner = np.repeat(np.arange(len(polys)), n)
+    seg = seg[mask]
+    order = np.lexsort((seg, owner))
+    ranked = seg[order]
+    first = np.cumsum(n) - n
+    lo = ranked[first + (n - 1) // 2]
+    hi = ranked[first + n // 2]
+    return np.asarray(0.5 * (lo + hi), dtype=np.float64)
+
+
 def _feet_on_segments(
     q: FloatArray, polys: list[FloatArray], surf: IntArray
 ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
@@ -333,7 +351,7 @@ def _feet_on_segments(
     a = np.array([polys[i][0] for i in ids])
     b = np.array([polys[i][-1] for i in ids])
     # a vertex this close to an open end counts as the end (as for curved polylines)
-    step = np.array([float(np.median(np.hypot(*np.diff(polys[i], axis=0).T))) for i in ids])
+    step = _median_steps([polys[i] for i in ids])
     k = np.searchsorted(ids, surf)
     ab = (b - a)[k]
     length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)

@@ -192,23 +192,33 @@ def fit_line(cells: SurfaceCells, *, cell: float) -> _Candidate | SurfaceFailure
 
 
 def _circle(x: FloatArray, y: FloatArray) -> tuple[float, float, float] | None:
-    """Kasa's algebraic circle, then Gauss-Newton on the geometric residual."""
+    """Kasa's algebraic circle, then Gauss-Newton on the geometric residual.
+
+    Both steps solve their 3 x 3 normal equations (the columns are well scaled: the
+    points are centred on their mean first).
+    """
     mx, my = x.mean(), y.mean()
     u, v = x - mx, y - my
-    a = np.stack((u, v, np.ones_like(u)), axis=1)
-    b = -(u * u + v * v)
-    sol, *_ = np.linalg.lstsq(a, b, rcond=None)
+    a = np.stack((u, v, np.ones_like(u)))
+    try:
+        sol = np.linalg.solve(a @ a.T, a @ -(u * u + v * v))
+    except np.linalg.LinAlgError:
+        return None
     cx, cy = -0.5 * sol[0], -0.5 * sol[1]
     r2 = cx * cx + cy * cy - sol[2]
     if not (np.isfinite(r2) and r2 > 0):
         return None
     p = np.array([cx, cy, math.sqrt(r2)])
+    jac = np.empty((3, u.size))
+    jac[2] = -1.0
     for _ in range(20):
         dx, dy = u - p[0], v - p[1]
         dist = np.maximum(np.hypot(dx, dy), 1e-12)
-        res = dist - p[2]
-        jac = np.stack((-dx / dist, -dy / dist, -np.ones_like(dist)), axis=1)
-        step, *_ = np.linalg.lstsq(jac, -res, rcond=None)
+        jac[0], jac[1] = -dx / dist, -dy / dist
+        try:
+            step = np.linalg.solve(jac @ jac.T, jac @ (p[2] - dist))
+        except np.linalg.LinAlgError:
+            break
         p = p + step
         if not np.all(np.isfinite(p)):
             return None

@@ -57,21 +57,23 @@ def segment_crossings(
     Returns the row and column of every crossing and how far along its ``b`` segment
     (0 to 1) it lies.
     """
-    da = a1 - a0
-    db = b1 - b0
-
-    def cross(u: FloatArray, v: FloatArray) -> FloatArray:
-        return np.asarray(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0], dtype=np.float64)
-
-    # direct differences, so that touching ends give orientations of exactly 0
-    ab = b0[None, :, :] - a0[:, None, :]  # (rows, cols, xy)
-    s1 = np.sign(cross(da[:, None, :], ab))
-    s2 = np.sign(cross(da[:, None, :], b1[None, :, :] - a0[:, None, :]))
-    s3 = np.sign(cross(db[None, :, :], a0[:, None, :] - b0[None, :, :]))
-    s4 = np.sign(cross(db[None, :, :], a1[:, None, :] - b0[None, :, :]))
-    rows, cols = np.nonzero((s1 * s2 < 0) & (s3 * s4 < 0))
+    # direct differences (no precomputed directions), so that touching ends give
+    # orientations of exactly 0; coordinates broadcast (rows, 1) against (1, cols)
+    ax0, ay0, ax1, ay1 = (v[:, None] for v in (a0[:, 0], a0[:, 1], a1[:, 0], a1[:, 1]))
+    bx0, by0, bx1, by1 = (v[None, :] for v in (b0[:, 0], b0[:, 1], b1[:, 0], b1[:, 1]))
+    dax, day = ax1 - ax0, ay1 - ay0
+    dbx, dby = bx1 - bx0, by1 - by0
+    s1 = np.sign(dax * (by0 - ay0) - day * (bx0 - ax0))
+    s2 = np.sign(dax * (by1 - ay0) - day * (bx1 - ax0))
+    hit = s1 * s2 < 0
+    s3 = np.sign(dbx * (ay0 - by0) - dby * (ax0 - bx0))
+    s4 = np.sign(dbx * (ay1 - by0) - dby * (ax1 - bx0))
+    rows, cols = np.nonzero(hit & (s3 * s4 < 0))
     # a0 + t da = b0 + u db  ->  u = cross(a0 - b0, da) / cross(db, da)
-    u = cross(-ab[rows, cols], da[rows]) / cross(db[cols], da[rows])
+    da = (a1 - a0)[rows]
+    db = (b1 - b0)[cols]
+    ab = a0[rows] - b0[cols]
+    u = (ab[:, 0] * da[:, 1] - ab[:, 1] * da[:, 0]) / (db[:, 0] * da[:, 1] - db[:, 1] * da[:, 0])
     return rows, cols, u
 
 
