@@ -73,8 +73,11 @@ print(int(m.sum()), lg.readings.size)
 )
 
 
-def write_room_log(path: Path, hours: float, seed: int = 0) -> int:
-    """Simulate ``hours`` of 16-sonar firings in the room; return the number of readings."""
+def write_room_log(path: Path, hours: float, seed: int = 0, *, truth: bool = True) -> int:
+    """Simulate ``hours`` of 16-sonar firings in the room; return the number of readings.
+
+    ``truth=False`` leaves ``/truth`` out (a robot's log: no surface metrics are computed).
+    """
     from sonarlog import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE, LogWriter
 
     n = round(hours * 3600 * RATE)
@@ -105,7 +108,9 @@ def write_room_log(path: Path, hours: float, seed: int = 0) -> int:
     r["tof"] = np.where(far, np.nan, 2 * rng_m / C)
     r["flags"] = np.where(far, FLAG_NO_ECHO, 0)
     corners = np.array([[0, 0], [ROOM, 0], [ROOM, ROOM], [0, ROOM], [0, 0]], dtype=float)
-    with LogWriter(path, sens, speed_of_sound=C, robot="bench", truth=corners) as w:
+    with LogWriter(
+        path, sens, speed_of_sound=C, robot="bench", truth=corners if truth else None
+    ) as w:
         w.append(r)
     return n
 

@@ -7,12 +7,15 @@ stage is :func:`sonarproc.surfaces.ridge_nms` on the processed map then
 :func:`sonarproc.surfaces.find_surfaces`, timed on the same map. Target: extraction +
 fits add at most 20 % to the whole run. Also prints the metrics time (seen truth), and
 the ratio the target speaks of with default options: ``process`` with ``fit = "auto"``
-(ridge, extraction, fits, echo refits) over ``process`` with ``fit = "poly"``.
+(ridge, extraction, fits, echo refits) over ``process`` with ``fit = "poly"``, and the
+same for the whole ``sonarproc run`` a user types (a fresh process each: imports, reading
+the log, the run and the report directory; best of three, on the log without truth).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import os
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -36,6 +39,8 @@ _bench_run = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(_bench_run)
 ROOM: float = _bench_run.ROOM
 write_room_log = _bench_run.write_room_log
+child = _bench_run._child
+RUN: str = _bench_run.RUN
 
 
 def _best(fn, repeat: int = 3) -> tuple[float, object]:  # type: ignore[no-untyped-def]
@@ -46,6 +51,38 @@ def _best(fn, repeat: int = 3) -> tuple[float, object]:  # type: ignore[no-untyp
         out = fn()
         best = min(best, time.perf_counter() - t0)
     return best, out
+
+
+def _cli_run(log: Path, out: Path, fit: str) -> tuple[float, float]:
+    """Wall and CPU seconds (best of three) of ``sonarproc run LOG --fit FIT``."""
+    args = ["-c", RUN, "run", str(log), "--out", str(out), "--cell", "0.01",
+            "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", fit, "--json"]  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    walls, cpus = [], []
+    for _ in range(3):
+        before = os.times()
+        wall, _, _, _ = child(args, out)
+        after = os.times()
+        walls.append(wall)
+        cpus.append(
+            after.children_user + after.children_system
+            - before.children_user - before.children_system
+        )  # fmt: skip
+    return min(walls), min(cpus)
+
+
+@pytest.mark.benchmark
+def test_bench_whole_cli_run(tmp_path: Path) -> None:
+    log = tmp_path / "hour-no-truth.h5"
+    write_room_log(log, 1.0, truth=False)
+    poly_wall, poly_cpu = _cli_run(log, tmp_path / "poly", "poly")
+    auto_wall, auto_cpu = _cli_run(log, tmp_path / "auto", "auto")
+    print(
+        f"\nsonarproc run (fresh process, no truth): fit poly {poly_wall:.2f} s wall "
+        f"{poly_cpu:.2f} s CPU; default (fit auto) {auto_wall:.2f} s wall {auto_cpu:.2f} s CPU"
+        f"\n  surfaces add {(auto_wall - poly_wall) / poly_wall:.2f} of the whole run's wall, "
+        f"{(auto_cpu - poly_cpu) / poly_cpu:.2f} of its CPU (target <= {TARGET:.2f})"
+    )
 
 
 @pytest.mark.benchmark
