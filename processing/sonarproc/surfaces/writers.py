@@ -79,7 +79,22 @@ def surfaces_geojson(surfaces: Sequence[SurfaceFit]) -> dict[str, Any]:
 
 
 def write_surfaces_geojson(surfaces: Sequence[SurfaceFit], path: str | Path) -> Path:
-    """Write :func:`surfaces_geojson` to ``path``; return the path."""
+    """Write :func:`surfaces_geojson` to ``path``, one feature per line; return the path.
+
+    (Indented JSON puts every coordinate on a line of its own and goes through the
+    pure-Python encoder: a room's surfaces hold tens of thousands of points.)
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = SurfaceFit("line", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.0, 50, 50)
+    >>> p = write_surfaces_geojson([f, f], Path(tempfile.mkdtemp()) / "s.geojson")
+    >>> len(p.read_text().splitlines()), len(json.loads(p.read_text())["features"])
+    (4, 2)
+    """
     p = Path(path)
-    p.write_text(json.dumps(surfaces_geojson(surfaces), indent=1) + "\n", encoding="utf-8")
+    doc = surfaces_geojson(surfaces)
+    features = ",\n".join(json.dumps(f) for f in doc["features"])
+    body = '{"type": "FeatureCollection", "features": [\n' + features + "\n]}\n"
+    p.write_text(body, encoding="utf-8")
     return p
