@@ -16,6 +16,7 @@ room sees several walls, corners, boxes and pillars; this package finds them sep
    truth; :func:`write_surfaces_csv` and :func:`write_surfaces_geojson` write them.
 """
 
+from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
 from sonarproc.surfaces.echoes import EchoGeometry, echo_points, refine_fits
 from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
 from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
@@ -26,7 +27,6 @@ from sonarproc.surfaces.models import (
     fit_arc,
     fit_line,
     fit_spline,
-    fit_surface,
 )
 from sonarproc.surfaces.polylines import (
     distance_to_polylines,
@@ -68,6 +68,7 @@ __all__ = [
     "fit_line",
     "fit_spline",
     "fit_surface",
+    "fit_surfaces",
     "join_polylines",
     "refine_fits",
     "resample",

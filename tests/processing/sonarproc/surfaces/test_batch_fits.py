@@ -5,13 +5,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces.batchfit import fit_lines, fit_surfaces
+from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
 from sonarproc.surfaces.echoes import EchoGeometry, echo_points
 from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_surface
+from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.polylines import resample
 
 CELL = 0.01
@@ -68,12 +70,52 @@ def test_fit_lines_of_two_walls() -> None:
     x = np.r_[np.arange(0.0, 2.0, CELL), np.full(100, 3.0)]
     y = np.r_[np.full(200, 1.0), np.arange(1.0, 0.0, -CELL)]
     s = np.r_[np.arange(200) * CELL, np.arange(100) * CELL]
-    lines = fit_lines(x, y, s, np.array([200, 100]), cell=CELL)
+    sizes = np.array([200, 100])
+    lines = fit_lines(x, y, sizes, cell=CELL)
     np.testing.assert_allclose(lines.direction, [[1.0, 0.0], [0.0, -1.0]], atol=1e-12)
     np.testing.assert_allclose(lines.point, [[0.995, 1.0], [3.0, 0.505]], atol=1e-9)
     np.testing.assert_allclose(lines.hi - lines.lo, [1.99, 0.99], atol=1e-9)
     np.testing.assert_allclose(lines.rms, 0.0, atol=1e-12)
-    assert lines.accepted(CELL).tolist() == [True, True]
+    # five cells a bin, spread along the wall: sqrt(mean(0, 1, 4, 1, 4 cells^2)) = sqrt(2) cells
+    np.testing.assert_allclose(floor_rms(x, y, s, sizes, cell=CELL), np.sqrt(2) * CELL, atol=5e-4)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_grouped_lines_and_circles_match_direct_fits(seed: int) -> None:
+    """Against independent fits: the SVD's principal axis, and a circle through 3 points."""
+    rng = np.random.default_rng(seed)
+    g = int(rng.integers(1, 8))
+    sizes = rng.integers(3, 60, g)
+    xs, ys, centres, radii = [], [], [], []
+    for n in sizes:
+        c, r = rng.uniform(-5, 5, 2), rng.uniform(0.3, 3.0)
+        phi = np.sort(rng.uniform(0.0, rng.uniform(0.5, 5.0), n))
+        xs.append(c[0] + r * np.cos(phi))
+        ys.append(c[1] + r * np.sin(phi))
+        centres.append(c)
+        radii.append(r)
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    circles = fit_circles(x, y, sizes, cell=CELL)
+    assert circles.ok.all()
+    np.testing.assert_allclose(circles.centre, centres, atol=1e-6)
+    np.testing.assert_allclose(circles.radius, radii, atol=1e-6)
+    lines = fit_lines(x, y, sizes, cell=1.0)  # a trim floor of 1 m keeps every point
+    for k, (gx, gy) in enumerate(zip(xs, ys, strict=True)):
+        d = np.c_[gx - gx.mean(), gy - gy.mean()]
+        axis = np.linalg.svd(d, full_matrices=False)[2][0]
+        assert abs(abs(float(axis @ lines.direction[k])) - 1.0) < 1e-9
+        resid = d @ np.array([-axis[1], axis[0]])
+        assert lines.rms[k] == pytest.approx(np.sqrt(np.mean(resid**2)), abs=1e-9)
+
+
+def test_fit_surface_is_fit_surfaces_of_one() -> None:
+    phi = np.linspace(0.0, 2.0, 80)
+    arc = SurfaceCells(np.cos(phi), np.sin(phi), phi, np.ones_like(phi), False)
+    _same(fit_surface(arc, cell=CELL), fit_surfaces([arc], cell=CELL)[0])
+    got = fit_surface(arc, cell=CELL)
+    assert isinstance(got, SurfaceFit) and got.model == "arc"
+    assert got.params["radius"] == pytest.approx(1.0, abs=1e-9)
 
 
 def _echo_points_one_by_one(

@@ -7,9 +7,10 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from sonarproc.surfaces.batchfit import fit_surface
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.merge import merge_collinear
-from sonarproc.surfaces.models import SurfaceFit, fit_surface
+from sonarproc.surfaces.models import SurfaceFit
 from sonarproc.surfaces.occlusion import contradicted, segment_crossings
 
 CELL = 0.01
