@@ -247,7 +247,7 @@ def echo_points(
 def _candidate_pairs(
     polys: list[FloatArray], usable: npt.NDArray[np.bool_], echoes: EchoGeometry, tol: float
 ) -> tuple[IntArray, IntArray]:
-    """(surface, reading) pairs that may echo, sorted by surface (cheap tests only)."""
+    """(surface, reading) pairs that may echo, grouped by surface (cheap tests only)."""
     # Every point of a reading's arc band lies within ``reach`` of the arc's midpoint, so
     # a surface (a box of half-diagonal h round c) can only echo readings whose midpoint
     # is within h + reach of c: one ball query per surface instead of a test of every
@@ -266,7 +266,7 @@ def _candidate_pairs(
     # asin(h / |s - c|) of the direction of c: the foot can only be in range and in the
     # beam if those intervals meet (cheap; most readings of a big room fail it).
     to_c = c[k] - echoes.xy[read]
-    dist = np.hypot(*to_c.T)
+    dist = np.sqrt(np.einsum("ij,ij->i", to_c, to_c))
     keep = np.abs(dist - echoes.range_m[read]) <= h[k] + tol
     k, read, to_c, dist = k[keep], read[keep], to_c[keep], dist[keep]
     spread = np.arcsin(np.minimum(h[k] / np.maximum(dist, 1e-12), 1.0))
@@ -276,7 +276,7 @@ def _candidate_pairs(
     )
     keep = off_c <= echoes.half_beam[read] + spread
     surf, read = idx[k[keep]], read[keep]
-    o = np.lexsort((read, surf))
+    o = np.argsort(surf, kind="stable")
     return surf[o], read[o]
 
 
