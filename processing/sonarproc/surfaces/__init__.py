@@ -17,7 +17,7 @@ room sees several walls, corners, boxes and pillars; this package finds them sep
 """
 
 from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
-from sonarproc.surfaces.echoes import EchoGeometry, echo_points, refine_fits
+from sonarproc.surfaces.echoes import refine_fits
 from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
 from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
 from sonarproc.surfaces.models import (
@@ -35,6 +35,7 @@ from sonarproc.surfaces.polylines import (
     split_polylines,
 )
 from sonarproc.surfaces.ridge import ridge_directions, ridge_nms
+from sonarproc.surfaces.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.truth import (
     SurfaceMetrics,
     seen_truth,

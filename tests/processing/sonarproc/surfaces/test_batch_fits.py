@@ -10,11 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
-from sonarproc.surfaces.echoes import EchoGeometry, echo_points
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.polylines import resample
+from sonarproc.surfaces.specular import EchoGeometry, echo_points
 
 CELL = 0.01
 
