@@ -1,0 +1,224 @@
+"""Points near each other in the plane, found through a grid of buckets (no k-d tree).
+
+The extraction needs, for a few ten thousand nodes, every pair closer than the bridging
+distance, and for nodes off a surface's path the nearest node on it. Buckets of side
+``r`` hold the points; a pair closer than ``r`` lies in one bucket or two adjacent ones,
+so only those bucket pairs are compared, all at once. Distances are compared squared
+(``dx * dx + dy * dy <= r * r``), as :class:`scipy.spatial.cKDTree` does, so both find
+the same pairs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.grouped import ragged_arange
+
+__all__ = ["close_pairs", "nearest_in_run"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Above this many candidate pairs the nearest-point search goes through a k-d tree.
+BRUTE_FORCE_PAIRS = 4_000_000
+
+
+def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArray]:
+    """Every pair ``i < j`` of points at most ``r`` apart, and its squared distance.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        Points (m).
+    r : float
+        Largest distance (m), > 0.
+
+    Returns
+    -------
+    i, j : ndarray of intp
+        The pairs (``i < j``), in no particular order.
+    d2 : ndarray of float
+        ``dx * dx + dy * dy`` of each pair.
+
+    Examples
+    --------
+    >>> i, j, d2 = close_pairs(np.array([[0.0, 0.0], [0.3, 0.4], [2.0, 0.0]]), 0.5)
+    >>> i.tolist(), j.tolist(), d2.round(12).tolist()
+    ([0], [1], [0.25])
+    """
+    n = pos.shape[0]
+    empty = np.zeros(0, dtype=np.intp)
+    if n < 2:
+        return empty, empty, np.zeros(0)
+    # buckets a hair wider than r: rounding in the division never puts a pair r apart
+    # two buckets apart
+    side = r * (1.0 + 1e-6)
+    b = np.floor((pos - pos.min(axis=0)) / side).astype(np.int64)
+    rows = int(b[:, 1].max()) + 3
+    key = (b[:, 0] + 1) * rows + (b[:, 1] + 1)
+    order = np.argsort(key, kind="stable")
+    buckets, start, count = np.unique(key[order], return_index=True, return_counts=True)
+    # the bucket itself and the four neighbours ahead of it: each bucket pair once
+    pa_list, pb_list = [], []
+    for step in (0, 1, rows - 1, rows, rows + 1):
+        loc = np.searchsorted(buckets, buckets + step)
+        loc = np.minimum(loc, buckets.size - 1)
+        hit = np.flatnonzero(buckets[loc] == buckets + step)
+        pa_list.append(hit)
+        pb_list.append(loc[hit])
+    pa, pb = np.concatenate(pa_list), np.concatenate(pb_list)
+    ca, cb = count[pa], count[pb]
+    pair, k = ragged_arange(ca * cb)
+    cbp = cb[pair]
+    ia = order[start[pa[pair]] + k // cbp]
+    ib = order[start[pb[pair]] + k % cbp]
+    keep = np.where(pa[pair] == pb[pair], ia < ib, True)
+    ia, ib = ia[keep], ib[keep]
+    dx = pos[ia, 0] - pos[ib, 0]
+    dy = pos[ia, 1] - pos[ib, 1]
+    d2 = dx * dx + dy * dy
+    close = d2 <= r * r
+    ia, ib, d2 = ia[close], ib[close], d2[close]
+    lo, hi = np.minimum(ia, ib), np.maximum(ia, ib)
+    return lo.astype(np.intp), hi.astype(np.intp), d2
+
+
+def nearest_within(
+    pos: FloatArray,
+    queries: IntArray,
+    targets: IntArray,
+    group: IntArray,
+    r: float,
+) -> tuple[FloatArray, IntArray]:
+    """For each query point, the nearest target point of its group, if within ``r``.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        All points.
+    queries, targets : ndarray of intp
+        Indices of the query and the target points.
+    group : ndarray of intp, shape (N,)
+        Group of every point (>= 0); a query looks only at targets of its group.
+    r : float
+        Search radius (m), > 0.
+
+    Returns
+    -------
+    dist : ndarray of float
+        Distance to the nearest target (``sqrt(dx * dx + dy * dy)``), inf if none is
+        within ``r``.
+    nearest : ndarray of intp
+        Its index into ``pos`` (ties: the lower index), -1 if none.
+
+    Examples
+    --------
+    >>> pos = np.array([[0.0, 0.0], [1.0, 0.0], [1.5, 0.0], [3.0, 0.0]])
+    >>> d, k = nearest_within(pos, np.array([2, 3]), np.array([0, 1]), np.zeros(4, int), 1.0)
+    >>> d.tolist(), k.tolist()
+    ([0.5, inf], [1, -1])
+    """
+    dist = np.full(queries.size, np.inf)
+    nearest = np.full(queries.size, -1, dtype=np.intp)
+    if queries.size == 0 or targets.size == 0:
+        return dist, nearest
+    side = r * (1.0 + 1e-6)
+    both = np.concatenate((queries, targets))
+    low = pos[both].min(axis=0)
+    bq = np.floor((pos[queries] - low) / side).astype(np.int64) + 1
+    bt = np.floor((pos[targets] - low) / side).astype(np.int64) + 1
+    rows = int(max(bq[:, 1].max(), bt[:, 1].max())) + 2
+    cols = int(max(bq[:, 0].max(), bt[:, 0].max())) + 2
+    tkey = (group[targets].astype(np.int64) * cols + bt[:, 0]) * rows + bt[:, 1]
+    order = np.argsort(tkey, kind="stable")
+    buckets, start, count = np.unique(tkey[order], return_index=True, return_counts=True)
+    qkey = (group[queries].astype(np.int64) * cols + bq[:, 0]) * rows + bq[:, 1]
+    steps = np.array([dx * rows + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.int64)
+    want = (qkey[:, None] + steps).ravel()
+    loc = np.minimum(np.searchsorted(buckets, want), buckets.size - 1)
+    hit = np.flatnonzero(buckets[loc] == want)
+    q_of = hit // steps.size
+    which, k = ragged_arange(count[loc[hit]])
+    qi = q_of[which]
+    ti = targets[order[start[loc[hit]][which] + k]]
+    dx = pos[queries[qi], 0] - pos[ti, 0]
+    dy = pos[queries[qi], 1] - pos[ti, 1]
+    d2 = dx * dx + dy * dy
+    close = d2 <= r * r
+    qi, ti, d2 = qi[close], ti[close], d2[close]
+    best = np.full(queries.size, np.inf)
+    np.minimum.at(best, qi, d2)
+    tie = d2 == best[qi]
+    top = np.iinfo(np.intp).max
+    pick = np.full(queries.size, top, dtype=np.intp)
+    np.minimum.at(pick, qi[tie], ti[tie])
+    found = pick < top
+    dist[found], nearest[found] = np.sqrt(best[found]), pick[found]
+    return dist, nearest
+
+
+def nearest_in_run(
+    pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
+) -> tuple[FloatArray, IntArray]:
+    """For each query point, the nearest target point of its run (ties: the lower index).
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        All points.
+    queries : ndarray of intp
+        Indices of the query points.
+    targets : ndarray of intp
+        Indices of the target points, grouped by run: run ``g`` is
+        ``targets[bounds[g]:bounds[g + 1]]`` (each run that a query uses is non-empty).
+    bounds : ndarray of intp
+        Run bounds into ``targets``.
+    run : ndarray of intp
+        The run of each query.
+
+    Returns
+    -------
+    dist : ndarray of float
+        Distance to the nearest target (``sqrt(dx * dx + dy * dy)``).
+    nearest : ndarray of intp
+        Index (into ``pos``) of the nearest target.
+
+    Examples
+    --------
+    >>> pos = np.array([[0.0, 0.0], [1.0, 0.0], [5.0, 0.0], [3.0, 0.0]])
+    >>> d, k = nearest_in_run(pos, np.array([3]), np.array([0, 1, 2]), np.array([0, 3]),
+    ...                       np.array([0]))
+    >>> d.tolist(), k.tolist()
+    ([2.0, 1])
+    """
+    sizes = (bounds[1:] - bounds[:-1])[run]
+    if int(sizes.sum()) > BRUTE_FORCE_PAIRS:
+        return _nearest_by_tree(pos, queries, targets, bounds, run)
+    q, k = ragged_arange(sizes)
+    t = targets[bounds[:-1][run][q] + k]
+    a = queries[q]
+    dx = pos[a, 0] - pos[t, 0]
+    dy = pos[a, 1] - pos[t, 1]
+    d2 = dx * dx + dy * dy
+    best = np.full(queries.size, np.inf)
+    np.minimum.at(best, q, d2)
+    tie = d2 == best[q]
+    nearest = np.full(queries.size, np.iinfo(np.intp).max, dtype=np.intp)
+    np.minimum.at(nearest, q[tie], t[tie])
+    return np.sqrt(best), nearest
+
+
+def _nearest_by_tree(
+    pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
+) -> tuple[FloatArray, IntArray]:
+    """:func:`nearest_in_run` for many points: one k-d tree, runs set far apart in a 3rd axis."""
+    from scipy.spatial import cKDTree  # only here: a cold import costs a third of a second
+
+    span = float(np.ptp(pos, axis=0).max()) if pos.size else 0.0
+    apart = 4.0 * span + 1.0
+    t_run = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
+    t_xyz = np.column_stack((pos[targets], t_run * apart))
+    q_xyz = np.column_stack((pos[queries], run * apart))
+    dist, k = cKDTree(t_xyz).query(q_xyz)
+    return np.asarray(dist, dtype=np.float64), targets[np.asarray(k, dtype=np.intp)]
