@@ -152,11 +152,16 @@ def corners(
     ks = np.where(turn < 0, s[base] - lp, np.where(turn > 0, s[base] + lp, s[base]))
     back, ahead = s - w, s + w
     ok = closed[run] | ((back >= 0.0) & (ahead <= total[run]))
-    # the points themselves through the same interpolation (two equal arc lengths
-    # resolve as np.interp resolves them)
-    here = np.stack([run_interp(s, run, ks, centre[base, k], knot_bounds) for k in (0, 1)], 1)
-    prev = np.stack([run_interp(back, run, ks, centre[base, k], knot_bounds) for k in (0, 1)], 1)
-    nxt = np.stack([run_interp(ahead, run, ks, centre[base, k], knot_bounds) for k in (0, 1)], 1)
+    # np.interp at a knot gives the last of the knots equal to it: the point itself,
+    # or the last of those with the same arc length
+    last = np.ones(s.size, dtype=bool)
+    last[:-1] = (s[1:] != s[:-1]) | (run[1:] != run[:-1])
+    ends = np.flatnonzero(last)
+    here = centre[ends[np.searchsorted(ends, np.arange(s.size))]]
+    m = s.size
+    both = run_interp(np.concatenate((back, ahead)), np.concatenate((run, run)), ks,
+                      centre[base], knot_bounds)  # fmt: skip
+    prev, nxt = both[:m], both[m:]
     a, b = here - prev, nxt - here
     na, nb = np.hypot(*a.T), np.hypot(*b.T)
     cosang = np.einsum("ij,ij->i", a, b) / np.maximum(na * nb, 1e-12)

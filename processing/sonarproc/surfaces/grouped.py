@@ -89,9 +89,8 @@ def run_searchsorted(
 ) -> IntArray:
     """For each query, ``np.searchsorted`` into the knots of its run (sorted ascending).
 
-    The runs are laid end to end on one axis (each shifted past the previous one), one
-    ``searchsorted`` finds every query, and the rare answer that rounding in the shift
-    put one knot off is corrected against the unshifted values.
+    One ``searchsorted`` on complex keys ``run + 1j * value``: numpy orders complex
+    numbers by real part, then imaginary part, so by run, then by value, exactly.
 
     Examples
     --------
@@ -100,35 +99,10 @@ def run_searchsorted(
     ...                  np.array([0, 1, 1])).tolist()
     [2, 1, 2]
     """
-    lo, hi = bounds[:-1], bounds[1:]
-    n_knots = hi - lo
-    out = np.zeros(queries.size, dtype=np.intp)
-    has = n_knots[run] > 0
-    if not has.any():
-        return out
-    filled = np.flatnonzero(n_knots > 0)
-    first = np.zeros(lo.size)
-    last = np.zeros(lo.size)
-    first[filled], last[filled] = knots[lo[filled]], knots[hi[filled] - 1]
-    # each run's [first - 1, last + 1] placed after the previous run's
-    width = np.where(n_knots > 0, last - first + 2.0, 0.0)
-    shift = np.cumsum(width) - width - (first - 1.0)
-    keys = knots + np.repeat(shift, n_knots)
-    q, r = queries[has], run[has]
-    qk = np.clip(q, first[r] - 1.0, last[r] + 1.0) + shift[r]
-    k = np.searchsorted(keys, qk, side="right" if side == "right" else "left") - lo[r]
-    k = np.clip(k, 0, n_knots[r])
-    below = (lambda a, b: a <= b) if side == "right" else (lambda a, b: a < b)
-    while True:
-        up = k < n_knots[r]
-        up[up] = below(knots[lo[r[up]] + k[up]], q[up])
-        down = k > 0
-        down[down] = ~below(knots[lo[r[down]] + k[down] - 1], q[down])
-        if not (up.any() or down.any()):
-            break
-        k = k + up - down
-    out[has] = k
-    return out
+    n_knots = np.diff(bounds)
+    keys = np.repeat(np.arange(n_knots.size, dtype=np.float64), n_knots) + 1j * knots
+    at = np.searchsorted(keys, run + 1j * queries, side="right" if side == "right" else "left")
+    return np.asarray(at - bounds[:-1][run], dtype=np.intp)
 
 
 def run_interp(
@@ -136,8 +110,9 @@ def run_interp(
 ) -> FloatArray:
     """``np.interp(t, xp_g, fp_g)`` for each query with the knots of its run ``g``.
 
-    Every run must have at least one knot. The formula is numpy's, so the results are
-    bit for bit those of ``np.interp`` on each run.
+    ``fp`` may have columns (shape ``(K, C)``): each is interpolated, and the knots
+    are searched once. Every run must have at least one knot. The formula is numpy's,
+    so the results are bit for bit those of ``np.interp`` on each run.
 
     Examples
     --------
@@ -150,11 +125,17 @@ def run_interp(
     j = lo + run_searchsorted(xp, bounds, t, run, side="right") - 1
     j = np.clip(j, lo, np.maximum(hi - 2, lo))
     j1 = np.minimum(j + 1, hi - 1)
+    f = fp if fp.ndim == 2 else fp[:, None]
+    tt, x0, x1 = t[:, None], xp[j][:, None], xp[j1][:, None]
+    f0, f1 = f[j], f[j1]
     with np.errstate(divide="ignore", invalid="ignore"):
-        slope = (fp[j1] - fp[j]) / (xp[j1] - xp[j])
-        out = slope * (t - xp[j]) + fp[j]
-    out = np.where(t >= xp[hi - 1], fp[hi - 1], out)
-    return np.where(t < xp[lo], fp[lo], out)
+        slope = (f1 - f0) / (x1 - x0)
+        out = slope * (tt - x0) + f0
+    over = t >= xp[hi - 1]
+    out[over] = f[hi[over] - 1]
+    under = t < xp[lo]
+    out[under] = f[lo[under]]
+    return out if fp.ndim == 2 else out[:, 0]
 
 
 def run_median(values: FloatArray, bounds: IntArray) -> FloatArray:
@@ -167,7 +148,8 @@ def run_median(values: FloatArray, bounds: IntArray) -> FloatArray:
     """
     lengths = np.diff(bounds)
     run = np.repeat(np.arange(lengths.size), lengths)
-    ordered = values[np.lexsort((values, run))]
+    # complex numbers sort by real part, then imaginary part: by run, then by value
+    ordered = np.sort(run + 1j * values).imag
     out = np.full(lengths.size, np.nan)
     ok = lengths > 0
     lo, n = bounds[:-1][ok], lengths[ok]

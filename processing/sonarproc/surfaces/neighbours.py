@@ -24,6 +24,11 @@ IntArray = npt.NDArray[np.intp]
 BRUTE_FORCE_PAIRS = 4_000_000
 
 
+def _low_corner(pos: FloatArray) -> FloatArray:
+    """Smallest x and y (numpy reduces an (N, 2) array along axis 0 slowly)."""
+    return np.array([pos[:, 0].min(), pos[:, 1].min()])
+
+
 def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArray]:
     """Every pair ``i < j`` of points at most ``r`` apart, and its squared distance.
 
@@ -54,7 +59,7 @@ def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArr
     # buckets a hair wider than r: rounding in the division never puts a pair r apart
     # two buckets apart
     side = r * (1.0 + 1e-6)
-    b = np.floor((pos - pos.min(axis=0)) / side).astype(np.int64)
+    b = np.floor((pos - _low_corner(pos)) / side).astype(np.int64)
     rows = int(b[:, 1].max()) + 3
     key = (b[:, 0] + 1) * rows + (b[:, 1] + 1)
     order = np.argsort(key, kind="stable")
@@ -124,8 +129,7 @@ def nearest_within(
     if queries.size == 0 or targets.size == 0:
         return dist, nearest
     side = r * (1.0 + 1e-6)
-    both = np.concatenate((queries, targets))
-    low = pos[both].min(axis=0)
+    low = _low_corner(pos)
     bq = np.floor((pos[queries] - low) / side).astype(np.int64) + 1
     bt = np.floor((pos[targets] - low) / side).astype(np.int64) + 1
     rows = int(max(bq[:, 1].max(), bt[:, 1].max())) + 2
@@ -215,7 +219,7 @@ def _nearest_by_tree(
     """:func:`nearest_in_run` for many points: one k-d tree, runs set far apart in a 3rd axis."""
     from scipy.spatial import cKDTree  # only here: a cold import costs a third of a second
 
-    span = float(np.ptp(pos, axis=0).max()) if pos.size else 0.0
+    span = float(max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1]))) if pos.size else 0.0
     apart = 4.0 * span + 1.0
     t_run = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
     t_xyz = np.column_stack((pos[targets], t_run * apart))

@@ -100,7 +100,8 @@ def _hang(
     src = np.full(n, -1, dtype=np.intp)
     a, b, d2 = pairs
     # a path node within the pair distance is the nearest one; ties to the lower index
-    near = active[a] & ~path[a] & path[b] & (group[a] == group[b])
+    # (the pairs are those of the active nodes within a group)
+    near = ~path[a] & path[b]
     a, b, d2 = a[near], b[near], d2[near]
     best = np.full(n, np.inf)
     np.minimum.at(best, a, d2)
@@ -170,11 +171,17 @@ def tree_paths(
         act = np.flatnonzero(active)
         if act.size == 0:
             break
+        if round_ > 0:
+            a, b = both[0], both[1]
+            inside = active[a] & active[b] & (group[a] == group[b])
+            both = (a[inside], b[inside], both[2][inside])
         keep = active[ei] & active[ej] & (group[ei] == group[ej])
         g = csr_matrix((ew[keep], (ei[keep], ej[keep])), shape=(n, n))
         order = act[np.argsort(group[act], kind="stable")]
-        ids = np.unique(group[act])
-        bounds = bounds_of(group[order], ids)
+        sorted_group = group[order]
+        starts = np.flatnonzero(np.diff(sorted_group, prepend=-1))
+        ids = sorted_group[starts]
+        bounds = np.append(starts, order.size).astype(np.intp)
         first = order[bounds[:-1]]
         d0 = np.asarray(dijkstra(g, directed=False, indices=first, min_only=True))
         u = _argmax_per_group(d0, order, bounds)
