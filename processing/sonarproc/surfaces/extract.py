@@ -194,7 +194,7 @@ def extract_surfaces(
     node, pos = _nodes(px, py, h)
     n = pos.shape[0]
     pi, pj, d2 = close_pairs(pos, p.bridge_m + 1e-9)
-    d = np.hypot(*(pos[pi] - pos[pj]).T) + 1e-12
+    d = np.hypot(pos[pi, 0] - pos[pj, 0], pos[pi, 1] - pos[pj, 1]) + 1e-12
     graph = coo_matrix((d, (pi, pj)), shape=(n, n)).tocsr()
     _, labels = connected_components(graph, directed=False)
     # groups too small to hold a surface min_length_m long go now (noise): a surface of
@@ -212,7 +212,9 @@ def extract_surfaces(
     n = sub.size
     graph = graph[sub][:, sub]
     # whole components are kept: their labels, renumbered in the same order
-    labels = np.unique(labels[sub], return_inverse=True)[1].ravel().astype(np.intp)
+    kept_label = np.zeros(int(labels.max()) + 1, dtype=bool)
+    kept_label[labels[sub]] = True
+    labels = (np.cumsum(kept_label) - 1)[labels[sub]].astype(np.intp)
     kept_pair = big[pi]
     pairs = (remap[pi[kept_pair]], remap[pj[kept_pair]], d2[kept_pair])
     forest = minimum_spanning_tree(graph)

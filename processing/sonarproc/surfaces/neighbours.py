@@ -74,17 +74,18 @@ def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArr
         pb_list.append(loc[hit])
     pa, pb = np.concatenate(pa_list), np.concatenate(pb_list)
     ca, cb = count[pa], count[pb]
+    # in bucket order (contiguous coordinates); back to point indices for the survivors
+    xs, ys = pos[order, 0], pos[order, 1]
     pair, k = ragged_arange(ca * cb)
     cbp = cb[pair]
-    ia = order[start[pa[pair]] + k // cbp]
-    ib = order[start[pb[pair]] + k % cbp]
-    keep = np.where(pa[pair] == pb[pair], ia < ib, True)
-    ia, ib = ia[keep], ib[keep]
-    dx = pos[ia, 0] - pos[ib, 0]
-    dy = pos[ia, 1] - pos[ib, 1]
+    sa = start[pa[pair]] + k // cbp
+    sb = start[pb[pair]] + k % cbp
+    dx = xs[sa] - xs[sb]
+    dy = ys[sa] - ys[sb]
     d2 = dx * dx + dy * dy
-    close = d2 <= r * r
-    ia, ib, d2 = ia[close], ib[close], d2[close]
+    # a bucket with itself: each pair once
+    close = np.flatnonzero((d2 <= r * r) & ((pa[pair] != pb[pair]) | (sa < sb)))
+    ia, ib, d2 = order[sa[close]], order[sb[close]], d2[close]
     lo, hi = np.minimum(ia, ib), np.maximum(ia, ib)
     return lo.astype(np.intp), hi.astype(np.intp), d2
 
