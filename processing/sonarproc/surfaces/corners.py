@@ -70,8 +70,8 @@ def centrelines(
     a, b = a[on[a]], b[on[a]]
     # summed in one order, ascending node index: two path nodes with the same
     # neighbours get the same centre to the last bit (and a step of exactly 0)
-    srt = np.argsort(a.astype(np.int64) * n + b, kind="stable")
-    a, b = a[srt], b[srt]
+    key = np.sort(a.astype(np.int64) * n + b)
+    a, b = key // n, key % n
     cnt = np.bincount(a, minlength=n).astype(np.float64)
     sx = np.bincount(a, weights=pos[b, 0], minlength=n)
     sy = np.bincount(a, weights=pos[b, 1], minlength=n)

@@ -249,7 +249,8 @@ def _pieces(
     n = pos.shape[0]
     group = paths.group
     on = np.flatnonzero(paths.on_path)
-    on = on[np.lexsort((paths.s[on], group[on]))]
+    # by group, then arc length (complex numbers sort by real, then imaginary part)
+    on = on[np.argsort(group[on] + 1j * paths.s[on], kind="stable")]
     ids = np.unique(group[on])
     bounds = bounds_of(group[on], ids)
     centre, new_s = centrelines(on, bounds, pos, group, pairs, 0.5 * p.bridge_m)
@@ -292,7 +293,9 @@ def _surfaces(
     s: FloatArray, loop: FloatArray, p: SurfaceParams,
 ) -> list[SurfaceCells]:  # fmt: skip
     """The cells of each (group, piece), ordered by arc length; long ones, longest first."""
-    order = np.lexsort((s, piece, group))
+    # by (group, piece), then arc length (complex numbers sort by real, then imaginary)
+    whole = group.astype(np.float64) * (int(piece.max()) + 1) + piece
+    order = np.argsort(whole + 1j * s, kind="stable")
     g, pc, ss = group[order], piece[order], s[order]
     cut = np.flatnonzero((g[1:] != g[:-1]) | (pc[1:] != pc[:-1])) + 1
     starts = np.concatenate(([0], cut))

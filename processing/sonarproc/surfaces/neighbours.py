@@ -10,6 +10,8 @@ the same pairs.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -19,6 +21,7 @@ __all__ = ["close_pairs", "nearest_in_run"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
 
 #: Above this many candidate pairs the nearest-point search goes through a k-d tree.
 BRUTE_FORCE_PAIRS = 4_000_000
@@ -74,17 +77,22 @@ def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArr
         pb_list.append(loc[hit])
     pa, pb = np.concatenate(pa_list), np.concatenate(pb_list)
     ca, cb = count[pa], count[pb]
-    # in bucket order (contiguous coordinates); back to point indices for the survivors
+    # in bucket order (contiguous coordinates); back to point indices for the survivors.
+    # One row per point of the first bucket, over the points of the second (within
+    # one bucket: over the points after it)
     xs, ys = pos[order, 0], pos[order, 1]
-    pair, k = ragged_arange(ca * cb)
-    cbp = cb[pair]
-    sa = start[pa[pair]] + k // cbp
-    sb = start[pb[pair]] + k % cbp
+    same = pa == pb
+    row_pair, row_k = ragged_arange(ca)
+    row_a = start[pa[row_pair]] + row_k
+    row_b = np.where(same[row_pair], row_a + 1, start[pb[row_pair]])
+    row_len = np.where(same[row_pair], ca[row_pair] - row_k - 1, cb[row_pair])
+    row, k = ragged_arange(row_len)
+    sa = row_a[row]
+    sb = row_b[row] + k
     dx = xs[sa] - xs[sb]
     dy = ys[sa] - ys[sb]
     d2 = dx * dx + dy * dy
-    # a bucket with itself: each pair once
-    close = np.flatnonzero((d2 <= r * r) & ((pa[pair] != pb[pair]) | (sa < sb)))
+    close = np.flatnonzero(d2 <= r * r)
     ia, ib, d2 = order[sa[close]], order[sb[close]], d2[close]
     lo, hi = np.minimum(ia, ib), np.maximum(ia, ib)
     return lo.astype(np.intp), hi.astype(np.intp), d2
@@ -96,6 +104,8 @@ def nearest_within(
     targets: IntArray,
     group: IntArray,
     r: float,
+    *,
+    prune: Callable[[BoolArray], BoolArray] | None = None,
 ) -> tuple[FloatArray, IntArray]:
     """For each query point, the nearest target point of its group, if within ``r``.
 
@@ -109,6 +119,9 @@ def nearest_within(
         Group of every point (>= 0); a query looks only at targets of its group.
     r : float
         Search radius (m), > 0.
+    prune : callable, optional
+        Given which queries may have a target within ``r`` (the others have none),
+        says which of them to search; the rest are reported as having none.
 
     Returns
     -------
@@ -144,14 +157,23 @@ def nearest_within(
     loc = np.minimum(np.searchsorted(buckets, want), buckets.size - 1)
     hit = np.flatnonzero(buckets[loc] == want)
     q_of = hit // steps.size
+    if prune is not None:
+        maybe = np.zeros(queries.size, dtype=bool)
+        maybe[q_of] = True
+        wanted = prune(maybe)
+        hit, q_of = hit[wanted[q_of]], q_of[wanted[q_of]]
     which, k = ragged_arange(count[loc[hit]])
     qi = q_of[which]
-    ti = targets[order[start[loc[hit]][which] + k]]
-    dx = pos[queries[qi], 0] - pos[ti, 0]
-    dy = pos[queries[qi], 1] - pos[ti, 1]
+    si = start[loc[hit]][which] + k
+    # coordinates in bucket order: contiguous gathers
+    sorted_t = targets[order]
+    tx, ty = pos[sorted_t, 0], pos[sorted_t, 1]
+    qx, qy = pos[queries, 0], pos[queries, 1]
+    dx = qx[qi] - tx[si]
+    dy = qy[qi] - ty[si]
     d2 = dx * dx + dy * dy
-    close = d2 <= r * r
-    qi, ti, d2 = qi[close], ti[close], d2[close]
+    close = np.flatnonzero(d2 <= r * r)
+    qi, ti, d2 = qi[close], sorted_t[si[close]], d2[close]
     best = np.full(queries.size, np.inf)
     np.minimum.at(best, qi, d2)
     tie = d2 == best[qi]

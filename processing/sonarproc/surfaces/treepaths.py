@@ -83,24 +83,18 @@ def _argmax_per_group(values: FloatArray, order: IntArray, bounds: IntArray) -> 
     return np.asarray(np.maximum.reduceat(at_top, bounds[:-1]), dtype=np.intp)
 
 
-def _hang(
-    pos: FloatArray,
-    pairs: tuple[IntArray, IntArray, FloatArray],
-    group: IntArray,
-    active: BoolArray,
-    path: BoolArray,
-    reach: float,
+def _near_path(
+    pairs: tuple[IntArray, IntArray, FloatArray], path: BoolArray
 ) -> tuple[FloatArray, IntArray]:
-    """Distance to, and index of, the nearest path node of its group, for each off node.
+    """Nearest path node of each off node among its pairs (ties: the lower index).
 
-    Only within ``reach`` (farther: inf and -1), except where ``reach`` is inf.
+    The pairs are those of the active nodes within a group, so a path node within the
+    pair distance is the nearest one of the group. Others: inf and -1.
     """
-    n = pos.shape[0]
+    n = path.size
     dist = np.full(n, np.inf)
     src = np.full(n, -1, dtype=np.intp)
     a, b, d2 = pairs
-    # a path node within the pair distance is the nearest one; ties to the lower index
-    # (the pairs are those of the active nodes within a group)
     near = ~path[a] & path[b]
     a, b, d2 = a[near], b[near], d2[near]
     best = np.full(n, np.inf)
@@ -111,18 +105,37 @@ def _hang(
     np.minimum.at(nearest, a[tie], b[tie])
     found = nearest < top
     dist[found], src[found] = np.sqrt(best[found]), nearest[found]
-    far = np.flatnonzero(active & ~path & ~found)
-    if far.size == 0:
-        return dist, src
+    return dist, src
+
+
+def _far_path(
+    pos: FloatArray,
+    far: IntArray,
+    path: BoolArray,
+    group: IntArray,
+    blab: IntArray,
+    long_c: BoolArray,
+    reach: float,
+) -> tuple[FloatArray, IntArray]:
+    """Nearest path node of each far node (none within the pair distance).
+
+    With a finite ``reach``, only that far and only where it matters: a branch with a
+    node farther than ``reach`` from the path is long, and its nodes get a path of
+    their own next round (inf and -1 for them).
+    """
     on = np.flatnonzero(path)
     if np.isfinite(reach):
-        dist[far], src[far] = nearest_within(pos, far, on, group, reach)
-        return dist, src
+
+        def prune(maybe: BoolArray) -> BoolArray:
+            proven = long_c.copy()
+            proven[blab[far[~maybe]]] = True
+            return maybe & ~proven[blab[far]]
+
+        return nearest_within(pos, far, on, group, reach, prune=prune)
     on = on[np.argsort(group[on], kind="stable")]
     ids = np.unique(group[on])
     run = np.searchsorted(ids, group[far])
-    dist[far], src[far] = nearest_in_run(pos, far, on, bounds_of(group[on], ids), run)
-    return dist, src
+    return nearest_in_run(pos, far, on, bounds_of(group[on], ids), run)
 
 
 def tree_paths(
@@ -199,28 +212,35 @@ def tree_paths(
         gap = np.hypot(*(pos[u] - pos[v]).T)
         shut = (gap <= 1.5 * p.bridge_m) & (du[v] >= 4.0 * p.bridge_m)
         loop[ids[shut]] = du[v][shut] + gap[shut]
-        # a node farther than both bridge_m and min_length_m from the path is in a long
-        # branch, which gets its own path next round: its own nearest node is not needed
-        # (but in the last round it is)
-        reach = max(p.bridge_m, p.min_length_m) if round_ < MAX_ROUNDS - 1 else np.inf
-        dist, src = _hang(pos, both, group, active, path, reach)
+        dist, src = _near_path(both, path)
         off = active & ~path
+        branch = off & (dist > p.bridge_m)
+        if branch.any():
+            # branches: components of the forest restricted to branch nodes
+            bk = branch[ei] & branch[ej]
+            bg = csr_matrix((ew[bk], (ei[bk], ej[bk])), shape=(n, n))
+            _, blab = connected_components(bg, directed=False)
+            far = np.flatnonzero(off & (src < 0))
+            if far.size:
+                # a node farther than both bridge_m and min_length_m from the path is in
+                # a long branch, which gets a path of its own next round: its nearest
+                # path node is not needed (but in the last round it is)
+                last = round_ == MAX_ROUNDS - 1
+                reach = np.inf if last else max(p.bridge_m, p.min_length_m)
+                long_c = np.zeros(int(blab.max()) + 1, dtype=bool)
+                long_c[blab[branch & (dist >= p.min_length_m) & np.isfinite(dist)]] = True
+                dist[far], src[far] = _far_path(pos, far, path, group, blab, long_c, reach)
         hung = off & (src >= 0)
         s[hung] = s[src[hung]]
         anchor[hung] = src[hung]
-        branch = off & (dist > p.bridge_m)
         if not branch.any():
             break
-        # branches: components of the forest restricted to branch nodes
-        bk = branch[ei] & branch[ej]
-        bg = csr_matrix((ew[bk], (ei[bk], ej[bk])), shape=(n, n))
-        _, blab = connected_components(bg, directed=False)
         bl = blab[branch]
         nb = int(bl.max()) + 1
         # a branch's size: its farthest node from the path
-        reach = np.zeros(nb)
-        np.maximum.at(reach, bl, dist[branch])
-        long_b = reach >= p.min_length_m
+        extent = np.zeros(nb)
+        np.maximum.at(extent, bl, dist[branch])
+        long_b = extent >= p.min_length_m
         newly = np.flatnonzero(branch)[long_b[bl]]
         if newly.size == 0:
             break
