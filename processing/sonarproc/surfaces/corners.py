@@ -92,8 +92,9 @@ def _peaks(angle: FloatArray, cand: IntArray, run: IntArray, half: IntArray, bou
     lo, size, h = bounds[:-1][run], np.diff(bounds)[run], half[run]
     ring = closed[run]
     whole = ring & (2 * h + 1 >= size)
+    end = lo + size - 1
     first = np.where(whole, lo, np.where(ring, cand - h, np.maximum(lo, cand - h)))
-    last = np.where(whole, lo + size - 1, np.where(ring, cand + h, np.minimum(lo + size - 1, cand + h)))
+    last = np.where(whole, end, np.where(ring, cand + h, np.minimum(end, cand + h)))
     which, k = ragged_arange(last - first + 1)
     at = first[which] + k
     at = lo[which] + (at - lo[which]) % size[which]

@@ -39,6 +39,7 @@ __all__ = ["SurfaceCells", "SurfaceParams", "cells_of", "extract_surfaces"]
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
+
 @dataclass(frozen=True)
 class SurfaceParams:
     """How cells are grouped into surfaces (lengths in metres, angles in degrees).

@@ -38,10 +38,10 @@ class PathParams(Protocol):
     """The lengths :func:`tree_paths` uses (:class:`~sonarproc.surfaces.SurfaceParams`)."""
 
     @property
-    def bridge_m(self) -> float: ...  # noqa: D102
+    def bridge_m(self) -> float: ...
 
     @property
-    def min_length_m(self) -> float: ...  # noqa: D102
+    def min_length_m(self) -> float: ...
 
 
 @dataclass(frozen=True)
