@@ -16,6 +16,14 @@ Each path is then cut at corners: where the turning angle between the chords
 ``p(s - w) -> p(s)`` and ``p(s) -> p(s + w)`` (``w = corner_window_m``) reaches
 ``corner_deg`` and is the largest within ``w``. Nothing assumes y = f(x): the order is
 the arc length along the tree, so vertical walls, closed shapes and folds work alike.
+
+Every step works on all groups at once: the node pairs come from a grid of buckets
+(:mod:`~sonarproc.surfaces.neighbours`), the paths from
+:mod:`~sonarproc.surfaces.treepaths`, centre lines and corners from
+:mod:`~sonarproc.surfaces.corners` (numpy on runs of one array,
+:mod:`~sonarproc.surfaces.grouped`). Where the nearest path node is not unique, a node
+hangs on the one with the lowest index, and a centre-line point sums its neighbours in
+ascending order, so equal inputs give equal outputs to the last bit.
 """
 
 from __future__ import annotations

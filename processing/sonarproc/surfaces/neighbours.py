@@ -190,6 +190,9 @@ def nearest_in_run(
 ) -> tuple[FloatArray, IntArray]:
     """For each query point, the nearest target point of its run (ties: the lower index).
 
+    Beyond :data:`BRUTE_FORCE_PAIRS` query-target pairs, one k-d tree answers instead
+    (its choice among equally near targets).
+
     Parameters
     ----------
     pos : ndarray, shape (N, 2)
@@ -217,7 +220,7 @@ def nearest_in_run(
     >>> d, k = nearest_in_run(pos, np.array([3]), np.array([0, 1, 2]), np.array([0, 3]),
     ...                       np.array([0]))
     >>> d.tolist(), k.tolist()
-    ([2.0, 1])
+    ([2.0], [1])
     """
     sizes = (bounds[1:] - bounds[:-1])[run]
     if int(sizes.sum()) > BRUTE_FORCE_PAIRS:

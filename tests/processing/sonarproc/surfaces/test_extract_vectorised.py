@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.grid import Grid
-from sonarproc.surfaces import SurfaceParams, extract_surfaces
+from sonarproc.surfaces import SurfaceParams, extract_surfaces, neighbours
 from sonarproc.surfaces.coarse import coarse_counts
 from sonarproc.surfaces.grouped import (
     ragged_arange,
@@ -251,3 +251,20 @@ def test_coarse_counts_sum_blocks_as_a_zero_padded_map(
     assert got.dtype == np.int64 and np.array_equal(got, want)
     assert (coarse.nx, coarse.ny, coarse.cell) == (want.shape[1], want.shape[0], k * 0.01)
     assert coarse.x0 == pytest.approx(0.3 + 0.5 * (k - 1) * 0.01)
+
+
+def test_nearest_in_run_through_the_tree_finds_equally_near_targets(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    rng = np.random.default_rng(7)
+    pos = _lattice_points(rng, 300)
+    targets = np.flatnonzero(rng.random(pos.shape[0]) < 0.4)
+    queries = np.setdiff1d(np.arange(pos.shape[0]), targets)
+    bounds = np.array([0, targets.size])
+    run = np.zeros(queries.size, dtype=np.intp)
+    brute = nearest_in_run(pos, queries, targets, bounds, run)
+    monkeypatch.setattr(neighbours, "BRUTE_FORCE_PAIRS", 0)
+    dist, k = nearest_in_run(pos, queries, targets, bounds, run)
+    assert np.array_equal(dist, brute[0])
+    dx, dy = (pos[k] - pos[queries]).T
+    assert np.array_equal(np.sqrt(dx * dx + dy * dy), dist)
