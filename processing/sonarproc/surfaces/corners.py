@@ -60,18 +60,20 @@ def centrelines(
         Arc length (m) along the centre line, from 0 at each path's start.
     """
     n = pos.shape[0]
-    i, j, d2 = pairs
-    near = (d2 <= radius * radius) & (group[i] == group[j])
-    i, j = i[near], j[near]
-    a = np.concatenate((path_nodes, i, j))
-    b = np.concatenate((path_nodes, j, i))
     on = np.zeros(n, dtype=bool)
     on[path_nodes] = True
-    a, b = a[on[a]], b[on[a]]
+    i, j, d2 = pairs
+    near = (d2 <= radius * radius) & (group[i] == group[j]) & (on[i] | on[j])
     # summed in one order, ascending node index: two path nodes with the same
-    # neighbours get the same centre to the last bit (and a step of exactly 0)
-    key = np.sort(a.astype(np.int64) * n + b)
-    a, b = key // n, key % n
+    # neighbours get the same centre to the last bit (and a step of exactly 0). With
+    # the pairs (i < j) sorted, node a meets its neighbours i < a (pairs (i, a)), then
+    # itself, then its neighbours j > a (pairs (a, j)), each in ascending order
+    key = np.sort(i[near].astype(np.int64) * n + j[near])
+    i, j = key // n, key % n
+    order = np.concatenate((j, np.sort(path_nodes), i))
+    other = np.concatenate((i, np.sort(path_nodes), j))
+    keep = on[order]
+    a, b = order[keep], other[keep]
     cnt = np.bincount(a, minlength=n).astype(np.float64)
     sx = np.bincount(a, weights=pos[b, 0], minlength=n)
     sy = np.bincount(a, weights=pos[b, 1], minlength=n)

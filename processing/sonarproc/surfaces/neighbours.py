@@ -23,6 +23,8 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 BoolArray = npt.NDArray[np.bool_]
 
+#: Up to this many buckets, the buckets are one dense array (else sorted keys).
+DENSE_BUCKETS = 1 << 22
 #: Above this many candidate pairs the nearest-point search goes through a k-d tree.
 BRUTE_FORCE_PAIRS = 4_000_000
 
@@ -148,23 +150,34 @@ def nearest_within(
     bt = np.floor((pos[targets] - low) / side).astype(np.int64) + 1
     rows = int(max(bq[:, 1].max(), bt[:, 1].max())) + 2
     cols = int(max(bq[:, 0].max(), bt[:, 0].max())) + 2
-    tkey = (group[targets].astype(np.int64) * cols + bt[:, 0]) * rows + bt[:, 1]
-    order = np.argsort(tkey, kind="stable")
-    buckets, start, count = np.unique(tkey[order], return_index=True, return_counts=True)
-    qkey = (group[queries].astype(np.int64) * cols + bq[:, 0]) * rows + bq[:, 1]
     steps = np.array([dx * rows + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.int64)
-    want = (qkey[:, None] + steps).ravel()
-    loc = np.minimum(np.searchsorted(buckets, want), buckets.size - 1)
-    hit = np.flatnonzero(buckets[loc] == want)
+    if cols * rows <= DENSE_BUCKETS:
+        # buckets of all groups in one dense array (the group is checked per pair)
+        tkey = bt[:, 0] * rows + bt[:, 1]
+        order = np.argsort(tkey, kind="stable")
+        count = np.bincount(tkey, minlength=cols * rows)
+        start = np.cumsum(count) - count
+        want = ((bq[:, 0] * rows + bq[:, 1])[:, None] + steps).ravel()
+        hit = np.flatnonzero(count[want] > 0)
+        loc = want[hit]
+    else:
+        tkey = (group[targets].astype(np.int64) * cols + bt[:, 0]) * rows + bt[:, 1]
+        order = np.argsort(tkey, kind="stable")
+        buckets, start, count = np.unique(tkey[order], return_index=True, return_counts=True)
+        qkey = (group[queries].astype(np.int64) * cols + bq[:, 0]) * rows + bq[:, 1]
+        want = (qkey[:, None] + steps).ravel()
+        loc = np.minimum(np.searchsorted(buckets, want), buckets.size - 1)
+        hit = np.flatnonzero(buckets[loc] == want)
+        loc = loc[hit]
     q_of = hit // steps.size
     if prune is not None:
         maybe = np.zeros(queries.size, dtype=bool)
         maybe[q_of] = True
-        wanted = prune(maybe)
-        hit, q_of = hit[wanted[q_of]], q_of[wanted[q_of]]
-    which, k = ragged_arange(count[loc[hit]])
+        wanted = prune(maybe)[q_of]
+        q_of, loc = q_of[wanted], loc[wanted]
+    which, k = ragged_arange(count[loc])
     qi = q_of[which]
-    si = start[loc[hit]][which] + k
+    si = start[loc][which] + k
     # coordinates in bucket order: contiguous gathers
     sorted_t = targets[order]
     tx, ty = pos[sorted_t, 0], pos[sorted_t, 1]
@@ -172,7 +185,7 @@ def nearest_within(
     dx = qx[qi] - tx[si]
     dy = qy[qi] - ty[si]
     d2 = dx * dx + dy * dy
-    close = np.flatnonzero(d2 <= r * r)
+    close = np.flatnonzero((d2 <= r * r) & (group[queries][qi] == group[sorted_t][si]))
     qi, ti, d2 = qi[close], sorted_t[si[close]], d2[close]
     best = np.full(queries.size, np.inf)
     np.minimum.at(best, qi, d2)
