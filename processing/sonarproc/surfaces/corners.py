@@ -70,8 +70,8 @@ def centrelines(
     # itself, then its neighbours j > a (pairs (a, j)), each in ascending order
     key = np.sort(i[near].astype(np.int64) * n + j[near])
     i, j = key // n, key % n
-    order = np.concatenate((j, np.sort(path_nodes), i))
-    other = np.concatenate((i, np.sort(path_nodes), j))
+    order = np.concatenate((j, path_nodes, i))
+    other = np.concatenate((i, path_nodes, j))
     keep = on[order]
     a, b = order[keep], other[keep]
     cnt = np.bincount(a, minlength=n).astype(np.float64)
