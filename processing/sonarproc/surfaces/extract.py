@@ -21,7 +21,7 @@ Every step works on all groups at once: the node pairs come from a grid of bucke
 (:mod:`~sonarproc.surfaces.neighbours`), the paths from
 :mod:`~sonarproc.surfaces.treepaths`, centre lines and corners from
 :mod:`~sonarproc.surfaces.corners` (numpy on runs of one array,
-:mod:`~sonarproc.surfaces.grouped`). Where the nearest path node is not unique, a node
+:mod:`~sonarproc.surfaces.runs`). Where the nearest path node is not unique, a node
 hangs on the one with the lowest index, and a centre-line point sums its neighbours in
 ascending order, so equal inputs give equal outputs to the last bit.
 """
@@ -38,8 +38,8 @@ from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
 from sonarproc.grid import Grid
 from sonarproc.surfaces.corners import centrelines, corners
-from sonarproc.surfaces.grouped import bounds_of, run_searchsorted
 from sonarproc.surfaces.neighbours import close_pairs
+from sonarproc.surfaces.runs import bounds_of, run_searchsorted
 from sonarproc.surfaces.treepaths import TreePaths, tree_paths
 
 __all__ = ["SurfaceCells", "SurfaceParams", "cells_of", "extract_surfaces"]

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.grouped import ragged_arange
+from sonarproc.surfaces.runs import ragged_arange
 
 __all__ = ["close_pairs", "nearest_in_run"]
 

@@ -21,8 +21,8 @@ import numpy.typing as npt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 
-from sonarproc.surfaces.grouped import bounds_of
 from sonarproc.surfaces.neighbours import nearest_in_run, nearest_within
+from sonarproc.surfaces.runs import bounds_of
 
 __all__ = ["MAX_ROUNDS", "TreePaths", "tree_paths"]
 

@@ -15,14 +15,14 @@ from hypothesis import strategies as st
 from sonarproc.grid import Grid
 from sonarproc.surfaces import SurfaceParams, extract_surfaces, neighbours
 from sonarproc.surfaces.coarse import coarse_counts
-from sonarproc.surfaces.grouped import (
+from sonarproc.surfaces.neighbours import close_pairs, nearest_in_run, nearest_within
+from sonarproc.surfaces.runs import (
     ragged_arange,
     run_cumsum,
     run_interp,
     run_median,
     run_searchsorted,
 )
-from sonarproc.surfaces.neighbours import close_pairs, nearest_in_run, nearest_within
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
 
