@@ -38,6 +38,7 @@ from sonarproc.surfaces import (
     surface_metrics,
     truth_points,
 )
+from sonarproc.surfaces.coarse import coarse_counts
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -59,30 +60,6 @@ SURFACE_VOTES = 1
 #: refit through the echo points, not the map, sets their precision, and a coarser map
 #: has far fewer cells to suppress and far fewer chance ridges to fit.
 EXTRACT_CELL_M = 0.02
-
-
-def coarse_counts(
-    counts: npt.ArrayLike, grid: Grid, cell_m: float
-) -> tuple[npt.NDArray[np.int64], Grid]:
-    """Counts summed over blocks of ``k x k`` cells (``k = round(cell_m / grid.cell)``).
-
-    Examples
-    --------
-    >>> g = Grid(x0=0.0, y0=0.0, cell=0.01, nx=5, ny=4)
-    >>> c, cg = coarse_counts(np.ones((4, 5), int), g, 0.02)
-    >>> c.tolist(), (cg.x0, cg.cell, cg.nx, cg.ny)
-    ([[4, 4, 2], [4, 4, 2]], (0.005, 0.02, 3, 2))
-    """
-    c = np.asarray(counts)
-    k = max(1, round(cell_m / grid.cell))
-    if k == 1:
-        return c.astype(np.int64), grid
-    ny, nx = -(-grid.ny // k), -(-grid.nx // k)
-    padded = np.zeros((ny * k, nx * k), dtype=np.int64)
-    padded[: grid.ny, : grid.nx] = c
-    summed = padded.reshape(ny, k, nx, k).sum(axis=(1, 3))
-    half = 0.5 * (k - 1) * grid.cell
-    return summed, Grid(grid.x0 + half, grid.y0 + half, k * grid.cell, nx, ny)
 
 
 @dataclass(frozen=True)

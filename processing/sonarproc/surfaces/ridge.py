@@ -121,18 +121,22 @@ def ridge_nms(
     hxx = ndimage.gaussian_filter(cc, direction_sigma, order=(0, 2))
     hyy = ndimage.gaussian_filter(cc, direction_sigma, order=(2, 0))
     hxy = ndimage.gaussian_filter(cc, direction_sigma, order=(1, 1))
-    iy, ix = np.nonzero(mc)
-    a, b, d = (h[iy, ix].astype(np.float64) for h in (hxx, hxy, hyy))
+    flat = np.flatnonzero(mc)
+    a, b, d = (h.ravel()[flat].astype(np.float64) for h in (hxx, hxy, hyy))
     root = np.sqrt(0.25 * (a - d) ** 2 + b * b)
     lam_min, lam_max = 0.5 * (a + d) - root, 0.5 * (a + d) + root
+    # the curvature test first: the comparisons along the normal only where it holds
+    ridge = np.flatnonzero((lam_min < 0) & (-lam_min > np.abs(lam_max)))
+    flat, a, b, d = flat[ridge], a[ridge], b[ridge], d[ridge]
+    iy, ix = np.divmod(flat, mc.shape[1])
     theta = 0.5 * np.arctan2(2.0 * b, a - d) + 0.5 * np.pi
     nx, ny = np.cos(theta), np.sin(theta)
-    here = smooth[iy, ix]
+    here = smooth.ravel()[flat]
     fy, fx = iy.astype(np.float64), ix.astype(np.float64)
     ahead = ndimage.map_coordinates(smooth, [fy + ny, fx + nx], order=1, mode="nearest")
     behind = ndimage.map_coordinates(smooth, [fy - ny, fx - nx], order=1, mode="nearest")
-    crest = (lam_min < 0) & (-lam_min > np.abs(lam_max)) & (here >= ahead) & (here > behind)
-    sub = np.zeros(mc.shape, dtype=bool)
-    sub[iy[crest], ix[crest]] = True
-    out[box] = sub
+    crest = (here >= ahead) & (here > behind)
+    hits = np.zeros(mc.size, dtype=bool)
+    hits[flat[crest]] = True
+    out[box] = hits.reshape(mc.shape)
     return out

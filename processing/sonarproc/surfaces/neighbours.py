@@ -1,0 +1,267 @@
+"""Points near each other in the plane, found through a grid of buckets (no k-d tree).
+
+The extraction needs, for a few ten thousand nodes, every pair closer than the bridging
+distance, and for nodes off a surface's path the nearest node on it. Buckets of side
+``r`` hold the points; a pair closer than ``r`` lies in one bucket or two adjacent ones,
+so only those bucket pairs are compared, all at once. Distances are compared squared
+(``dx * dx + dy * dy <= r * r``), as :class:`scipy.spatial.cKDTree` does, so both find
+the same pairs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.runs import ragged_arange
+
+__all__ = ["close_pairs", "nearest_in_run"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
+
+#: Up to this many buckets, the buckets are one dense array (else sorted keys).
+DENSE_BUCKETS = 1 << 22
+#: Above this many candidate pairs the nearest-point search goes through a k-d tree.
+BRUTE_FORCE_PAIRS = 4_000_000
+
+
+def _low_corner(pos: FloatArray) -> FloatArray:
+    """Smallest x and y (numpy reduces an (N, 2) array along axis 0 slowly)."""
+    return np.array([pos[:, 0].min(), pos[:, 1].min()])
+
+
+def close_pairs(pos: FloatArray, r: float) -> tuple[IntArray, IntArray, FloatArray]:
+    """Every pair ``i < j`` of points at most ``r`` apart, and its squared distance.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        Points (m).
+    r : float
+        Largest distance (m), > 0.
+
+    Returns
+    -------
+    i, j : ndarray of intp
+        The pairs (``i < j``), in no particular order.
+    d2 : ndarray of float
+        ``dx * dx + dy * dy`` of each pair.
+
+    Examples
+    --------
+    >>> i, j, d2 = close_pairs(np.array([[0.0, 0.0], [0.3, 0.4], [2.0, 0.0]]), 0.5)
+    >>> i.tolist(), j.tolist(), d2.round(12).tolist()
+    ([0], [1], [0.25])
+    """
+    n = pos.shape[0]
+    empty = np.zeros(0, dtype=np.intp)
+    if n < 2:
+        return empty, empty, np.zeros(0)
+    # buckets a hair wider than r: rounding in the division never puts a pair r apart
+    # two buckets apart
+    side = r * (1.0 + 1e-6)
+    b = np.floor((pos - _low_corner(pos)) / side).astype(np.int64)
+    rows = int(b[:, 1].max()) + 3
+    key = (b[:, 0] + 1) * rows + (b[:, 1] + 1)
+    order = np.argsort(key, kind="stable")
+    buckets, start, count = np.unique(key[order], return_index=True, return_counts=True)
+    # the bucket itself and the four neighbours ahead of it: each bucket pair once
+    pa_list, pb_list = [], []
+    for step in (0, 1, rows - 1, rows, rows + 1):
+        loc = np.searchsorted(buckets, buckets + step)
+        loc = np.minimum(loc, buckets.size - 1)
+        hit = np.flatnonzero(buckets[loc] == buckets + step)
+        pa_list.append(hit)
+        pb_list.append(loc[hit])
+    pa, pb = np.concatenate(pa_list), np.concatenate(pb_list)
+    ca, cb = count[pa], count[pb]
+    # in bucket order (contiguous coordinates); back to point indices for the survivors.
+    # One row per point of the first bucket, over the points of the second (within
+    # one bucket: over the points after it)
+    xs, ys = pos[order, 0], pos[order, 1]
+    same = pa == pb
+    row_pair, row_k = ragged_arange(ca)
+    row_a = start[pa[row_pair]] + row_k
+    row_b = np.where(same[row_pair], row_a + 1, start[pb[row_pair]])
+    row_len = np.where(same[row_pair], ca[row_pair] - row_k - 1, cb[row_pair])
+    row, k = ragged_arange(row_len)
+    sa = row_a[row]
+    sb = row_b[row] + k
+    dx = xs[sa] - xs[sb]
+    dy = ys[sa] - ys[sb]
+    d2 = dx * dx + dy * dy
+    close = np.flatnonzero(d2 <= r * r)
+    ia, ib, d2 = order[sa[close]], order[sb[close]], d2[close]
+    lo, hi = np.minimum(ia, ib), np.maximum(ia, ib)
+    return lo.astype(np.intp), hi.astype(np.intp), d2
+
+
+def nearest_within(
+    pos: FloatArray,
+    queries: IntArray,
+    targets: IntArray,
+    group: IntArray,
+    r: float,
+    *,
+    prune: Callable[[BoolArray], BoolArray] | None = None,
+) -> tuple[FloatArray, IntArray]:
+    """For each query point, the nearest target point of its group, if within ``r``.
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        All points.
+    queries, targets : ndarray of intp
+        Indices of the query and the target points.
+    group : ndarray of intp, shape (N,)
+        Group of every point (>= 0); a query looks only at targets of its group.
+    r : float
+        Search radius (m), > 0.
+    prune : callable, optional
+        Given which queries may have a target within ``r`` (the others have none),
+        says which of them to search; the rest are reported as having none.
+
+    Returns
+    -------
+    dist : ndarray of float
+        Distance to the nearest target (``sqrt(dx * dx + dy * dy)``), inf if none is
+        within ``r``.
+    nearest : ndarray of intp
+        Its index into ``pos`` (ties: the lower index), -1 if none.
+
+    Examples
+    --------
+    >>> pos = np.array([[0.0, 0.0], [1.0, 0.0], [1.5, 0.0], [3.0, 0.0]])
+    >>> d, k = nearest_within(pos, np.array([2, 3]), np.array([0, 1]), np.zeros(4, int), 1.0)
+    >>> d.tolist(), k.tolist()
+    ([0.5, inf], [1, -1])
+    """
+    dist = np.full(queries.size, np.inf)
+    nearest = np.full(queries.size, -1, dtype=np.intp)
+    if queries.size == 0 or targets.size == 0:
+        return dist, nearest
+    side = r * (1.0 + 1e-6)
+    low = _low_corner(pos)
+    bq = np.floor((pos[queries] - low) / side).astype(np.int64) + 1
+    bt = np.floor((pos[targets] - low) / side).astype(np.int64) + 1
+    rows = int(max(bq[:, 1].max(), bt[:, 1].max())) + 2
+    cols = int(max(bq[:, 0].max(), bt[:, 0].max())) + 2
+    steps = np.array([dx * rows + dy for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.int64)
+    if cols * rows <= DENSE_BUCKETS:
+        # buckets of all groups in one dense array (the group is checked per pair)
+        tkey = bt[:, 0] * rows + bt[:, 1]
+        order = np.argsort(tkey, kind="stable")
+        count = np.bincount(tkey, minlength=cols * rows)
+        start = np.cumsum(count) - count
+        want = ((bq[:, 0] * rows + bq[:, 1])[:, None] + steps).ravel()
+        hit = np.flatnonzero(count[want] > 0)
+        loc = want[hit]
+    else:
+        tkey = (group[targets].astype(np.int64) * cols + bt[:, 0]) * rows + bt[:, 1]
+        order = np.argsort(tkey, kind="stable")
+        buckets, start, count = np.unique(tkey[order], return_index=True, return_counts=True)
+        qkey = (group[queries].astype(np.int64) * cols + bq[:, 0]) * rows + bq[:, 1]
+        want = (qkey[:, None] + steps).ravel()
+        loc = np.minimum(np.searchsorted(buckets, want), buckets.size - 1)
+        hit = np.flatnonzero(buckets[loc] == want)
+        loc = loc[hit]
+    q_of = hit // steps.size
+    if prune is not None:
+        maybe = np.zeros(queries.size, dtype=bool)
+        maybe[q_of] = True
+        wanted = prune(maybe)[q_of]
+        q_of, loc = q_of[wanted], loc[wanted]
+    which, k = ragged_arange(count[loc])
+    qi = q_of[which]
+    si = start[loc][which] + k
+    # coordinates in bucket order: contiguous gathers
+    sorted_t = targets[order]
+    tx, ty = pos[sorted_t, 0], pos[sorted_t, 1]
+    qx, qy = pos[queries, 0], pos[queries, 1]
+    dx = qx[qi] - tx[si]
+    dy = qy[qi] - ty[si]
+    d2 = dx * dx + dy * dy
+    close = np.flatnonzero((d2 <= r * r) & (group[queries][qi] == group[sorted_t][si]))
+    qi, ti, d2 = qi[close], sorted_t[si[close]], d2[close]
+    best = np.full(queries.size, np.inf)
+    np.minimum.at(best, qi, d2)
+    tie = d2 == best[qi]
+    top = np.iinfo(np.intp).max
+    pick = np.full(queries.size, top, dtype=np.intp)
+    np.minimum.at(pick, qi[tie], ti[tie])
+    found = pick < top
+    dist[found], nearest[found] = np.sqrt(best[found]), pick[found]
+    return dist, nearest
+
+
+def nearest_in_run(
+    pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
+) -> tuple[FloatArray, IntArray]:
+    """For each query point, the nearest target point of its run (ties: the lower index).
+
+    Beyond :data:`BRUTE_FORCE_PAIRS` query-target pairs, one k-d tree answers instead
+    (its choice among equally near targets).
+
+    Parameters
+    ----------
+    pos : ndarray, shape (N, 2)
+        All points.
+    queries : ndarray of intp
+        Indices of the query points.
+    targets : ndarray of intp
+        Indices of the target points, grouped by run: run ``g`` is
+        ``targets[bounds[g]:bounds[g + 1]]`` (each run that a query uses is non-empty).
+    bounds : ndarray of intp
+        Run bounds into ``targets``.
+    run : ndarray of intp
+        The run of each query.
+
+    Returns
+    -------
+    dist : ndarray of float
+        Distance to the nearest target (``sqrt(dx * dx + dy * dy)``).
+    nearest : ndarray of intp
+        Index (into ``pos``) of the nearest target.
+
+    Examples
+    --------
+    >>> pos = np.array([[0.0, 0.0], [1.0, 0.0], [5.0, 0.0], [3.0, 0.0]])
+    >>> d, k = nearest_in_run(pos, np.array([3]), np.array([0, 1, 2]), np.array([0, 3]),
+    ...                       np.array([0]))
+    >>> d.tolist(), k.tolist()
+    ([2.0], [1])
+    """
+    sizes = (bounds[1:] - bounds[:-1])[run]
+    if int(sizes.sum()) > BRUTE_FORCE_PAIRS:
+        return _nearest_by_tree(pos, queries, targets, bounds, run)
+    q, k = ragged_arange(sizes)
+    t = targets[bounds[:-1][run][q] + k]
+    a = queries[q]
+    dx = pos[a, 0] - pos[t, 0]
+    dy = pos[a, 1] - pos[t, 1]
+    d2 = dx * dx + dy * dy
+    best = np.full(queries.size, np.inf)
+    np.minimum.at(best, q, d2)
+    tie = d2 == best[q]
+    nearest = np.full(queries.size, np.iinfo(np.intp).max, dtype=np.intp)
+    np.minimum.at(nearest, q[tie], t[tie])
+    return np.sqrt(best), nearest
+
+
+def _nearest_by_tree(
+    pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
+) -> tuple[FloatArray, IntArray]:
+    """:func:`nearest_in_run` for many points: one k-d tree, runs set far apart in a 3rd axis."""
+    from scipy.spatial import cKDTree  # only here: a cold import costs a third of a second
+
+    span = float(max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1]))) if pos.size else 0.0
+    apart = 4.0 * span + 1.0
+    t_run = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
+    t_xyz = np.column_stack((pos[targets], t_run * apart))
+    q_xyz = np.column_stack((pos[queries], run * apart))
+    dist, k = cKDTree(t_xyz).query(q_xyz)
+    return np.asarray(dist, dtype=np.float64), targets[np.asarray(k, dtype=np.intp)]
