@@ -19,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import TransducerPoses
+from sonarproc.errors import ParameterError
 from sonarproc.fit import Fit, FitFailure
 from sonarproc.methods.base import Beams
 from sonarproc.methods.echo_model import first_echo_path
@@ -27,12 +28,16 @@ from sonarproc.methods.echo_model import first_echo_path
 MAX_SAMPLES = 500
 
 __all__ = [
+    "FOLD_SCHEMES",
     "MAX_SAMPLES",
     "firing_folds",
     "hull_excess",
+    "make_folds",
+    "pass_folds",
     "predicted_path",
     "range_loss",
     "subset_beams",
+    "time_block_folds",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -51,13 +56,83 @@ def firing_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[
     >>> bool(f[0] == f[1] and f[2] == f[3] and len(set(f.tolist())) == 3)
     True
     """
-    keys = np.column_stack((r_t := np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
-    _, firing = np.unique(keys, axis=0, return_inverse=True)
-    firing = firing.reshape(r_t.shape)
+    firing = _firings(readings)
     rng = np.random.default_rng(seed)
     n = int(firing.max()) + 1 if firing.size else 0
     fold_of_firing = rng.permutation(n) % k
     return fold_of_firing[firing].astype(np.intp)
+
+
+def _firings(readings: np.ndarray) -> npt.NDArray[np.intp]:
+    """Index of each reading's firing, firings numbered in time order."""
+    keys = np.column_stack((np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
+    _, firing = np.unique(keys, axis=0, return_inverse=True)
+    return np.asarray(firing.reshape(-1), dtype=np.intp)
+
+
+def time_block_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:
+    """Fold of each reading: ``k`` contiguous blocks of firings in time (a random rotation).
+
+    Examples
+    --------
+    >>> from sonarlog.schema import empty_readings
+    >>> r = empty_readings(8)
+    >>> r["t"] = np.arange(8) // 2
+    >>> f = time_block_folds(r, 2)
+    >>> bool(f[0] == f[1] and len(set(f.tolist())) == 2 and (np.diff(f) != 0).sum() <= 2)
+    True
+    """
+    firing = _firings(readings)
+    n = int(firing.max()) + 1 if firing.size else 0
+    shift = int(np.random.default_rng(seed).integers(0, max(n, 1)))
+    block = ((np.arange(n) + shift) % max(n, 1)) * k // max(n, 1)
+    return np.asarray(block[firing], dtype=np.intp)
+
+
+def pass_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:
+    """Fold of each reading: each transmitter's firings, in time order, cut into ``k``
+    contiguous runs (its passes along the robot's path), the runs dealt to the folds at
+    random per transmitter.
+
+    Examples
+    --------
+    >>> from sonarlog.schema import empty_readings
+    >>> r = empty_readings(8)
+    >>> r["t"] = np.arange(8)
+    >>> r["tx"] = [1, 2] * 4
+    >>> f = pass_folds(r, 2)
+    >>> bool(f[0] == f[2] and f[4] == f[6] and f[0] != f[4])
+    True
+    """
+    firing = _firings(readings)
+    n = int(firing.max()) + 1 if firing.size else 0
+    first = np.zeros(n, dtype=np.intp)
+    first[firing] = np.arange(firing.size)
+    tx = np.asarray(readings["tx"], dtype=np.int64)[first]
+    order = np.lexsort((np.arange(n), tx))
+    starts = np.r_[0, np.flatnonzero(np.diff(tx[order])) + 1] if n else np.zeros(0, np.intp)
+    counts = np.diff(np.r_[starts, n])
+    run = (np.arange(n) - np.repeat(starts, counts)) * k // np.repeat(counts, counts)
+    rng = np.random.default_rng(seed)
+    deal = rng.random((starts.size, k)).argsort(axis=1)  # a permutation of the folds each
+    fold = np.empty(n, dtype=np.intp)
+    fold[order] = deal[np.repeat(np.arange(starts.size), counts), run]
+    return np.asarray(fold[firing], dtype=np.intp)
+
+
+#: How ``--auto`` may split the firings into folds (``choose(folds_by=...)``).
+FOLD_SCHEMES = {"firings": firing_folds, "time": time_block_folds, "passes": pass_folds}
+
+
+def make_folds(
+    readings: np.ndarray, k: int, *, by: str = "firings", seed: int = 0
+) -> npt.NDArray[np.intp]:
+    """Fold of each reading by the scheme ``by`` (a key of :data:`FOLD_SCHEMES`)."""
+    try:
+        scheme = FOLD_SCHEMES[by]
+    except KeyError as err:
+        raise ParameterError("folds_by", f"{by!r} is not one of {', '.join(FOLD_SCHEMES)}") from err
+    return scheme(readings, k, seed=seed)
 
 
 def subset_beams(beams: Beams, keep: BoolArray) -> Beams:

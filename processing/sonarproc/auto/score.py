@@ -27,6 +27,8 @@ __all__ = [
     "TRIM",
     "AutoChoice",
     "Score",
+    "one_se_setting",
+    "paired_se",
     "robust_residual",
 ]
 
@@ -70,6 +72,64 @@ def robust_residual(losses: npt.NDArray[np.float64], trim: float = TRIM) -> floa
     return float(np.partition(losses, k - 1)[:k].mean())
 
 
+def paired_se(
+    a: npt.NDArray[np.float64],
+    b: npt.NDArray[np.float64],
+    *,
+    trim: float = TRIM,
+    resamples: int = 200,
+    seed: int = 0,
+) -> float:
+    """Standard error of ``robust_residual(b) - robust_residual(a)``, losses paired by reading.
+
+    ``a`` and ``b`` are two settings' losses on the *same* held-out readings; the readings
+    are resampled with their pairs kept together (a bootstrap), which is far less noisy
+    than either residual's own error.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> a = rng.random(400) * 0.01
+    >>> paired_se(a, a + 0.001) < 1e-4 < paired_se(a, rng.random(400) * 0.01)
+    True
+    """
+    if a.shape != b.shape or a.size < 2:
+        return float("nan")
+    idx = np.random.default_rng(seed).integers(0, a.size, (resamples, a.size))
+    k = max(1, int(np.ceil(trim * a.size)))
+    ta = np.partition(a[idx], k - 1, axis=1)[:, :k].mean(axis=1)
+    tb = np.partition(b[idx], k - 1, axis=1)[:, :k].mean(axis=1)
+    return float(np.std(tb - ta, ddof=1))
+
+
+def one_se_setting(
+    family: str, losses: dict[float, npt.NDArray[np.float64]], allowed: set[float], nse: float = 1.0
+) -> float | None:
+    """The smoothest of ``allowed`` settings within ``nse`` paired standard errors of the best.
+
+    The one-standard-error rule: the best is the lowest :func:`robust_residual`; the
+    smoothest is the largest spline smoothing length, or the lowest polynomial order.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> base = rng.random(300) * 0.01
+    >>> losses = {0.1: base, 0.4: base + rng.normal(0.0, 0.001, 300), 1.6: base + 0.003}
+    >>> one_se_setting("spline", losses, {0.1, 0.4, 1.6})
+    0.4
+    """
+    pool = {k: v for k, v in losses.items() if k in allowed}
+    if not pool:
+        return None
+    res = {k: robust_residual(v) for k, v in pool.items()}
+    best = min(res, key=lambda k: res[k])
+    near = [
+        k for k in pool
+        if k == best or res[k] - res[best] <= nse * paired_se(pool[best], pool[k])
+    ]  # fmt: skip
+    return max(near) if family == "spline" else min(near)
+
+
 @dataclass
 class Score:
     """A candidate's held-out residual at each setting, its best, and the guard rails."""
@@ -97,7 +157,7 @@ class Score:
             robust_residual(np.concatenate(self.base_losses)) if self.base_losses else np.inf
         )
         inside = {k: r for k, r in res.items() if self.hull.get(k, 0.0) <= HULL_CELLS * cell}
-        covering = {k: r for k, r in inside.items() if self.coverage.get(k, 1.0) >= COVERAGE_MIN}
+        covering = {k: r for k, r in inside.items() if k in self.allowed(cell)}
         if self.too_large:
             self.excluded = (
                 f"not scored: the grid has {self.too_large} cells, more than "
@@ -125,6 +185,14 @@ class Score:
             self.excluded = (
                 f"worse than a constant or a line on its points ({100 * self.baseline_m:.3g} cm)"
             )
+
+    def allowed(self, cell: float) -> set[float]:
+        """Settings the guard rails allow: inside the hull and covering, in every fold."""
+        return {
+            k for k, v in self.losses.items()
+            if v and self.hull.get(k, 0.0) <= HULL_CELLS * cell
+            and self.coverage.get(k, 1.0) >= COVERAGE_MIN
+        }  # fmt: skip
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready row."""

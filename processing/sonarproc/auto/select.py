@@ -23,8 +23,8 @@ import numpy.typing as npt
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.holdout import (
-    firing_folds,
     hull_excess,
+    make_folds,
     predicted_path,
     range_loss,
     subset_beams,
@@ -269,6 +269,7 @@ def choose(
     max_readings: int = 6_000,
     heldout_per_fold: int = 300,
     seed: int = 0,
+    folds_by: str = "firings",
 ) -> AutoChoice:
     """Score every candidate by its held-out range residual (no ground truth).
 
@@ -291,6 +292,11 @@ def choose(
         Held-out readings predicted per fold (a random subset).
     seed : int
         Seed of the folds and subsets.
+    folds_by : str
+        How the folds split the log: ``"firings"`` (whole firings at random, what
+        ``--auto`` uses), ``"time"`` (contiguous time blocks) or ``"passes"`` (contiguous
+        runs of each transmitter's firings); :mod:`sonarproc.studies.auto_rules`
+        compares them.
 
     Returns
     -------
@@ -299,7 +305,8 @@ def choose(
     Raises
     ------
     NothingToMapError, InputError, ParameterError
-        As ``sonarproc run`` (no usable reading, a bad grid).
+        As ``sonarproc run`` (no usable reading, a bad grid); ``ParameterError`` also for
+        an unknown ``folds_by``.
     """
     beams, _ = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
@@ -313,7 +320,7 @@ def choose(
     rng = np.random.default_rng(seed + 2)
     scores = [Score(c) for c in candidates]
     for rep in range(repeats):
-        fold = firing_folds(beams.readings, folds, seed=seed + 1000 * rep)
+        fold = make_folds(beams.readings, folds, by=folds_by, seed=seed + 1000 * rep)
         for f in range(folds):
             test = np.flatnonzero(fold == f)
             if test.size == 0:

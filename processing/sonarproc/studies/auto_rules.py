@@ -1,0 +1,176 @@
+"""Selection rules for ``--auto`` compared on the shipped scenarios, judged by the truth.
+
+``python -m sonarproc.studies.auto_rules [--scenarios DIR] [--held NAME ...]`` simulates
+each scenario, measures every candidate at every setting against the truth
+(:func:`sonarproc.studies.auto_study.candidate_errors`) and scores the candidates
+(:func:`sonarproc.auto.choose`) with each fold scheme, then prints, per rule, the
+setting it picks and its error's ratio to the best candidate's:
+
+``lowest``
+    ``--auto`` as built: the lowest held-out residual, folds of whole firings at random.
+``one-se``
+    The same winning candidate, at the smoothest of its allowed settings whose residual
+    is within one paired standard error of its best
+    (:func:`sonarproc.auto.score.one_se_setting`: the largest spline smoothing length,
+    the lowest polynomial order).
+``time``, ``passes``
+    The same winning candidate, at the setting with the lowest residual when the folds
+    are contiguous time blocks, or contiguous runs of each transmitter's firings
+    (:func:`sonarproc.auto.holdout.make_folds`); ``time+se``, ``passes+se``: with the
+    one-standard-error rule on those folds.
+
+The ``--held`` scenarios (kept out of any tuning) are summarised apart. The winner is the
+top of :attr:`sonarproc.auto.AutoChoice.ranked`: where the guard rails exclude every
+candidate, ``--auto`` itself may differ (it re-checks the hull on the whole log).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from sonarproc.auto import AutoChoice, Score, choose
+from sonarproc.auto.score import one_se_setting, robust_residual
+from sonarproc.params import RunParams
+from sonarproc.pipeline import load_log
+from sonarproc.studies.auto_study import candidate_errors
+from sonarsim.shipped import shipped_dir
+
+__all__ = ["HELD_ASIDE", "RULES", "RuleRow", "main", "pick", "render", "run_rules", "summary"]
+
+log = logging.getLogger(__name__)
+
+RULES = ("lowest", "one-se", "time", "time+se", "passes", "passes+se")
+#: The scenarios written to check ``--auto`` and never used to tune it.
+HELD_ASIDE = (
+    "wavy-ring-walk", "auto-sparse-gentle", "auto-bistatic-sinusoid", "auto-linear-sinusoid",
+    "auto2-linear-wave", "auto2-sparse-curve", "auto2-bistatic-step",
+)  # fmt: skip
+
+
+def _label(s: Score, setting: float | None) -> str:
+    if s.candidate.family == "surfaces" or setting is None:
+        return f"{s.candidate.name}@0"
+    return f"{s.candidate.name}@{setting:g}"
+
+
+def _setting(s: Score, cell: float, *, se: bool) -> float | None:
+    allowed = s.allowed(cell)
+    if not allowed:
+        return s.setting
+    losses = {k: np.concatenate(v) for k, v in s.losses.items() if v}
+    if se:
+        return one_se_setting(s.candidate.family, losses, allowed)
+    return min(allowed, key=lambda k: robust_residual(losses[k]))
+
+
+def pick(rule: str, choices: dict[str, AutoChoice], cell: float) -> str:
+    """``name@setting`` the rule picks from the choices made with each fold scheme."""
+    win = choices["firings"].ranked[0]
+    if rule == "lowest" or win.candidate.family == "surfaces":
+        return _label(win, win.setting)
+    if rule == "one-se":
+        return _label(win, _setting(win, cell, se=True))
+    scheme, _, se = rule.partition("+")
+    other = next(s for s in choices[scheme].scores if s.candidate.name == win.candidate.name)
+    return _label(win, _setting(other, cell, se=bool(se)))
+
+
+@dataclass(frozen=True)
+class RuleRow:
+    """One scenario: the best candidate by the truth, and each rule's pick.
+
+    ``picks[rule]`` is ``(name@setting, error_m, ratio to the best)``.
+    """
+
+    best: str
+    best_error_m: float
+    picks: dict[str, tuple[str, float, float]]
+
+
+def run_rules(scenario_dir: Path, *, cell: float = 0.01) -> dict[str, RuleRow]:
+    """Every rule's pick, error and ratio to the best candidate on every scenario."""
+    from sonarproc.simulate import simulate_to_log
+
+    out: dict[str, RuleRow] = {}
+    base = RunParams(cell=cell)
+    with tempfile.TemporaryDirectory() as tmp:
+        for yml in sorted(scenario_dir.glob("*.yaml")):
+            path = Path(tmp) / f"{yml.stem}.h5"
+            simulate_to_log(yml, path)
+            lg = load_log(path)
+            errors = candidate_errors(lg, base)
+            choices = {by: choose(lg, base, folds_by=by) for by in ("firings", "time", "passes")}
+            best = min(errors, key=lambda k: errors[k])
+            picks = {}
+            for rule in RULES:
+                lab = pick(rule, choices, cell)
+                err = errors.get(lab, np.inf)
+                picks[rule] = (lab, err, err / errors[best] if errors[best] > 0 else np.inf)
+            out[yml.stem] = RuleRow(best, errors[best], picks)
+            log.info("%s done", yml.stem)
+    return out
+
+
+def summary(rows: dict[str, RuleRow], rule: str) -> str:
+    """Within 1.2x of the best, the geometric mean ratio, and the 5 cm rule's breaks."""
+    if not rows:
+        return "none"
+    ratios = np.array([min(r.picks[rule][2], 100.0) for r in rows.values()])
+    breaks = sum(r.picks[rule][1] > 0.05 and r.best_error_m < 0.03 for r in rows.values())
+    gmean = float(np.exp(np.log(ratios).mean()))
+    within = int((ratios <= 1.2).sum())
+    return f"{within}/{ratios.size} within 1.2x, mean ratio {gmean:.2f}, {breaks} above 5 cm"
+
+
+def render(rows: dict[str, RuleRow], held: Sequence[str] = HELD_ASIDE) -> str:
+    """Markdown: each rule's pick and ratio per scenario, then the summaries (held aside apart).
+
+    Examples
+    --------
+    >>> row = RuleRow("a@0.4", 0.01, {r: ("a@0.1", 0.02, 2.0) for r in RULES})
+    >>> print(render({"s": row}, held=()).splitlines()[2])
+    | s | 1.00 | a@0.1 2.00 | a@0.1 2.00 | a@0.1 2.00 | a@0.1 2.00 | a@0.1 2.00 | a@0.1 2.00 |
+    """
+    head = "| scenario | best (cm) | " + " | ".join(f"`{r}`" for r in RULES) + " |"
+    lines = [head, "|---" * (len(RULES) + 2) + "|"]
+    for name, r in rows.items():
+        cells = " | ".join(f"{r.picks[rule][0]} {r.picks[rule][2]:.2f}" for rule in RULES)
+        mark = " (held aside)" if name in held else ""
+        lines.append(f"| {name}{mark} | {100 * r.best_error_m:.2f} | {cells} |")
+    tuned = {k: v for k, v in rows.items() if k not in held}
+    aside = {k: v for k, v in rows.items() if k in held}
+    lines.append("")
+    for rule in RULES:
+        lines.append(
+            f"- `{rule}`: tuned on: {summary(tuned, rule)}; held aside: {summary(aside, rule)}"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the comparison of the selection rules."""
+    ap = argparse.ArgumentParser(prog="python -m sonarproc.studies.auto_rules", description=__doc__)
+    ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
+    ap.add_argument("--held", nargs="*", default=list(HELD_ASIDE), help="scenarios kept aside")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    if not args.scenarios.is_dir():
+        print(
+            f"sonarproc.studies.auto_rules: error: --scenarios: no such folder {args.scenarios}",
+            file=sys.stderr,
+        )
+        return 2
+    sys.stdout.write(render(run_rules(args.scenarios), args.held))
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
