@@ -136,6 +136,7 @@ class Score:
 
     candidate: Candidate
     losses: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
+    #: each setting's hull excess (m), its fit to the map of all the scored readings
     hull: dict[float, float] = field(default_factory=dict)
     coverage: dict[float, float] = field(default_factory=dict)
     base_losses: list[npt.NDArray[np.float64]] = field(default_factory=list)
@@ -187,7 +188,8 @@ class Score:
             )
 
     def allowed(self, cell: float) -> set[float]:
-        """Settings the guard rails allow: inside the hull and covering, in every fold."""
+        """Settings the guard rails allow: inside the hull (the fit to all the scored
+        readings' map) and covering the columns in every fold."""
         return {
             k for k, v in self.losses.items()
             if v and self.hull.get(k, 0.0) <= HULL_CELLS * cell

@@ -4,8 +4,11 @@
 residual (:mod:`sonarproc.auto.holdout`) and applies the guard rails of
 :mod:`sonarproc.auto.score` (a fit that leaves its points' hull, misses most of the
 columns the readings imply, or does no better than a constant or a line, is never
-chosen). :func:`run_auto` then runs the winner on every reading (the
-hull is checked again on that fit; a failure hands over to the runner-up).
+chosen). The hull is judged on each setting's fit to the map of all the scored readings
+(the fit that would be chosen), not on the folds' fits: a fold's fit sees part of the
+points and may leave their hull where the whole fit does not. :func:`run_auto` then
+runs the winner on every reading (the hull is checked again on that fit; a failure
+hands over to the runner-up).
 
 Large logs are scored on a random subset of at most ``max_readings`` readings (whole
 firings), so ``--auto`` costs a few runs, whatever the log.
@@ -223,13 +226,6 @@ def _score_profiles(
     for setting in c.settings:
         fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
         s.coverage[setting] = min(s.coverage.get(setting, 1.0), _coverage(fit, implied))
-        if not isinstance(fit, FitFailure):
-            h = hull_excess(fit.sample(grid.cell), px, py, window=10 * grid.cell)
-            s.hull[setting] = max(s.hull.get(setting, 0.0), h)
-        if s.hull.get(setting, 0.0) > HULL_CELLS * grid.cell:
-            # excluded whatever it predicts: spare the echo model
-            s.losses.setdefault(setting, []).append(np.full(held.size, cap))
-            continue
         loss = range_loss(measured, predicted_path(fit, beams, held, 2 * grid.cell), cap)
         s.losses.setdefault(setting, []).append(loss)
 
@@ -327,10 +323,33 @@ def choose(
                 continue
             held = np.sort(rng.permutation(test)[:heldout_per_fold])
             _fold_scores(scores, beams, grid, base, fold != f, held, cap, implied)
+    _whole_hulls(scores, beams, grid, base)
     for s in scores:
         s.finish(grid.cell)
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
     return AutoChoice(scores, crit, n, folds, repeats)
+
+
+def _whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
+    """Each profile setting's hull excess, fitted to its method's map of all ``beams``."""
+    maps: dict[_MapKey, tuple[MethodMap, Bins, FloatArray, FloatArray] | None] = {}
+    for s in scores:
+        c = s.candidate
+        if c.family == "surfaces":
+            continue
+        key = (c.method, tuple(sorted(c.options.items())))
+        if key not in maps:
+            maps[key] = _build(c, beams, grid, base)
+        entry = maps[key]
+        if entry is None:
+            continue
+        _, bins, px, py = entry
+        mc = _mean_count(bins)
+        for setting in c.settings:
+            fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
+            if not isinstance(fit, FitFailure):
+                sampled = fit.sample(grid.cell)
+                s.hull[setting] = hull_excess(sampled, px, py, window=10 * grid.cell)
 
 
 def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult:
