@@ -159,16 +159,13 @@ def _fold_scores(
     implied: tuple[float, float],
 ) -> None:
     tb = subset_beams(beams, train)
-    maps: dict[_MapKey, tuple[MethodMap, Bins, FloatArray, FloatArray] | None] = {}
+    maps = _Maps(tb, grid, base)
     baselines: dict[_MapKey, npt.NDArray[np.float64]] = {}
     measured = beams.path[held]
     step = 2 * grid.cell
     for s in scores:
         c = s.candidate
-        key = (c.method, tuple(sorted(c.options.items())))
-        if key not in maps:
-            maps[key] = _build(c, tb, grid, base)
-        entry = maps[key]
+        key, entry = maps.get(c)
         if entry is None:
             continue
         mmap, bins, px, py = entry
@@ -188,11 +185,25 @@ def _fold_scores(
 
 
 _MapKey = tuple[str, tuple[tuple[str, Any], ...]]
+_MapEntry = tuple[MethodMap, Bins, FloatArray, FloatArray]
 
 
-def _build(
-    c: Candidate, beams: Beams, grid: Grid, base: RunParams
-) -> tuple[MethodMap, Bins, FloatArray, FloatArray] | None:
+class _Maps:
+    """Each method's map on one set of readings, built once (candidates share methods)."""
+
+    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
+        self.beams, self.grid, self.base = beams, grid, base
+        self.built: dict[_MapKey, _MapEntry | None] = {}
+
+    def get(self, c: Candidate) -> tuple[_MapKey, _MapEntry | None]:
+        """The key of ``c``'s map and the map (None when it left nothing)."""
+        key = (c.method, tuple(sorted(c.options.items())))
+        if key not in self.built:
+            self.built[key] = _build(c, self.beams, self.grid, self.base)
+        return key, self.built[key]
+
+
+def _build(c: Candidate, beams: Beams, grid: Grid, base: RunParams) -> _MapEntry | None:
     """The candidate's map on ``beams``, its column statistics and points; None if empty."""
     method = c.make()
     try:
@@ -332,15 +343,10 @@ def choose(
 
 def _whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
     """Each profile setting's hull excess, fitted to its method's map of all ``beams``."""
-    maps: dict[_MapKey, tuple[MethodMap, Bins, FloatArray, FloatArray] | None] = {}
+    maps = _Maps(beams, grid, base)
     for s in scores:
         c = s.candidate
-        if c.family == "surfaces":
-            continue
-        key = (c.method, tuple(sorted(c.options.items())))
-        if key not in maps:
-            maps[key] = _build(c, beams, grid, base)
-        entry = maps[key]
+        entry = None if c.family == "surfaces" else maps.get(c)[1]
         if entry is None:
             continue
         _, bins, px, py = entry
