@@ -171,8 +171,10 @@ def fit_line(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:
 
     See :func:`sonarproc.surfaces.grouped.fit_lines` (this is its one-group case).
     """
+    if cells.size < 2:
+        return SurfaceFailure(f"line: {cells.size} cells, need at least 2", cells.size)
     got = fit_lines(cells.x, cells.y, np.array([cells.size]), cell=cell)
-    if cells.size == 0 or not got.ok[0]:
+    if not got.ok[0]:
         return SurfaceFailure("line: all cells at one point", cells.size)
     lo, hi, rms = float(got.lo[0]), float(got.hi[0]), float(got.rms[0])
     return line_candidate(got.point[0], got.direction[0], lo, hi, rms, cell)
@@ -202,8 +204,10 @@ def fit_arc(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:
 
     See :func:`sonarproc.surfaces.grouped.fit_circles` (this is its one-group case).
     """
+    if cells.size < 3:
+        return SurfaceFailure(f"arc: {cells.size} cells, need at least 3", cells.size)
     got = fit_circles(cells.x, cells.y, np.array([cells.size]), cell=cell)
-    if cells.size < 3 or not got.ok[0]:
+    if not got.ok[0]:
         return SurfaceFailure("arc: no circle fits (collinear or degenerate cells)", cells.size)
     return arc_candidate(cells, got.centre[0], float(got.radius[0]), cell)
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
 from sonarproc.surfaces.polylines import resample
 from sonarproc.surfaces.specular import EchoGeometry, echo_points
 
@@ -180,3 +180,12 @@ def test_echo_points_equal_the_exhaustive_test(seed: int) -> None:
         assert gi.tolist() == wi.tolist()
         np.testing.assert_allclose(gp, wp, atol=1e-9)
         np.testing.assert_allclose(gs, ws, atol=1e-9)
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 4])
+def test_degenerate_groups_fail_with_a_reason(n: int) -> None:
+    same = np.full(n, 1.5)
+    cells = SurfaceCells(same, same, np.arange(n) * CELL, np.ones(n), False)
+    fits = (fit_line(cells, cell=CELL), fit_arc(cells, cell=CELL), fit_surface(cells, cell=CELL))
+    for got in fits:
+        assert isinstance(got, SurfaceFailure) and got.reason and got.support == n
