@@ -28,30 +28,24 @@ from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.holdout import (
     hull_excess,
     make_folds,
-    predicted_path,
-    range_loss,
     subset_beams,
 )
-from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
 from sonarproc.auto.score import (
     CAP_CELLS,
     CRITERION,
     HULL_CELLS,
-    SURFACES_MAX_CELLS,
     TRIM,
     AutoChoice,
     Score,
-    robust_residual,
 )
+from sonarproc.auto.scoring import fold_scores, implied_span, mean_count, whole_hulls
 from sonarproc.errors import NothingToMapError
-from sonarproc.fit import Fit, FitFailure, fit_polynomial, fit_spline
-from sonarproc.grid import Grid
-from sonarproc.methods import MethodMap, MethodResult
-from sonarproc.methods.geometry import axis_points
-from sonarproc.metrics import Bins, bin_stats
+from sonarproc.fit import FitFailure
+from sonarproc.methods import MethodResult
+from sonarproc.metrics import bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import evaluate_map
-from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
+from sonarproc.pipeline.selection import plan_grid, select_beams
 
 __all__ = ["choose", "run_auto", "run_candidate"]
 
@@ -63,8 +57,6 @@ FloatArray = npt.NDArray[np.float64]
 #: to :data:`MAX_REPEATS` times) so that about this many held-out predictions are scored.
 REPEAT_READINGS = 1_200
 MAX_REPEATS = 3
-#: Scoring fits merge adjacent columns down to at most this many (:func:`fit_columns`).
-FIT_COLUMNS = 500
 
 
 def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[np.bool_]:
@@ -78,192 +70,6 @@ def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[
     nf = int(firing.max()) + 1
     take = np.random.default_rng(seed + 1).random(nf) < limit / n
     return np.asarray(take[firing], dtype=bool)
-
-
-def fit_columns(bins: Bins, max_columns: int = FIT_COLUMNS) -> tuple[FloatArray, ...]:
-    """Column centres, means and counts, adjacent columns merged to at most ``max_columns``.
-
-    Scoring fits only: the smoothest wave a candidate may follow (orders <= 15, smoothing
-    lengths >= 0.1 m) is far longer than the merged columns, and a fit's cost grows with
-    its columns (a 20 m room at 1 cm has 2 000).
-
-    Examples
-    --------
-    >>> y = np.array([1.0, 3, 2, np.nan, 5, 5])
-    >>> b = Bins(np.arange(6.0), np.array([1, 1, 2, 0, 1, 1]), y, y)
-    >>> [a.tolist() for a in fit_columns(b, 3)]
-    [[0.5, 2.0, 4.5], [2.0, 2.0, 5.0], [2.0, 2.0, 2.0]]
-    """
-    x, y, w = bins.centres, np.nan_to_num(bins.mean), bins.count.astype(np.float64)
-    g = int(np.ceil(x.size / max_columns))
-    if g <= 1:
-        return x, y, w
-    n = x.size // g * g
-    wx = np.add.reduceat(w[:n] * x[:n], np.arange(0, n, g))
-    wy = np.add.reduceat(w[:n] * y[:n], np.arange(0, n, g))
-    ww = np.add.reduceat(w[:n], np.arange(0, n, g))
-    centre = x[:n].reshape(-1, g).mean(axis=1)
-    safe = np.maximum(ww, 1e-300)
-    xs = np.where(ww > 0, wx / safe, centre)
-    tail = w[n:].sum()
-    if tail > 0:
-        xs = np.r_[xs, (w[n:] * x[n:]).sum() / tail]
-        wy = np.r_[wy, (w[n:] * y[n:]).sum()]
-        ww = np.r_[ww, tail]
-        safe = np.maximum(ww, 1e-300)
-    return xs, np.where(ww > 0, wy / safe, 0.0), ww
-
-
-def _binned_fit(family: str, bins: Bins, setting: float, lam: float) -> Fit:
-    x, y, w = fit_columns(bins)
-    if family == "poly":
-        return fit_polynomial(x, y, w, order=int(setting))
-    return fit_spline(x, y, w, lam=lam)
-
-
-def _mean_count(bins: Bins) -> float:
-    c = bins.count[bins.count > 0]
-    return float(c.mean()) if c.size else 1.0
-
-
-def _coverage(fit: Fit, implied: tuple[float, float]) -> float:
-    """Fraction of the implied span ``implied`` (x0, x1) inside the fit's domain."""
-    if isinstance(fit, FitFailure) or not hasattr(fit, "domain"):
-        return 0.0
-    lo, hi = fit.domain
-    width = implied[1] - implied[0]
-    if width <= 0:
-        return 1.0
-    return float(max(0.0, min(hi, implied[1]) - max(lo, implied[0])) / width)
-
-
-def implied_span(beams: Beams) -> tuple[float, float]:
-    """The columns the readings imply: 5th to 95th percentile of their line-of-sight x."""
-    p = beams.poses
-    apex, direction, dist = axis_points(p.tx_xy, p.tx_heading, p.rx_xy, p.rx_heading, beams.path)
-    x = (apex[:, 0] + dist * direction[:, 0])[np.isfinite(dist)]
-    if x.size == 0:
-        return (0.0, 0.0)
-    lo, hi = np.percentile(x, [5.0, 95.0])
-    return (float(lo), float(hi))
-
-
-def _fold_scores(
-    scores: list[Score],
-    beams: Beams,
-    grid: Grid,
-    base: RunParams,
-    train: npt.NDArray[np.bool_],
-    held: npt.NDArray[np.intp],
-    cap: float,
-    implied: tuple[float, float],
-) -> None:
-    tb = subset_beams(beams, train)
-    maps = _Maps(tb, grid, base)
-    baselines: dict[_MapKey, npt.NDArray[np.float64]] = {}
-    measured = beams.path[held]
-    step = 2 * grid.cell
-    for s in scores:
-        c = s.candidate
-        key, entry = maps.get(c)
-        if entry is None:
-            continue
-        mmap, bins, px, py = entry
-        if c.family == "surfaces":
-            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step)
-        else:
-            _score_profiles(s, bins, px, py, grid, beams, held, measured, cap, implied)
-        if key not in baselines:
-            best = np.full(held.size, cap)
-            for order in (0, 1):
-                f = fit_polynomial(bins.centres, np.nan_to_num(bins.mean), bins.count, order=order)
-                loss = range_loss(measured, predicted_path(f, beams, held, step), cap)
-                if robust_residual(loss) < robust_residual(best):
-                    best = loss
-            baselines[key] = best
-        s.base_losses.append(baselines[key])
-
-
-_MapKey = tuple[str, tuple[tuple[str, Any], ...]]
-_MapEntry = tuple[MethodMap, Bins, FloatArray, FloatArray]
-
-
-class _Maps:
-    """Each method's map on one set of readings, built once (candidates share methods)."""
-
-    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
-        self.beams, self.grid, self.base = beams, grid, base
-        self.built: dict[_MapKey, _MapEntry | None] = {}
-
-    def get(self, c: Candidate) -> tuple[_MapKey, _MapEntry | None]:
-        """The key of ``c``'s map and the map (None when it left nothing)."""
-        key = (c.method, tuple(sorted(c.options.items())))
-        if key not in self.built:
-            self.built[key] = _build(c, self.beams, self.grid, self.base)
-        return key, self.built[key]
-
-
-def _build(c: Candidate, beams: Beams, grid: Grid, base: RunParams) -> _MapEntry | None:
-    """The candidate's map on ``beams``, its column statistics and points; None if empty."""
-    method = c.make()
-    try:
-        mmap = method.build(beams, grid, method.params_for(base))
-    except (NothingToMapError, ValueError) as err:
-        log.debug("%s: %s", c.name, err)
-        return None
-    if not mmap.processed.any():
-        return None
-    ix, iy = np.nonzero(mmap.processed.T)
-    px, py = grid.to_world(iy, ix)
-    return mmap, bin_stats(ix, py, grid.centres_x(), presorted=True), px, py
-
-
-def _score_profiles(
-    s: Score,
-    bins: Bins,
-    px: FloatArray,
-    py: FloatArray,
-    grid: Grid,
-    beams: Beams,
-    held: npt.NDArray[np.intp],
-    measured: FloatArray,
-    cap: float,
-    implied: tuple[float, float],
-) -> None:
-    """One fold of a profile y(x) candidate: every setting's fit, hull, coverage, losses."""
-    c = s.candidate
-    mc = _mean_count(bins)
-    s.mean_counts.append(mc)
-    for setting in c.settings:
-        fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-        s.coverage[setting] = min(s.coverage.get(setting, 1.0), _coverage(fit, implied))
-        loss = range_loss(measured, predicted_path(fit, beams, held, 2 * grid.cell), cap)
-        s.losses.setdefault(setting, []).append(loss)
-
-
-def _score_surfaces(
-    s: Score,
-    mmap: MethodMap,
-    grid: Grid,
-    beams: Beams,
-    train: Beams,
-    held: npt.NDArray[np.intp],
-    measured: FloatArray,
-    cap: float,
-    step: float,
-) -> None:
-    """One fold of the ``surfaces`` candidate (it stands aside where the map is y(x))."""
-    setting = s.candidate.settings[0]
-    if grid.nx * grid.ny > SURFACES_MAX_CELLS:
-        s.too_large = grid.nx * grid.ny
-        return
-    lines = fitted_surfaces(mmap, grid, train)
-    if lines is None:
-        s.function_folds += 1
-        s.losses.setdefault(setting, []).append(np.full(held.size, cap))
-        return
-    loss = range_loss(measured, surfaces_path(lines, beams, held, step), cap)
-    s.losses.setdefault(setting, []).append(loss)
 
 
 def choose(
@@ -333,29 +139,12 @@ def choose(
             if test.size == 0:
                 continue
             held = np.sort(rng.permutation(test)[:heldout_per_fold])
-            _fold_scores(scores, beams, grid, base, fold != f, held, cap, implied)
-    _whole_hulls(scores, beams, grid, base)
+            fold_scores(scores, beams, grid, base, fold != f, held, cap, implied)
+    whole_hulls(scores, beams, grid, base)
     for s in scores:
         s.finish(grid.cell)
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
     return AutoChoice(scores, crit, n, folds, repeats)
-
-
-def _whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
-    """Each profile setting's hull excess, fitted to its method's map of all ``beams``."""
-    maps = _Maps(beams, grid, base)
-    for s in scores:
-        c = s.candidate
-        entry = None if c.family == "surfaces" else maps.get(c)[1]
-        if entry is None:
-            continue
-        _, bins, px, py = entry
-        mc = _mean_count(bins)
-        for setting in c.settings:
-            fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-            if not isinstance(fit, FitFailure):
-                sampled = fit.sample(grid.cell)
-                s.hull[setting] = hull_excess(sampled, px, py, window=10 * grid.cell)
 
 
 def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult:
@@ -371,7 +160,7 @@ def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult
     if c.family == "spline":
         ix, iy = np.nonzero(mmap.processed.T)
         bins = bin_stats(ix, grid.to_world(iy, ix)[1], grid.centres_x(), presorted=True)
-        lam = spline_lambda(setting, _mean_count(bins), grid.cell)
+        lam = spline_lambda(setting, mean_count(bins), grid.cell)
     params = method.params_for(c.params(base, setting, lam=lam))
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
