@@ -62,13 +62,16 @@ def segment_crossings(
     ax0, ay0, ax1, ay1 = (v[:, None] for v in (a0[:, 0], a0[:, 1], a1[:, 0], a1[:, 1]))
     bx0, by0, bx1, by1 = (v[None, :] for v in (b0[:, 0], b0[:, 1], b1[:, 0], b1[:, 1]))
     dax, day = ax1 - ax0, ay1 - ay0
-    dbx, dby = bx1 - bx0, by1 - by0
     s1 = np.sign(dax * (by0 - ay0) - day * (bx0 - ax0))
     s2 = np.sign(dax * (by1 - ay0) - day * (bx1 - ax0))
-    hit = s1 * s2 < 0
-    s3 = np.sign(dbx * (ay0 - by0) - dby * (ax0 - bx0))
-    s4 = np.sign(dbx * (ay1 - by0) - dby * (ax1 - bx0))
-    rows, cols = np.nonzero(hit & (s3 * s4 < 0))
+    # b's ends on both sides of a's line first (few pairs), then a's ends about b's line
+    rows, cols = np.nonzero(s1 * s2 < 0)
+    p0, p1, q0 = a0[rows], a1[rows], b0[cols]
+    dq = b1[cols] - q0
+    s3 = np.sign(dq[:, 0] * (p0[:, 1] - q0[:, 1]) - dq[:, 1] * (p0[:, 0] - q0[:, 0]))
+    s4 = np.sign(dq[:, 0] * (p1[:, 1] - q0[:, 1]) - dq[:, 1] * (p1[:, 0] - q0[:, 0]))
+    both = s3 * s4 < 0
+    rows, cols = rows[both], cols[both]
     # a0 + t da = b0 + u db  ->  u = cross(a0 - b0, da) / cross(db, da)
     da = (a1 - a0)[rows]
     db = (b1 - b0)[cols]
