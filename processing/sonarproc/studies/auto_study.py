@@ -30,7 +30,7 @@ from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 from sonarproc.surfaces import seen_truth, surface_metrics, truth_points
 
-__all__ = ["Judge", "auto_row", "candidate_errors"]
+__all__ = ["Judge", "auto_row", "candidate_errors", "candidate_runs"]
 
 
 class Judge:
@@ -66,12 +66,15 @@ class Judge:
         return p, m.completeness
 
 
-def candidate_errors(log_: SonarLog, base: RunParams) -> dict[str, float]:
-    """The error (m, by the truth) of every candidate at every setting: ``{"name@setting": e}``."""
+def candidate_runs(log_: SonarLog, base: RunParams) -> dict[str, RunResult]:
+    """Every candidate at every setting run on every reading: ``{"name@setting": run}``.
+
+    A ``surfaces`` setting whose map is one function of x is left out (the y(x)
+    candidates cover it); so is a method that leaves nothing on the map.
+    """
     beams, counts = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
-    judge = Judge(log_, beams)
-    out: dict[str, float] = {}
+    out: dict[str, RunResult] = {}
     built: dict[str, Any] = {}
     for c in CANDIDATES:
         method = c.make()
@@ -96,8 +99,21 @@ def candidate_errors(log_: SonarLog, base: RunParams) -> dict[str, float]:
             )  # fmt: skip
             if c.family == "surfaces" and (r.surfaces is None or not r.surfaces.surfaces):
                 continue  # one function of x: the y(x) candidates cover it
-            out[f"{c.name}@{setting:g}"] = judge.error(r)[0]
+            out[f"{c.name}@{setting:g}"] = r
     return out
+
+
+def candidate_errors(
+    log_: SonarLog, base: RunParams, runs: dict[str, RunResult] | None = None
+) -> dict[str, float]:
+    """The error (m, by the truth) of every candidate at every setting: ``{"name@setting": e}``.
+
+    ``runs``: :func:`candidate_runs` of the same log, if already made.
+    """
+    if runs is None:
+        runs = candidate_runs(log_, base)
+    judge = Judge(log_, select_beams(log_, base)[0])
+    return {k: judge.error(r)[0] for k, r in runs.items()}
 
 
 def auto_row(log_: SonarLog, base: RunParams | None = None) -> dict[str, Any]:
