@@ -72,8 +72,8 @@ FloatArray = npt.NDArray[np.float64]
 VARIANTS = (
     "auto", "auto@span", "median2", "median3", "median4", "wmean3", "median3w", "wmean3w",
 )  # fmt: skip
-#: The scenarios never used to tune ``--auto``: those of the rules study and ``auto3-*``.
-HELD_ASIDE = (*RULES_HELD_ASIDE, "auto3-sparse-tilted", "auto3-ring-wavy")
+#: The scenarios never used to tune ``--auto`` (the rules study's).
+HELD_ASIDE = RULES_HELD_ASIDE
 
 
 @dataclass
