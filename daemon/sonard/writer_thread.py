@@ -2,9 +2,10 @@
 
 The acquisition loop calls :meth:`LogSink.readings`, :meth:`LogSink.poses` and
 :meth:`LogSink.event`; each puts one item on an unbounded queue and returns at once. The
-thread drains the queue into :class:`sonarlog.LogWriter`, whose own flusher writes and
-fsyncs at least every half second: so a reading is on disk about ``flush_interval`` after
-it was queued, which is what bounds the loss on SIGKILL or power failure.
+thread drains the queue into :class:`sonarlog.LogWriter`, whose own threads push its
+buffer to the file every ``flush_interval`` and fsync after each push: so a reading is in
+the file about ``flush_interval`` after it was queued (what bounds the loss on SIGKILL) and
+on stable storage one fsync later (power failure).
 """
 
 from __future__ import annotations

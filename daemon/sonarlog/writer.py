@@ -9,9 +9,12 @@ its metadata writes so that the file on disk is a valid file at every moment: th
 property we need, and it costs nothing on the hot path. On top of it:
 
 * rows are buffered in memory and appended in batches (one resize + one write per batch);
-* a background thread pushes the buffer to the file, calls ``H5Fflush`` and then
-  ``fsync`` every ``flush_interval`` seconds (0.5 s by default), so a reading handed to
-  :meth:`LogWriter.append` is on stable storage within about a second, even across power loss;
+* a background thread pushes the buffer to the file and calls ``H5Fflush`` every
+  ``flush_interval`` seconds (0.5 s by default, at a fixed rate), so a reading handed to
+  :meth:`LogWriter.append` is in the file, safe from a killed process, within about that;
+* a second thread calls ``fsync`` after each push, so the reading is on stable storage,
+  safe from power loss, one fsync later. A slow disk (an fsync can take seconds on a
+  busy one) delays neither the next push nor :meth:`LogWriter.append`;
 * each row carries ``seq`` and ``check`` (:mod:`sonarlog.integrity`) so a reader can drop
   rows whose extent reached the disk before their data did.
 
@@ -93,13 +96,13 @@ class LogWriter:
     truth : numpy.ndarray, optional
         The true surface as an ``(N, 2)`` array of x, y, stored as ``/truth/profile``.
     flush_interval : float, optional
-        Seconds between background flush + fsync cycles; 0 disables the thread
-        (call :meth:`flush` yourself).
+        Seconds between background pushes to the file (each followed by an fsync in a
+        thread of its own); 0 disables both threads (call :meth:`flush` yourself).
 
     Notes
     -----
-    All methods are thread-safe. Readings become durable in batches, at most about
-    ``flush_interval`` plus one fsync after :meth:`append` returns.
+    All methods are thread-safe. Readings reach the file in batches, at most about
+    ``flush_interval`` after :meth:`append` returns, and stable storage one fsync later.
 
     Examples
     --------
@@ -150,12 +153,18 @@ class LogWriter:
         os.fsync(self._fd)
 
         self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._sync_wanted = threading.Event()
+        self._threads: list[threading.Thread] = []
         if flush_interval > 0:
-            self._thread = threading.Thread(
-                target=self._flush_loop, args=(flush_interval,), name="sonarlog-flush", daemon=True
-            )
-            self._thread.start()
+            self._threads = [
+                threading.Thread(
+                    target=self._push_loop, args=(flush_interval,), name="sonarlog-push",
+                    daemon=True,
+                ),
+                threading.Thread(target=self._sync_loop, name="sonarlog-fsync", daemon=True),
+            ]  # fmt: skip
+            for thread in self._threads:
+                thread.start()
 
     def _create_layout(
         self,
@@ -291,12 +300,35 @@ class LogWriter:
         dataset[start:] = rows
         dataset.flush()
 
-    def _flush_loop(self, interval: float) -> None:
-        while not self._stop.wait(interval):
+    def _push(self) -> None:
+        """Write every pending row and flush HDF5's caches (no fsync)."""
+        with self._lock:
+            if self._closed:
+                return
+            self._write_pending()
+            self._file.flush()
+
+    def _push_loop(self, interval: float) -> None:
+        # a fixed rate: a push that starts late (a busy machine) does not delay the next
+        due = time.monotonic() + interval
+        while not self._stop.wait(max(0.0, due - time.monotonic())):
+            due = max(due + interval, time.monotonic())
             try:
-                self.flush()
-            except Exception:  # keep flushing later; the next append or close reports it
+                self._push()
+            except Exception:  # keep pushing later; the next append or close reports it
                 log.exception("sonarlog: background flush of %s failed", self.path)
+            self._sync_wanted.set()
+
+    def _sync_loop(self) -> None:
+        while True:
+            self._sync_wanted.wait()
+            if self._stop.is_set():
+                return
+            self._sync_wanted.clear()
+            try:
+                os.fsync(self._fd)
+            except OSError:  # the next push asks again; close reports a lasting failure
+                log.exception("sonarlog: background fsync of %s failed", self.path)
 
     def _check_open(self) -> None:
         if self._closed:
@@ -304,10 +336,12 @@ class LogWriter:
 
     def close(self) -> None:
         """Flush everything and close the file (idempotent)."""
-        if self._thread is not None:
+        if self._threads:
             self._stop.set()
-            self._thread.join()
-            self._thread = None
+            self._sync_wanted.set()
+            for thread in self._threads:
+                thread.join()
+            self._threads = []
         with self._lock:
             if self._closed:
                 return

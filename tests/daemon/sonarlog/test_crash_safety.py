@@ -28,6 +28,10 @@ WRITER = textwrap.dedent(
     from logbuilders import ring_sensors
     from sonarlog import LogWriter, READING_DTYPE
 
+    if len(sys.argv) > 3:  # a slow disk: every fsync takes this long
+        import os, sonarlog.writer
+        fsync, pause = os.fsync, float(sys.argv[3])
+        sonarlog.writer.os.fsync = lambda fd: (time.sleep(pause), fsync(fd))[1]
     n = 0
     with LogWriter(sys.argv[1], ring_sensors(), robot="kill-test", flush_interval=0.5) as w:
         print("ready", time.time(), flush=True)
@@ -45,14 +49,17 @@ WRITER = textwrap.dedent(
 KILL_TRIALS = 24
 
 
-def _kill_trial(tmp: Path, delay: float) -> tuple[Path, float, float]:
+def _kill_trial(
+    tmp: Path, delay: float, slow_fsync: float | None = None
+) -> tuple[Path, float, list[float]]:
     """Kill a writer ``delay`` s after it is ready; return the log, the ready time and the
-    time of the last batch the writer had appended (its own clock, printed after each
-    append: what it could have kept, whatever the machine's load let it do)."""
+    times of the batches the writer appended (its own clock, printed after each append:
+    what it could have kept, whatever the machine's load let it do)."""
     path = tmp / f"killed-{delay:.3f}.h5"
     support = str(Path(__file__).parents[2] / "support")
     with subprocess.Popen(
-        [sys.executable, "-c", WRITER, str(path), support],
+        [sys.executable, "-c", WRITER, str(path), support]
+        + ([] if slow_fsync is None else [str(slow_fsync)]),
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
     ) as proc:
@@ -69,14 +76,21 @@ def _kill_trial(tmp: Path, delay: float) -> tuple[Path, float, float]:
                 proc.kill()
                 proc.wait()
     appended = [float(ln[1]) for ln in lines if len(ln) == 2 and ln[0] == b"appended"]
-    return path, float(ready_at), max(appended, default=float(ready_at))
+    return path, float(ready_at), appended
+
+
+def _lost(path: Path, ready_at: float, appended: list[float]) -> float:
+    """Seconds of appended readings the killed log does not hold (see the caller)."""
+    log = read_log(path)
+    last = log.readings["t"][-1] if len(log.readings) else -np.inf
+    return max(appended, default=ready_at) - max(last, ready_at)
 
 
 def test_sigkill_at_random_moments_loses_nothing_older_than_one_second(tmp_path: Path) -> None:
     delays = np.random.default_rng(20240601).uniform(0.05, 2.5, KILL_TRIALS)
     with ThreadPoolExecutor(max_workers=4) as pool:
         trials = list(pool.map(lambda d: _kill_trial(tmp_path, float(d)), delays))
-    for path, ready_at, last_appended in trials:
+    for path, ready_at, appended in trials:
         log = read_log(path)
         n = len(log.readings)
         assert log.log_state == "crashed" and not log.live
@@ -85,11 +99,23 @@ def test_sigkill_at_random_moments_loses_nothing_older_than_one_second(tmp_path:
         # The intact prefix is exactly the rows appended, in order, with nothing in between.
         np.testing.assert_array_equal(log.readings["tof"], np.arange(n))
         assert n == 0 or np.all(np.diff(log.readings["t"]) >= 0)
-        last = log.readings["t"][-1] if n else -np.inf
         # What the writer had appended after the last surviving reading is what the kill
         # lost (a writer the machine starved appended nothing meanwhile: nothing to lose).
-        lost_window = last_appended - max(last, ready_at)
+        lost_window = _lost(path, ready_at, appended)
         assert lost_window <= 1.0, f"{path.name}: lost {lost_window:.2f} s of readings"
+
+
+def test_a_slow_disk_holds_up_neither_the_pushes_nor_the_appends(tmp_path: Path) -> None:
+    # every fsync takes 1.5 s: were the pushes to wait for it, or the appends for the
+    # lock, a kill would lose up to 2 s and the writer would stall for 1.5 s at a time
+    delays = (1.6, 2.2, 2.7)
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        trials = list(pool.map(lambda d: _kill_trial(tmp_path, d, slow_fsync=1.5), delays))
+    for path, ready_at, appended in trials:
+        lost_window = _lost(path, ready_at, appended)
+        assert lost_window <= 1.0, f"{path.name}: lost {lost_window:.2f} s of readings"
+        gaps = np.diff([ready_at, *appended])
+        assert gaps.max() < 1.0, f"{path.name}: an append waited {gaps.max():.2f} s"
 
 
 def _complete_log(path: Path) -> np.ndarray:
