@@ -27,7 +27,6 @@ The ``--held`` scenarios (kept out of any tuning) are summarised apart.
 
 from __future__ import annotations
 
-import argparse
 import logging
 import sys
 import tempfile
@@ -49,8 +48,8 @@ from sonarproc.pipeline import load_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.studies.auto_rules import HELD_ASIDE as RULES_HELD_ASIDE
+from sonarproc.studies.auto_rules import study_main
 from sonarproc.studies.auto_study import Judge, candidate_errors, candidate_runs
-from sonarsim.shipped import shipped_dir
 
 __all__ = [
     "HELD_ASIDE",
@@ -283,21 +282,10 @@ def render(rows: dict[str, MedianRow], held: Sequence[str] = HELD_ASIDE) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the comparison of ``--auto`` with the combinations of its best candidates."""
-    ap = argparse.ArgumentParser(
-        prog="python -m sonarproc.studies.auto_median", description=__doc__
-    )
-    ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
-    ap.add_argument("--held", nargs="*", default=list(HELD_ASIDE), help="scenarios kept aside")
-    args = ap.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s")
-    if not args.scenarios.is_dir():
-        print(
-            f"sonarproc.studies.auto_median: error: --scenarios: no such folder {args.scenarios}",
-            file=sys.stderr,
-        )
-        return 2
-    sys.stdout.write(render(run_study(args.scenarios), args.held))
-    return 0
+    return study_main(
+        argv, prog="sonarproc.studies.auto_median", description=__doc__, study=run_study,
+        render_rows=render,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -30,9 +30,10 @@ import argparse
 import logging
 import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,10 @@ from sonarproc.pipeline import load_log
 from sonarproc.studies.auto_study import candidate_errors
 from sonarsim.shipped import shipped_dir
 
-__all__ = ["HELD_ASIDE", "RULES", "RuleRow", "main", "pick", "render", "run_rules", "summary"]
+__all__ = [
+    "HELD_ASIDE", "RULES", "RuleRow", "main", "pick", "render", "run_rules", "study_main",
+    "summary",
+]  # fmt: skip
 
 log = logging.getLogger(__name__)
 
@@ -156,21 +160,33 @@ def render(rows: dict[str, RuleRow], held: Sequence[str] = HELD_ASIDE) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Print the comparison of the selection rules."""
-    ap = argparse.ArgumentParser(prog="python -m sonarproc.studies.auto_rules", description=__doc__)
+def study_main(
+    argv: Sequence[str] | None,
+    *,
+    prog: str,
+    description: str | None,
+    study: Callable[[Path], Any],
+    render_rows: Callable[[Any, Sequence[str]], str],
+) -> int:
+    """The command line of a study over the scenarios with some kept aside (exit 0 or 2)."""
+    ap = argparse.ArgumentParser(prog=f"python -m {prog}", description=description)
     ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
     ap.add_argument("--held", nargs="*", default=list(HELD_ASIDE), help="scenarios kept aside")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     if not args.scenarios.is_dir():
-        print(
-            f"sonarproc.studies.auto_rules: error: --scenarios: no such folder {args.scenarios}",
-            file=sys.stderr,
-        )
+        print(f"{prog}: error: --scenarios: no such folder {args.scenarios}", file=sys.stderr)
         return 2
-    sys.stdout.write(render(run_rules(args.scenarios), args.held))
+    sys.stdout.write(render_rows(study(args.scenarios), args.held))
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Print the comparison of the selection rules."""
+    return study_main(
+        argv, prog="sonarproc.studies.auto_rules", description=__doc__, study=run_rules,
+        render_rows=render,
+    )  # fmt: skip
 
 
 if __name__ == "__main__":  # pragma: no cover
