@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import logging
 import sys
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,12 +43,16 @@ from sonarproc.auto.score import HULL_CELLS
 from sonarproc.fit import FitFailure
 from sonarproc.metrics import truth_on_columns
 from sonarproc.params import RunParams
-from sonarproc.pipeline import load_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.studies.auto_rules import HELD_ASIDE as RULES_HELD_ASIDE
 from sonarproc.studies.auto_rules import study_main
-from sonarproc.studies.auto_study import Judge, candidate_errors, candidate_runs
+from sonarproc.studies.auto_study import (
+    Judge,
+    candidate_errors,
+    candidate_runs,
+    simulated_scenarios,
+)
 
 __all__ = [
     "HELD_ASIDE",
@@ -203,16 +206,11 @@ def scenario_row(log_: SonarLog, base: RunParams) -> MedianRow:
 
 def run_study(scenario_dir: Path, *, cell: float = 0.01) -> dict[str, MedianRow]:
     """Simulate each scenario of ``scenario_dir`` and measure every variant on it."""
-    from sonarproc.simulate import simulate_to_log
-
     out: dict[str, MedianRow] = {}
     base = RunParams(cell=cell)
-    with tempfile.TemporaryDirectory() as tmp:
-        for yml in sorted(scenario_dir.glob("*.yaml")):
-            path = Path(tmp) / f"{yml.stem}.h5"
-            simulate_to_log(yml, path)
-            out[yml.stem] = scenario_row(load_log(path), base)
-            log.info("%s done", yml.stem)
+    for name, lg in simulated_scenarios(scenario_dir):
+        out[name] = scenario_row(lg, base)
+        log.info("%s done", name)
     return out
 
 

@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import tempfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,8 +39,7 @@ import numpy as np
 from sonarproc.auto import AutoChoice, Score, choose
 from sonarproc.auto.score import one_se_setting, robust_residual
 from sonarproc.params import RunParams
-from sonarproc.pipeline import load_log
-from sonarproc.studies.auto_study import candidate_errors
+from sonarproc.studies.auto_study import candidate_errors, simulated_scenarios
 from sonarsim.shipped import shipped_dir
 
 __all__ = [
@@ -102,25 +100,19 @@ class RuleRow:
 
 def run_rules(scenario_dir: Path, *, cell: float = 0.01) -> dict[str, RuleRow]:
     """Every rule's pick, error and ratio to the best candidate on every scenario."""
-    from sonarproc.simulate import simulate_to_log
-
     out: dict[str, RuleRow] = {}
     base = RunParams(cell=cell)
-    with tempfile.TemporaryDirectory() as tmp:
-        for yml in sorted(scenario_dir.glob("*.yaml")):
-            path = Path(tmp) / f"{yml.stem}.h5"
-            simulate_to_log(yml, path)
-            lg = load_log(path)
-            errors = candidate_errors(lg, base)
-            choices = {by: choose(lg, base, folds_by=by) for by in ("firings", "time", "passes")}
-            best = min(errors, key=lambda k: errors[k])
-            picks = {}
-            for rule in RULES:
-                lab = pick(rule, choices, cell)
-                err = errors.get(lab, np.inf)
-                picks[rule] = (lab, err, err / errors[best] if errors[best] > 0 else np.inf)
-            out[yml.stem] = RuleRow(best, errors[best], picks)
-            log.info("%s done", yml.stem)
+    for name, lg in simulated_scenarios(scenario_dir):
+        errors = candidate_errors(lg, base)
+        choices = {by: choose(lg, base, folds_by=by) for by in ("firings", "time", "passes")}
+        best = min(errors, key=lambda k: errors[k])
+        picks = {}
+        for rule in RULES:
+            lab = pick(rule, choices, cell)
+            err = errors.get(lab, np.inf)
+            picks[rule] = (lab, err, err / errors[best] if errors[best] > 0 else np.inf)
+        out[name] = RuleRow(best, errors[best], picks)
+        log.info("%s done", name)
     return out
 
 

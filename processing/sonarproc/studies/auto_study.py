@@ -12,7 +12,10 @@ corridor): E1 means nothing there. The table of ``docs/methods.md``
 
 from __future__ import annotations
 
+import tempfile
 import time
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,12 +28,13 @@ from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure
 from sonarproc.metrics import bin_stats
 from sonarproc.params import RunParams
+from sonarproc.pipeline import load_log
 from sonarproc.pipeline.mapping import evaluate_map
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 from sonarproc.surfaces import seen_truth, surface_metrics, truth_points
 
-__all__ = ["Judge", "auto_row", "candidate_errors", "candidate_runs"]
+__all__ = ["Judge", "auto_row", "candidate_errors", "candidate_runs", "simulated_scenarios"]
 
 
 class Judge:
@@ -141,3 +145,17 @@ def auto_row(log_: SonarLog, base: RunParams | None = None) -> dict[str, Any]:
         "errors": errors,
         "record": choice.to_json(chosen),
     }
+
+
+def simulated_scenarios(scenario_dir: Path) -> Iterator[tuple[str, SonarLog]]:
+    """Simulate each scenario YAML of ``scenario_dir`` (sorted by name) and yield its log.
+
+    The logs are written to a temporary folder that is removed when the iteration ends.
+    """
+    from sonarproc.simulate import simulate_to_log
+
+    with tempfile.TemporaryDirectory() as tmp:
+        for yml in sorted(scenario_dir.glob("*.yaml")):
+            path = Path(tmp) / f"{yml.stem}.h5"
+            simulate_to_log(yml, path)
+            yield yml.stem, load_log(path)

@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -24,7 +23,6 @@ import numpy as np
 from sonarproc.methods import DEFAULT_METHODS, make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
-from sonarproc.pipeline import load_log
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.studies.reproduce import PAPER, PaperRow
 from sonarsim.shipped import shipped_dir
@@ -80,37 +78,31 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -
     """
     from dataclasses import replace
 
-    from sonarproc.simulate import simulate_to_log
-    from sonarproc.studies.auto_study import Judge, auto_row
+    from sonarproc.studies.auto_study import Judge, auto_row, simulated_scenarios
 
     out: Rows = {}
     auto: Rows = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for yml in sorted(scenario_dir.glob("*.yaml")):
-            name = yml.stem
-            paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
-            path = Path(tmp) / f"{name}.h5"
-            simulate_to_log(yml, path)
-            lg = load_log(path)
-            params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
-            judge = Judge(lg, select_beams(lg, params)[0])
-            if judge.metric == "precision_m":
-                params = replace(params, fit="auto")
-            methods = [make_method(m) for m in TABLE_METHODS]
-            results = compare(lg, params, methods)
-            out[name] = comparison_rows(results)
-            if judge.metric == "precision_m":
-                for row, r in zip(out[name], results, strict=True):
-                    prec, comp = judge.error(r.run)
-                    row.update(surfaces=True, precision_m=prec, completeness=comp)
-                    row.update(E1_m=None, E2=None, e=None)
-            if not with_auto:
-                log.info("%s done", name)
-                continue
-            row = auto_row(lg, RunParams(cell=cell))
-            row["readings"] = len(lg.readings)
-            auto[name] = [row]
-            log.info("%s done: auto %s", name, row["choice"])
+    for name, lg in simulated_scenarios(scenario_dir):
+        paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
+        params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
+        judge = Judge(lg, select_beams(lg, params)[0])
+        if judge.metric == "precision_m":
+            params = replace(params, fit="auto")
+        methods = [make_method(m) for m in TABLE_METHODS]
+        results = compare(lg, params, methods)
+        out[name] = comparison_rows(results)
+        if judge.metric == "precision_m":
+            for row, r in zip(out[name], results, strict=True):
+                prec, comp = judge.error(r.run)
+                row.update(surfaces=True, precision_m=prec, completeness=comp)
+                row.update(E1_m=None, E2=None, e=None)
+        if not with_auto:
+            log.info("%s done", name)
+            continue
+        row = auto_row(lg, RunParams(cell=cell))
+        row["readings"] = len(lg.readings)
+        auto[name] = [row]
+        log.info("%s done: auto %s", name, row["choice"])
     return out, auto
 
 
