@@ -275,8 +275,7 @@ class LogWriter:
         with self._lock:
             if self._closed:
                 return
-            self._write_pending()
-            self._file.flush()
+            self._push()
             os.fsync(self._fd)
 
     def _write_pending(self) -> None:

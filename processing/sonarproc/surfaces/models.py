@@ -43,12 +43,11 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.grouped import FLOOR_BIN_CELLS, fit_circles, fit_lines
+from sonarproc.surfaces.grouped import fit_circles, fit_lines
 from sonarproc.surfaces.polylines import distance_to_polylines, resample
 from sonarproc.surfaces.smoothing import smoothing_spline
 
 __all__ = [
-    "FLOOR_BIN_CELLS",
     "MIN_CELLS",
     "Candidate",
     "SurfaceFailure",
