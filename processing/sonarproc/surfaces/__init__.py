@@ -35,7 +35,7 @@ from sonarproc.surfaces.polylines import (
     split_polylines,
 )
 from sonarproc.surfaces.ridge import ridge_directions, ridge_nms
-from sonarproc.surfaces.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.specular import EchoGeometry, SurfaceEchoes, count_seen_through, echo_points
 from sonarproc.surfaces.truth import (
     SurfaceMetrics,
     seen_truth,
@@ -53,6 +53,7 @@ __all__ = [
     "Decision",
     "EchoGeometry",
     "SurfaceCells",
+    "SurfaceEchoes",
     "SurfaceFailure",
     "SurfaceFit",
     "SurfaceMetrics",
@@ -60,6 +61,7 @@ __all__ = [
     "SurfaceSet",
     "cells_of",
     "choose_model",
+    "count_seen_through",
     "decide",
     "distance_to_polylines",
     "echo_points",

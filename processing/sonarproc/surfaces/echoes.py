@@ -15,7 +15,13 @@ along it, so the echo points lie on the true surface: the refit removes the bias
 surface is refitted (:func:`~sonarproc.surfaces.batchfit.fit_surfaces`, same criterion)
 through its echo points, twice, with the tolerances of :data:`ROUNDS_M`; a surface that
 fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
-:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point).
+:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point); so
+is one that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through
+(their range reaches beyond it: a chance crossing of arcs in free space, which the
+sound crossed; a real surface is seen through only by a stray long echo). The rounds
+count the readings whose arcs end near a surface; after the last, a surface fewer than
+:data:`WEAK_ECHOES` readings echo from is tested against every reading (the phantoms
+have few echoes, and the sound that crossed them may end far behind).
 After every round a refitted line or open arc is stretched over the ridge cells within
 that round's tolerance of it (the ridge sees the surface further than the perpendiculars
 reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
@@ -39,9 +45,9 @@ from sonarproc.surfaces.merge import merge_collinear
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.occlusion import contradicted
 from sonarproc.surfaces.polylines import resample
-from sonarproc.surfaces.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
 
-__all__ = ["MIN_ECHOES", "ROUNDS_M", "refine_fits"]
+__all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "ROUNDS_M", "refine_fits"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -53,9 +59,20 @@ MIN_ECHOES = 5
 #: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
 #: double reflections, arriving at the corner's distance) say nothing of a direction.
 MIN_SPREAD_M = 0.10
+#: Largest share of the readings facing a surface (echoing from it or seeing through
+#: it) that may see through it; and fewer than :data:`MIN_SEEN_THROUGH` never count.
+MAX_SEEN_THROUGH = 0.25
+MIN_SEEN_THROUGH = 2
+#: Surfaces with fewer echoes are tested for readings seeing through against every reading.
+WEAK_ECHOES = 50
 #: A refitted line or arc is stretched over nearby ridge cells by at most this (m) at
 #: each end.
 MAX_STRETCH_M = 0.25
+
+
+def _seen_through(echoing: int, through: int) -> bool:
+    """Whether too many of the readings facing a surface saw through it."""
+    return through >= MIN_SEEN_THROUGH and through > MAX_SEEN_THROUGH * (echoing + through)
 
 
 def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> SurfaceFit:
@@ -141,8 +158,10 @@ def refine_fits(
         pts_cells, pts_idx = [], []
         todo = [
             k
-            for k, (idx, pts, _) in enumerate(got)
-            if idx.size >= min_echoes and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
+            for k, (idx, pts, _, through) in enumerate(got)
+            if idx.size >= min_echoes
+            and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
+            and not _seen_through(idx.size, through)
         ]
         sets = [
             SurfaceCells(got[k][1][:, 0], got[k][1][:, 1], got[k][2] - got[k][2][0],
@@ -159,7 +178,12 @@ def refine_fits(
             pts_cells.append(ec)
             pts_idx.append(got[k][0])
         cur, ridge = nxt, nxt_ridge
-    drop = set(
+    weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
+    through = count_seen_through(
+        [cur[i].polyline for i in weak], [cur[i].closed for i in weak], echoes, tol=rounds[-1]
+    )
+    drop = {i for i, n in zip(weak, through, strict=True) if _seen_through(pts_idx[i].size, n)}
+    drop |= set(
         contradicted(
             [f.polyline for f in cur],
             [echoes.xy[i] for i in pts_idx],

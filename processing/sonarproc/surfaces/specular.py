@@ -9,7 +9,13 @@ the surface's normal points at the sensor. For a surface and a reading:
   an end), inside the sensor's beam, and the foot's distance is within ``tol`` of the
   measured range; a reading echoing from several surfaces is given to the nearest match
   (a first echo comes from one surface);
-* its *echo point* is the point at the measured range along the direction of the foot.
+* its *echo point* is the point at the measured range along the direction of the foot;
+* the reading *sees through* the surface when its foot is inside the surface and inside
+  its beam but its range reaches beyond every point of the surface in the beam (beyond
+  ``d / cos(half beam) + tol`` for a foot at distance ``d``): a first echo from a surface
+  standing there would have come back sooner. :func:`echo_points` counts only the
+  readings its search finds (arcs ending near the surface, see below), a lower bound;
+  :func:`count_seen_through` tests every reading.
 
 All surfaces are tested at once. Candidate pairs come from radius searches between
 k-d trees of the surfaces' centres and of the readings' arc midpoints (every point of an
@@ -26,12 +32,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-__all__ = ["EchoGeometry", "echo_points"]
+__all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -87,6 +94,19 @@ class EchoGeometry:
         return int(self.range_m.size)
 
 
+class SurfaceEchoes(NamedTuple):
+    """The readings that echo from one surface (see the module notes)."""
+
+    #: indices into the :class:`EchoGeometry`, sorted by ``along``
+    readings: IntArray
+    #: their echo points, shape (E, 2)
+    points: FloatArray
+    #: arc length (m) of each foot along the surface's polyline
+    along: FloatArray
+    #: how many readings see through the surface
+    seen_through: int
+
+
 def _feet(
     q: FloatArray, poly: FloatArray, closed: bool
 ) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
@@ -131,7 +151,7 @@ def echo_points(
     echoes: EchoGeometry,
     *,
     tol: float,
-) -> list[tuple[IntArray, FloatArray, FloatArray]]:
+) -> list[SurfaceEchoes]:
     """The readings that echo from each surface, their echo points and the feet's arc length.
 
     Parameters
@@ -147,9 +167,9 @@ def echo_points(
 
     Returns
     -------
-    list of (readings, points, s)
-        Per surface: indices into ``echoes``, echo points ``(E, 2)`` and the arc length
-        of each foot along the polyline (sorted by it).
+    list of SurfaceEchoes
+        Per surface: indices into ``echoes``, echo points ``(E, 2)``, the arc length of
+        each foot along the polyline (sorted by it), and how many readings see through it.
 
     Examples
     --------
@@ -159,12 +179,12 @@ def echo_points(
     >>> wall = np.column_stack((np.linspace(-1, 1, 201), np.ones(201)))
     >>> g = EchoGeometry(np.zeros((1, 2)), np.array([np.pi / 2]), np.array([0.2]),
     ...                  np.array([1.02]))
-    >>> (idx, pts, s), = echo_points([wall], [False], g, tol=0.05)
-    >>> idx.tolist(), np.round(pts, 3).tolist()
-    ([0], [[0.0, 1.02]])
+    >>> (idx, pts, s, through), = echo_points([wall], [False], g, tol=0.05)
+    >>> idx.tolist(), np.round(pts, 3).tolist(), through
+    ([0], [[0.0, 1.02]], 0)
     """
     n, m = echoes.size, len(polylines)
-    empty = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0))
+    empty = SurfaceEchoes(np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros(0), 0)
     polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
     usable = np.array([p.shape[0] >= 2 for p in polys], dtype=bool)
     if n == 0 or not usable.any():
@@ -191,8 +211,13 @@ def echo_points(
     off = np.abs(
         (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[read] + math.pi) % (2 * math.pi) - math.pi
     )
-    resid = np.abs(d - echoes.range_m[read])
-    ok = inside & (off <= echoes.half_beam[read]) & (resid <= tol)
+    rng = echoes.range_m[read]
+    facing = inside & (off <= echoes.half_beam[read])
+    ok = facing & (np.abs(d - rng) <= tol)
+    through = np.bincount(
+        surf[facing & (rng > d / np.cos(echoes.half_beam[read]) + tol)], minlength=m
+    )
+    resid = np.abs(d - rng)
     surf, read, resid, foot, along = surf[ok], read[ok], resid[ok], foot[ok], along[ok]
     # A first echo comes from one surface: each reading goes to its best match (the
     # lowest residual; ties to the lower surface index, as the stable sort keeps them).
@@ -208,10 +233,70 @@ def echo_points(
     surf, read, pts, along = surf[o], read[o], pts[o], along[o]
     bounds = np.searchsorted(surf, np.arange(m + 1))
     return [
-        (read[bounds[i] : bounds[i + 1]], pts[bounds[i] : bounds[i + 1]],
-         along[bounds[i] : bounds[i + 1]])
+        SurfaceEchoes(read[bounds[i] : bounds[i + 1]], pts[bounds[i] : bounds[i + 1]],
+                      along[bounds[i] : bounds[i + 1]], int(through[i]))
         for i in range(m)
     ]  # fmt: skip
+
+
+def count_seen_through(
+    polylines: list[FloatArray], closed: list[bool], echoes: EchoGeometry, *, tol: float
+) -> npt.NDArray[np.int64]:
+    """How many readings see through each surface, every reading tested (module notes).
+
+    Parameters
+    ----------
+    polylines : list of ndarray, shape (K_i, 2)
+        Surfaces sampled finely (every cell).
+    closed : list of bool
+        Whether each surface closes on itself.
+    echoes : EchoGeometry
+        The readings.
+    tol : float
+        Range tolerance (m).
+
+    Returns
+    -------
+    ndarray of int, shape (len(polylines),)
+
+    Examples
+    --------
+    A sensor 1 m below a wall, looking at it, whose range is 3 m: it saw through.
+
+    >>> wall = np.column_stack((np.linspace(-1, 1, 201), np.ones(201)))
+    >>> g = EchoGeometry(np.zeros((1, 2)), np.array([np.pi / 2]), np.array([0.2]),
+    ...                  np.array([3.0]))
+    >>> count_seen_through([wall], [False], g, tol=0.05).tolist()
+    [1]
+    """
+    out = np.zeros(len(polylines), dtype=np.int64)
+    if echoes.size == 0:
+        return out
+    limit = echoes.range_m * np.cos(echoes.half_beam)  # range > d / cos + tol, without a division
+    slack = tol * np.cos(echoes.half_beam)
+    for i, (poly, cl) in enumerate(zip(polylines, closed, strict=True)):
+        p = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
+        if p.shape[0] < 2:
+            continue
+        # only readings whose range reaches past the surface's nearest point can see through
+        lo, hi = p.min(axis=0), p.max(axis=0)
+        gap = np.hypot(*np.maximum(np.maximum(lo - echoes.xy, echoes.xy - hi), 0.0).T)
+        cand = np.flatnonzero(limit - slack > gap)
+        if cand.size == 0:
+            continue
+        q = echoes.xy[cand]
+        if _straight([p], np.ones(1, dtype=bool))[0]:
+            d, foot, _, inside = _feet_on_segments(q, [p], np.zeros(cand.size, dtype=np.intp))
+        else:
+            d, foot, _, inside = _feet(q, p, bool(cl))
+        v = foot - q
+        off = np.abs(
+            (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[cand] + math.pi) % (2 * math.pi)
+            - math.pi
+        )
+        facing = inside & (off <= echoes.half_beam[cand])
+        out[i] = int(np.count_nonzero(facing & (limit[cand] > d + slack[cand])))
+    return out
 
 
 def _candidate_pairs(

@@ -14,7 +14,7 @@ from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
 from sonarproc.surfaces.polylines import resample
-from sonarproc.surfaces.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
 
 CELL = 0.01
 
@@ -176,10 +176,39 @@ def test_echo_points_equal_the_exhaustive_test(seed: int) -> None:
     g = EchoGeometry(xy, heading, np.full(n, 0.22), rng.uniform(0.1, 6.0, n))
     got = echo_points(polylines, closed, g, tol=0.5)
     want = _echo_points_one_by_one(polylines, closed, g, tol=0.5)
-    for (gi, gp, gs), (wi, wp, ws) in zip(got, want, strict=True):
+    through = count_seen_through(polylines, closed, g, tol=0.5)
+    assert through.tolist() == _seen_through_one_by_one(polylines, closed, g, tol=0.5)
+    for (gi, gp, gs, near), (wi, wp, ws), every in zip(got, want, through, strict=True):
         assert gi.tolist() == wi.tolist()
         np.testing.assert_allclose(gp, wp, atol=1e-9)
         np.testing.assert_allclose(gs, ws, atol=1e-9)
+        assert 0 <= near <= every  # the search's count is a lower bound
+
+
+def _seen_through_one_by_one(
+    polylines: list[np.ndarray], closed: list[bool], g: EchoGeometry, tol: float
+) -> list[int]:
+    """The reference: every reading's foot on every surface, seen through or not."""
+    out = []
+    for p, cl in zip(polylines, closed, strict=True):
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        sv = np.concatenate(([0.0], np.cumsum(seg)))
+        count = 0
+        for j in range(g.size):
+            q = g.xy[j]
+            ab = np.diff(p, axis=0)
+            t = np.clip(np.einsum("ij,ij->i", q - p[:-1], ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+            feet = p[:-1] + ab * t[:, None]
+            d = np.hypot(*(q - feet).T)
+            k = int(np.argmin(d))
+            s = sv[k] + t[k] * seg[k]
+            inside = cl or (0.5 * np.median(seg) < s < sv[-1] - 0.5 * np.median(seg))
+            v = feet[k] - q
+            off = abs((math.atan2(v[1], v[0]) - g.heading[j] + math.pi) % (2 * math.pi) - math.pi)
+            beyond = g.range_m[j] > d[k] / math.cos(g.half_beam[j]) + tol
+            count += bool(inside and off <= g.half_beam[j] and beyond)
+        out.append(count)
+    return out
 
 
 @pytest.mark.parametrize("n", [0, 1, 2, 3, 4])
