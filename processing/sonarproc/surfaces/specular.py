@@ -22,7 +22,7 @@ k-d trees of the surfaces' centres and of the readings' arc midpoints (every poi
 arc lies within its chord's reach of the midpoint), surfaces and readings taken in
 classes of similar size; cheap range and bearing tests go next; the feet on straight
 surfaces are one closed-form projection for all pairs, those on curved ones a search of
-the polyline per surface.
+the polyline per surface (:mod:`sonarproc.surfaces.feet`).
 
 Bistatic readings are taken at the midpoint of transmitter and receiver with the
 ellipse's half minor axis as the range (exact for a surface parallel to the baseline).
@@ -37,6 +37,8 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
+
+from sonarproc.surfaces.feet import feet_on_polyline, feet_on_segments, straight_polylines
 
 __all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
@@ -107,44 +109,6 @@ class SurfaceEchoes(NamedTuple):
     seen_through: int
 
 
-def _feet(
-    q: FloatArray, poly: FloatArray, closed: bool
-) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """Nearest point of a finely sampled polyline to each of ``q``.
-
-    Returns the distance, the foot, its arc length along the polyline and whether it is
-    inside (not at an open end).
-    """
-    seg = np.hypot(*np.diff(poly, axis=0).T)
-    s_vert = np.concatenate(([0.0], np.cumsum(seg)))
-    _, k = cKDTree(poly).query(q)
-    k = np.asarray(k, dtype=np.intp)
-    best_d = np.hypot(*(q - poly[k]).T)
-    best_f = poly[k].copy()
-    best_s = s_vert[k].copy()
-    last = poly.shape[0] - 1
-    for side in (-1, 1):
-        j = k + side
-        ok = (j >= 0) & (j <= last)
-        a, b = poly[k[ok]], poly[j[ok]]
-        ab = b - a
-        den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-        t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / den, 0.0, 1.0)
-        foot = a + ab * t[:, None]
-        d = np.hypot(*(q[ok] - foot).T)
-        better = d < best_d[ok]
-        idx = np.flatnonzero(ok)[better]
-        best_d[idx] = d[better]
-        best_f[idx] = foot[better]
-        best_s[idx] = (s_vert[k[ok]] + t * (s_vert[j[ok]] - s_vert[k[ok]]))[better]
-    if closed:
-        inside = np.ones(q.shape[0], dtype=bool)
-    else:
-        step = float(np.median(seg)) if seg.size else 0.0
-        inside = (best_s > 0.5 * step) & (best_s < s_vert[-1] - 0.5 * step)
-    return best_d, best_f, best_s, inside
-
-
 def echo_points(
     polylines: list[FloatArray],
     closed: list[bool],
@@ -190,21 +154,21 @@ def echo_points(
     if n == 0 or not usable.any():
         return [empty for _ in range(m)]
     surf, read = _candidate_pairs(polys, usable, echoes, tol)
-    straight = _straight(polys, usable)
+    straight = straight_polylines(polys, usable)
     d = np.empty(surf.size)
     foot = np.empty((surf.size, 2))
     along = np.empty(surf.size)
     inside = np.empty(surf.size, dtype=bool)
     line = straight[surf]
     if line.any():
-        d[line], foot[line], along[line], inside[line] = _feet_on_segments(
+        d[line], foot[line], along[line], inside[line] = feet_on_segments(
             echoes.xy[read[line]], polys, surf[line]
         )
     bounds = np.searchsorted(surf, np.arange(m + 1))
     for i in np.flatnonzero(usable & ~straight):
         sel = slice(bounds[i], bounds[i + 1])
         if bounds[i] < bounds[i + 1]:
-            d[sel], foot[sel], along[sel], inside[sel] = _feet(
+            d[sel], foot[sel], along[sel], inside[sel] = feet_on_polyline(
                 echoes.xy[read[sel]], polys[i], bool(closed[i])
             )
     v = foot - echoes.xy[read]
@@ -285,10 +249,10 @@ def count_seen_through(
         if cand.size == 0:
             continue
         q = echoes.xy[cand]
-        if _straight([p], np.ones(1, dtype=bool))[0]:
-            d, foot, _, inside = _feet_on_segments(q, [p], np.zeros(cand.size, dtype=np.intp))
+        if straight_polylines([p], np.ones(1, dtype=bool))[0]:
+            d, foot, _, inside = feet_on_segments(q, [p], np.zeros(cand.size, dtype=np.intp))
         else:
-            d, foot, _, inside = _feet(q, p, bool(cl))
+            d, foot, _, inside = feet_on_polyline(q, p, bool(cl))
         v = foot - q
         off = np.abs(
             (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[cand] + math.pi) % (2 * math.pi)
@@ -365,55 +329,3 @@ def _ball_pairs(
             ks.append(kk[keep])
             js.append(jj[keep])
     return np.concatenate(ks), np.concatenate(js)
-
-
-def _straight(polys: list[FloatArray], usable: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
-    """Which polylines are straight (every vertex on the chord, to rounding)."""
-    out = np.zeros(len(polys), dtype=bool)
-    for i in np.flatnonzero(usable):
-        p = polys[i]
-        chord = p[-1] - p[0]
-        span = float(np.hypot(*chord))
-        if span > 0:
-            dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0])
-            out[i] = dev.max() <= 1e-9 * span * max(span, 1.0)
-    return out
-
-
-def _median_steps(polys: list[FloatArray]) -> FloatArray:
-    """The median segment length of each polyline (all at once: one sort)."""
-    seg = np.hypot(*np.diff(np.concatenate(polys), axis=0).T)
-    sizes = np.array([len(p) for p in polys])
-    last = np.cumsum(sizes) - 1
-    mask = np.ones(seg.size, dtype=bool)
-    mask[last[:-1]] = False  # the gaps between one polyline and the next
-    n = sizes - 1
-    owner = np.repeat(np.arange(len(polys)), n)
-    seg = seg[mask]
-    order = np.lexsort((seg, owner))
-    ranked = seg[order]
-    first = np.cumsum(n) - n
-    lo = ranked[first + (n - 1) // 2]
-    hi = ranked[first + n // 2]
-    return np.asarray(0.5 * (lo + hi), dtype=np.float64)
-
-
-def _feet_on_segments(
-    q: FloatArray, polys: list[FloatArray], surf: IntArray
-) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
-    """:func:`_feet` of each point ``q[k]`` on the straight polyline ``polys[surf[k]]``."""
-    ids = np.unique(surf)
-    a = np.array([polys[i][0] for i in ids])
-    b = np.array([polys[i][-1] for i in ids])
-    # a vertex this close to an open end counts as the end (as for curved polylines)
-    step = _median_steps([polys[i] for i in ids])
-    k = np.searchsorted(ids, surf)
-    ab = (b - a)[k]
-    length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-    t = np.clip(np.einsum("ij,ij->i", q - a[k], ab) / length2, 0.0, 1.0)
-    foot = a[k] + ab * t[:, None]
-    d = np.hypot(*(q - foot).T)
-    length = np.sqrt(length2)
-    along = t * length
-    inside = (along > 0.5 * step[k]) & (along < length - 0.5 * step[k])
-    return d, foot, along, inside
