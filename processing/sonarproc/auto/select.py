@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -41,13 +42,16 @@ from sonarproc.auto.score import (
 from sonarproc.auto.scoring import fold_scores, implied_span, mean_count, whole_hulls
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure
+from sonarproc.grid import Grid
 from sonarproc.methods import MethodResult
 from sonarproc.metrics import bin_stats
 from sonarproc.params import RunParams
-from sonarproc.pipeline.mapping import evaluate_map
-from sonarproc.pipeline.selection import plan_grid, select_beams
+from sonarproc.pipeline.mapping import MethodMap, evaluate_map
+from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["choose", "run_auto", "run_candidate"]
+__all__ = [
+    "CandidateMap", "candidate_map", "choose", "evaluate_candidate", "run_auto", "run_candidate",
+]  # fmt: skip
 
 log = logging.getLogger(__name__)
 
@@ -147,9 +151,21 @@ def choose(
     return AutoChoice(scores, crit, n, folds, repeats)
 
 
-def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult:
-    """Run a scored candidate at its chosen setting on every reading of the log."""
-    cpu0 = time.process_time()
+@dataclass
+class CandidateMap:
+    """A scored candidate's map on every reading, and the parameters of its fit."""
+
+    beams: Beams
+    counts: dict[str, int]
+    grid: Grid
+    mmap: MethodMap
+    params: RunParams
+    method_name: str
+    method_options: dict[str, Any]
+
+
+def candidate_map(log_: SonarLog, base: RunParams, score: Score) -> CandidateMap:
+    """Build a scored candidate's map on every reading of the log (its setting's fit params)."""
     c = score.candidate
     method = c.make()
     beams, counts = select_beams(log_, base)
@@ -162,11 +178,30 @@ def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult
         bins = bin_stats(ix, grid.to_world(iy, ix)[1], grid.centres_x(), presorted=True)
         lam = spline_lambda(setting, mean_count(bins), grid.cell)
     params = method.params_for(c.params(base, setting, lam=lam))
+    return CandidateMap(beams, counts, grid, mmap, params, method.name, dict(method.options))
+
+
+def evaluate_candidate(
+    log_: SonarLog, cm: CandidateMap, *, span: tuple[float, float] | None = None
+) -> MethodResult:
+    """Fit and measure a candidate's map; with ``span`` (x0, x1) only its columns inside it."""
+    cpu0 = time.process_time()
+    mmap = cm.mmap
+    if span is not None:
+        x = cm.grid.centres_x()
+        inside = (x >= span[0] - 1e-9) & (x <= span[1] + 1e-9)
+        mmap = replace(mmap, processed=mmap.processed & inside[None, :])
     result = evaluate_map(
-        log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
-        empty_message=f"{log_.path}: the method left nothing on the map", beams=beams,
+        log_, cm.params, cm.grid, mmap, robot_xy=cm.beams.robot_xy, counts=cm.counts,
+        cpu_start=cpu0, empty_message=f"{log_.path}: the method left nothing on the map",
+        beams=cm.beams,
     )  # fmt: skip
-    return MethodResult(method.name, dict(method.options), result, mmap.probability)
+    return MethodResult(cm.method_name, dict(cm.method_options), result, mmap.probability)
+
+
+def run_candidate(log_: SonarLog, base: RunParams, score: Score) -> MethodResult:
+    """Run a scored candidate at its chosen setting on every reading of the log."""
+    return evaluate_candidate(log_, candidate_map(log_, base, score))
 
 
 def run_auto(

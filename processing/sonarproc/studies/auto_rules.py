@@ -54,7 +54,7 @@ RULES = ("lowest", "one-se", "time", "time+se", "passes", "passes+se")
 HELD_ASIDE = (
     "wavy-ring-walk", "auto-sparse-gentle", "auto-bistatic-sinusoid", "auto-linear-sinusoid",
     "auto2-linear-wave", "auto2-sparse-curve", "auto2-bistatic-step",
-    "auto3-sparse-tilted", "auto3-ring-wavy",
+    "auto3-sparse-tilted", "auto3-ring-wavy", "auto4-pair-tilted-wave", "auto4-ring-curve",
 )  # fmt: skip
 
 
