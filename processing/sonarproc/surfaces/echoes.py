@@ -20,8 +20,10 @@ is one that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see thr
 (their range reaches beyond it: a chance crossing of arcs in free space, which the
 sound crossed; a real surface is seen through only by a stray long echo). The rounds
 count the readings whose arcs end near a surface; after the last, a surface fewer than
-:data:`WEAK_ECHOES` readings echo from is tested against every reading (the phantoms
-have few echoes, and the sound that crossed them may end far behind).
+:data:`WEAK_ECHOES` readings echo from is tested against every reading, between its
+outermost echo points (the phantoms have few echoes, and the sound that crossed them may
+end far behind; a fit's ends are stretched beyond its echoes, and sound passing the end
+of a box did not cross it).
 After every round a refitted line or open arc is stretched over the ridge cells within
 that round's tolerance of it (the ridge sees the surface further than the perpendiculars
 reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
@@ -180,7 +182,11 @@ def refine_fits(
         cur, ridge = nxt, nxt_ridge
     weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
     through = count_seen_through(
-        [cur[i].polyline for i in weak], [cur[i].closed for i in weak], echoes, tol=rounds[-1]
+        [cur[i].polyline for i in weak],
+        [cur[i].closed for i in weak],
+        echoes,
+        tol=rounds[-1],
+        confirmed=[np.stack((pts_cells[i].x, pts_cells[i].y), axis=1) for i in weak],
     )
     drop = {i for i, n in zip(weak, through, strict=True) if _seen_through(pts_idx[i].size, n)}
     drop |= set(

@@ -204,7 +204,12 @@ def echo_points(
 
 
 def count_seen_through(
-    polylines: list[FloatArray], closed: list[bool], echoes: EchoGeometry, *, tol: float
+    polylines: list[FloatArray],
+    closed: list[bool],
+    echoes: EchoGeometry,
+    *,
+    tol: float,
+    confirmed: list[FloatArray] | None = None,
 ) -> npt.NDArray[np.int64]:
     """How many readings see through each surface, every reading tested (module notes).
 
@@ -218,6 +223,11 @@ def count_seen_through(
         The readings.
     tol : float
         Range tolerance (m).
+    confirmed : list of ndarray, shape (E_i, 2), optional
+        Points known to lie on each surface (its echo points). An open surface is then
+        tested only between the feet of its outermost confirmed points: a fit's ends
+        are stretched beyond them, and sound passing the end of a box is not seen
+        through it.
 
     Returns
     -------
@@ -249,10 +259,10 @@ def count_seen_through(
         if cand.size == 0:
             continue
         q = echoes.xy[cand]
-        if straight_polylines([p], np.ones(1, dtype=bool))[0]:
-            d, foot, _, inside = feet_on_segments(q, [p], np.zeros(cand.size, dtype=np.intp))
-        else:
-            d, foot, _, inside = feet_on_polyline(q, p, bool(cl))
+        d, foot, along, inside = _feet_on(q, p, bool(cl))
+        if confirmed is not None and not cl and len(confirmed[i]):
+            ends = _feet_on(np.asarray(confirmed[i], dtype=np.float64).reshape(-1, 2), p, cl)[2]
+            inside &= (along >= ends.min()) & (along <= ends.max())
         v = foot - q
         off = np.abs(
             (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[cand] + math.pi) % (2 * math.pi)
@@ -261,6 +271,15 @@ def count_seen_through(
         facing = inside & (off <= echoes.half_beam[cand])
         out[i] = int(np.count_nonzero(facing & (limit[cand] > d + slack[cand])))
     return out
+
+
+def _feet_on(
+    q: FloatArray, p: FloatArray, closed: bool
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """The feet of ``q`` on one polyline, straight or not."""
+    if straight_polylines([p], np.ones(1, dtype=bool))[0]:
+        return feet_on_segments(q, [p], np.zeros(q.shape[0], dtype=np.intp))
+    return feet_on_polyline(q, p, closed)
 
 
 def _candidate_pairs(

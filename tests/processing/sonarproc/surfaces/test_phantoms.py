@@ -154,3 +154,16 @@ def test_a_phantom_the_readings_see_through_is_dropped() -> None:
     kept, _ = refine_fits(fits, cells, g, cell=CELL)  # type: ignore[arg-type]
     assert len(kept) == 1
     np.testing.assert_allclose(kept[0].polyline[:, 1], 2.0, atol=1e-6)
+
+
+def test_sound_passing_the_end_of_a_box_does_not_see_through_it() -> None:
+    # a box face confirmed by echo points from x = -0.3 to 0.3, its fit stretched to
+    # +-0.5 m; readings at x = 0.4 pass beside the box and reach a wall behind it
+    face = resample(np.array([[-0.5, 1.0], [0.5, 1.0]]), CELL)
+    echo_pts = np.c_[np.linspace(-0.3, 0.3, 7), np.ones(7)]
+    xs = np.array([0.38, 0.40, 0.42, 0.0])
+    g = EchoGeometry(np.c_[xs, np.zeros(4)], np.full(4, math.pi / 2), np.full(4, 0.22),
+                     np.array([2.0, 2.0, 2.0, 2.0]))  # fmt: skip
+    assert count_seen_through([face], [False], g, tol=0.03).tolist() == [4]
+    got = count_seen_through([face], [False], g, tol=0.03, confirmed=[echo_pts])
+    assert got.tolist() == [1]  # only the reading in front of the confirmed face
