@@ -131,3 +131,21 @@ def test_a_default_run_meets_the_targets(tmp_path: Path, name: str) -> None:
     assert res.surfaces is not None and res.surface_metrics is not None
     m = res.surface_metrics
     assert m["precision_m"] <= 0.03 and m["completeness"] >= 0.8, m
+
+
+def test_room_box_default_run_finds_every_face_of_the_box(tmp_path: Path) -> None:
+    """All four faces of the 0.8 m x 0.6 m box, (2.0, 1.6) to (2.8, 2.2), are kept: the
+    readings passing beside the box reach past the ends of its faces' stretched fits, and
+    they must not count as seeing through it."""
+    from sonarproc.params import RunParams
+    from sonarproc.pipeline import process
+
+    res = process(simulate("room-box", tmp_path), RunParams(fit="auto"))
+    assert res.surfaces is not None
+    faces = {"y=1.6": (1, 1.6, 0), "y=2.2": (1, 2.2, 0), "x=2.0": (0, 2.0, 1), "x=2.8": (0, 2.8, 1)}
+    for name, (axis, value, along) in faces.items():
+        assert any(
+            np.all(np.abs(s.polyline[:, axis] - value) < 0.03)
+            and np.ptp(s.polyline[:, along]) >= 0.4
+            for s in res.surfaces.surfaces
+        ), name
