@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from sonarproc.fit import Fit, FitFailure
 from sonarproc.methods.base import Beams
+from sonarproc.methods.echo_model import first_echo
 from sonarproc.metrics import Bins
 
 __all__ = [
@@ -58,9 +59,6 @@ COVERAGE_FLOOR = 0.7
 SUPPORT_WINDOW = 11
 #: Readings per slice of the ``ends`` rule (about).
 SLICE_READINGS = 40
-
-#: Work per chunk: readings x curve points.
-_CHUNK = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -181,42 +179,12 @@ def echo_points(
     if pts.shape[0] < 3:
         return nan, nan.copy()
     p = beams.poses
-    t, r = p.tx_xy[rows], p.rx_xy[rows]
-    ht, hr = p.tx_heading[rows], p.rx_heading[rows]
-    wt, wr = p.tx_half_beamwidth[rows], p.rx_half_beamwidth[rows]
-    k = np.asarray(beams.readings["echo"][rows], dtype=np.intp)
-    path_out, x_out = nan.copy(), nan.copy()
-    px, py = pts[None, :, 0], pts[None, :, 1]
-    chunk = max(1, _CHUNK // pts.shape[0])
-    for i in range(0, rows.size, chunk):
-        sl = slice(i, i + chunk)
-        tdx, tdy = px - t[sl, 0:1], py - t[sl, 1:2]
-        rdx, rdy = px - r[sl, 0:1], py - r[sl, 1:2]
-        ok = _in_beam(tdx, tdy, ht[sl], wt[sl]) & _in_beam(rdx, rdy, hr[sl], wr[sl])
-        path = np.hypot(tdx, tdy) + np.hypot(rdx, rdy)
-        mid = path[:, 1:-1]
-        low = (mid <= path[:, :-2]) & (mid <= path[:, 2:])
-        high = (mid >= path[:, :-2]) & (mid >= path[:, 2:])
-        ok[:, 1:-1] &= low | high
-        ok[:, [0, -1]] = False
-        path[~ok] = np.inf
-        top = int(k[sl].max()) + 1
-        order = np.argsort(path, axis=1)[:, :top]
-        pick = np.take_along_axis(order, np.minimum(k[sl], top - 1)[:, None], axis=1)[:, 0]
-        best = path[np.arange(pick.size), pick]
-        found = np.isfinite(best)
-        path_out[sl] = np.where(found, best, np.nan)
-        x_out[sl] = np.where(found, pts[pick, 0], np.nan)
-    return path_out, x_out
-
-
-def _in_beam(
-    dx: FloatArray, dy: FloatArray, heading: FloatArray, half: FloatArray
-) -> npt.NDArray[np.bool_]:
-    c, s = np.cos(heading)[:, None], np.sin(heading)[:, None]
-    along = dx * c + dy * s
-    across = np.abs(dy * c - dx * s)
-    return (along > 0) & (across <= along * np.tan(half)[:, None])
+    path, at = first_echo(
+        p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],
+        p.rx_xy[rows], p.rx_heading[rows], p.rx_half_beamwidth[rows],
+        pts, np.asarray(beams.readings["echo"][rows], dtype=np.intp),
+    )  # fmt: skip
+    return path, np.where(at >= 0, pts[np.maximum(at, 0), 0], np.nan)
 
 
 def span_by_echoes(

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["first_echo_path"]
+__all__ = ["first_echo", "first_echo_path"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -35,7 +35,7 @@ def _in_beam(
     return (along > 0) & (across <= along * np.tan(half)[:, None])
 
 
-def first_echo_path(
+def first_echo(
     tx_xy: npt.ArrayLike,
     tx_heading: npt.ArrayLike,
     tx_half: npt.ArrayLike,
@@ -44,7 +44,7 @@ def first_echo_path(
     rx_half: npt.ArrayLike,
     curve: npt.ArrayLike,
     rank: npt.ArrayLike | None = None,
-) -> FloatArray:
+) -> tuple[FloatArray, npt.NDArray[np.intp]]:
     """Shortest path T -> P -> R over the curve's specular points P inside both beams.
 
     Parameters
@@ -61,15 +61,18 @@ def first_echo_path(
 
     Returns
     -------
-    ndarray, (N,)
+    path : ndarray, (N,)
         Path lengths (m); NaN where no point of the curve is inside both beams.
+    index : ndarray of int, (N,)
+        The curve point P of each path (where the echo came from); -1 where none.
 
     Examples
     --------
     >>> xs = np.linspace(-2, 2, 401)
     >>> wall = np.column_stack((xs, np.ones_like(xs)))
-    >>> first_echo_path([[0, 0]], [np.pi / 2], [0.2], [[0, 0]], [np.pi / 2], [0.2], wall)
-    array([2.])
+    >>> path, at = first_echo([[0, 0]], [np.pi / 2], [0.2], [[0, 0]], [np.pi / 2], [0.2], wall)
+    >>> path.tolist(), wall[at].tolist()
+    ([2.0], [[0.0, 1.0]])
     """
     t = np.asarray(tx_xy, dtype=np.float64).reshape(-1, 2)
     r = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
@@ -79,9 +82,10 @@ def first_echo_path(
     wr = np.broadcast_to(np.asarray(rx_half, dtype=np.float64), hr.shape)
     pts = np.asarray(curve, dtype=np.float64).reshape(-1, 2)
     out = np.full(t.shape[0], np.nan)
+    at = np.full(t.shape[0], -1, dtype=np.intp)
     k = np.zeros(t.shape[0], np.intp) if rank is None else np.asarray(rank, np.intp).reshape(-1)
     if pts.shape[0] < 3 or t.shape[0] == 0:
-        return out
+        return out, at
     step = max(1, _CHUNK // pts.shape[0])
     px, py = pts[None, :, 0], pts[None, :, 1]
     for i in range(0, t.shape[0], step):
@@ -103,12 +107,39 @@ def first_echo_path(
         ok[:, [0, -1]] = False
         path[~ok] = np.inf
         kk = k[sl]
-        top = int(kk.max()) + 1
+        top = min(int(kk.max()) + 1, path.shape[1])
         if top == 1:
-            best = path.min(axis=1)
+            pick = path.argmin(axis=1)
         else:
-            part = np.partition(path, min(top, path.shape[1]) - 1, axis=1)[:, :top]
-            part.sort(axis=1)
-            best = np.take_along_axis(part, np.minimum(kk, top - 1)[:, None], axis=1)[:, 0]
-        out[sl] = np.where(np.isfinite(best), best, np.nan)
-    return out
+            part = np.argpartition(path, top - 1, axis=1)[:, :top]
+            ranked = np.take_along_axis(
+                part, np.argsort(np.take_along_axis(path, part, axis=1), axis=1), axis=1
+            )
+            pick = np.take_along_axis(ranked, np.minimum(kk, top - 1)[:, None], axis=1)[:, 0]
+        best = path[np.arange(pick.size), pick]
+        found = np.isfinite(best)
+        out[sl] = np.where(found, best, np.nan)
+        at[sl] = np.where(found, pick, -1)
+    return out, at
+
+
+def first_echo_path(
+    tx_xy: npt.ArrayLike,
+    tx_heading: npt.ArrayLike,
+    tx_half: npt.ArrayLike,
+    rx_xy: npt.ArrayLike,
+    rx_heading: npt.ArrayLike,
+    rx_half: npt.ArrayLike,
+    curve: npt.ArrayLike,
+    rank: npt.ArrayLike | None = None,
+) -> FloatArray:
+    """The path lengths of :func:`first_echo` (m; NaN where the curve misses the beams).
+
+    Examples
+    --------
+    >>> xs = np.linspace(-2, 2, 401)
+    >>> wall = np.column_stack((xs, np.ones_like(xs)))
+    >>> first_echo_path([[0, 0]], [np.pi / 2], [0.2], [[0, 0]], [np.pi / 2], [0.2], wall)
+    array([2.])
+    """
+    return first_echo(tx_xy, tx_heading, tx_half, rx_xy, rx_heading, rx_half, curve, rank)[0]
