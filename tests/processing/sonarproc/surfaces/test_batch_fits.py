@@ -124,21 +124,11 @@ def _echo_points_one_by_one(
     """The reference: every reading tested against every surface (no pruning)."""
     best: dict[int, tuple[float, int, np.ndarray, float]] = {}
     for i, (p, cl) in enumerate(zip(polylines, closed, strict=True)):
-        seg = np.hypot(*np.diff(p, axis=0).T)
-        sv = np.concatenate(([0.0], np.cumsum(seg)))
         for j in range(g.size):
             q = g.xy[j]
-            ab = np.diff(p, axis=0)
-            t = np.clip(np.einsum("ij,ij->i", q - p[:-1], ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
-            feet = p[:-1] + ab * t[:, None]
-            d = np.hypot(*(q - feet).T)
-            k = int(np.argmin(d))
-            s = sv[k] + t[k] * seg[k]
-            inside = cl or (0.5 * np.median(seg) < s < sv[-1] - 0.5 * np.median(seg))
-            v = feet[k] - q
-            off = abs((math.atan2(v[1], v[0]) - g.heading[j] + math.pi) % (2 * math.pi) - math.pi)
-            r = abs(d[k] - g.range_m[j])
-            if inside and off <= g.half_beam[j] and r <= tol and (j not in best or r < best[j][0]):
+            d, v, s, facing = _foot_one_by_one(p, cl, q, g.heading[j], g.half_beam[j])
+            r = abs(d - g.range_m[j])
+            if facing and r <= tol and (j not in best or r < best[j][0]):
                 best[j] = (r, i, q + v / np.hypot(*v) * g.range_m[j], s)
     out = []
     for i in range(len(polylines)):
@@ -191,24 +181,31 @@ def _seen_through_one_by_one(
     """The reference: every reading's foot on every surface, seen through or not."""
     out = []
     for p, cl in zip(polylines, closed, strict=True):
-        seg = np.hypot(*np.diff(p, axis=0).T)
-        sv = np.concatenate(([0.0], np.cumsum(seg)))
         count = 0
         for j in range(g.size):
-            q = g.xy[j]
-            ab = np.diff(p, axis=0)
-            t = np.clip(np.einsum("ij,ij->i", q - p[:-1], ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
-            feet = p[:-1] + ab * t[:, None]
-            d = np.hypot(*(q - feet).T)
-            k = int(np.argmin(d))
-            s = sv[k] + t[k] * seg[k]
-            inside = cl or (0.5 * np.median(seg) < s < sv[-1] - 0.5 * np.median(seg))
-            v = feet[k] - q
-            off = abs((math.atan2(v[1], v[0]) - g.heading[j] + math.pi) % (2 * math.pi) - math.pi)
-            beyond = g.range_m[j] > d[k] / math.cos(g.half_beam[j]) + tol
-            count += bool(inside and off <= g.half_beam[j] and beyond)
+            d, _, _, facing = _foot_one_by_one(p, cl, g.xy[j], g.heading[j], g.half_beam[j])
+            count += bool(facing and g.range_m[j] > d / math.cos(g.half_beam[j]) + tol)
         out.append(count)
     return out
+
+
+def _foot_one_by_one(
+    p: np.ndarray, closed: bool, q: np.ndarray, heading: float, half_beam: float
+) -> tuple[float, np.ndarray, float, bool]:
+    """Distance to the foot of ``q`` on ``p``, the vector to it, its arc length, and
+    whether it is inside the polyline and inside the beam (every segment tested)."""
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    sv = np.concatenate(([0.0], np.cumsum(seg)))
+    ab = np.diff(p, axis=0)
+    t = np.clip(np.einsum("ij,ij->i", q - p[:-1], ab) / np.einsum("ij,ij->i", ab, ab), 0, 1)
+    feet = p[:-1] + ab * t[:, None]
+    d = np.hypot(*(q - feet).T)
+    k = int(np.argmin(d))
+    s = sv[k] + t[k] * seg[k]
+    inside = closed or (0.5 * np.median(seg) < s < sv[-1] - 0.5 * np.median(seg))
+    v = feet[k] - q
+    off = abs((math.atan2(v[1], v[0]) - heading + math.pi) % (2 * math.pi) - math.pi)
+    return float(d[k]), v, float(s), bool(inside and off <= half_beam)
 
 
 @pytest.mark.parametrize("n", [0, 1, 2, 3, 4])
