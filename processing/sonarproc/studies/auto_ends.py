@@ -53,7 +53,7 @@ from sonarproc.metrics import Bins
 from sonarproc.params import RunParams
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
-from sonarproc.studies.auto_rules import HELD_ASIDE, study_main
+from sonarproc.studies.auto_rules import HELD_ASIDE, ratio_summary, study_main
 from sonarproc.studies.auto_study import Judge, candidate_errors, candidate_runs
 from sonarproc.studies.auto_study import simulated_scenarios as _scenarios
 
@@ -179,15 +179,10 @@ def summary(rows: dict[str, EndsRow], rule: str) -> str:
     """Within 1.2x of the best, the geometric mean ratio, the 5 cm rule's breaks, kept."""
     if not rows:
         return "none"
-    ratios = np.array([min(r.rules[rule][1], 100.0) for r in rows.values()])
-    breaks = sum(r.rules[rule][0] > 0.05 and r.best_error_m < 0.03 for r in rows.values())
-    kept = float(np.mean([r.rules[rule][3] for r in rows.values()]))
-    gmean = float(np.exp(np.log(ratios).mean()))
-    within = int((ratios <= 1.2).sum())
-    return (
-        f"{within}/{ratios.size} within 1.2x, mean ratio {gmean:.2f}, {breaks} above 5 cm, "
-        f"judged columns kept {kept:.2f}"
-    )
+    got = [r.rules[rule] for r in rows.values()]
+    text = ratio_summary([g[0] for g in got], [g[1] for g in got],
+                         [r.best_error_m for r in rows.values()])  # fmt: skip
+    return f"{text}, judged columns kept {float(np.mean([g[3] for g in got])):.2f}"
 
 
 def render(rows: dict[str, EndsRow], held: Sequence[str] = HELD_ASIDE) -> str:

@@ -46,7 +46,7 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.studies.auto_rules import HELD_ASIDE as RULES_HELD_ASIDE
-from sonarproc.studies.auto_rules import study_main
+from sonarproc.studies.auto_rules import ratio_summary, study_main
 from sonarproc.studies.auto_study import (
     Judge,
     candidate_errors,
@@ -223,13 +223,11 @@ def summary(rows: dict[str, MedianRow], variant: str) -> str:
     >>> summary({"s": row}, "median3")
     '0/1 within 1.2x, mean ratio 2.00, 0 above 5 cm'
     """
-    if not rows:
-        return "none"
-    ratios = np.array([min(r.ratio(variant), 100.0) for r in rows.values()])
-    breaks = sum(r.errors[variant] > 0.05 and r.best_error_m < 0.03 for r in rows.values())
-    gmean = float(np.exp(np.log(ratios).mean()))
-    within = int((ratios <= 1.2).sum())
-    return f"{within}/{ratios.size} within 1.2x, mean ratio {gmean:.2f}, {breaks} above 5 cm"
+    return ratio_summary(
+        [r.errors[variant] for r in rows.values()],
+        [r.ratio(variant) for r in rows.values()],
+        [r.best_error_m for r in rows.values()],
+    )
 
 
 def paired(rows: dict[str, MedianRow], variant: str, ref: str) -> str:

@@ -43,7 +43,8 @@ from sonarproc.studies.auto_study import candidate_errors, simulated_scenarios
 from sonarsim.shipped import shipped_dir
 
 __all__ = [
-    "HELD_ASIDE", "RULES", "RuleRow", "main", "pick", "render", "run_rules", "study_main",
+    "HELD_ASIDE", "RULES", "RuleRow", "main", "pick", "ratio_summary", "render", "run_rules",
+    "study_main",
     "summary",
 ]  # fmt: skip
 
@@ -118,13 +119,41 @@ def run_rules(scenario_dir: Path, *, cell: float = 0.01) -> dict[str, RuleRow]:
 
 def summary(rows: dict[str, RuleRow], rule: str) -> str:
     """Within 1.2x of the best, the geometric mean ratio, and the 5 cm rule's breaks."""
-    if not rows:
+    picks = [r.picks[rule] for r in rows.values()]
+    return ratio_summary(
+        [p[1] for p in picks], [p[2] for p in picks], [r.best_error_m for r in rows.values()]
+    )
+
+
+def ratio_summary(
+    errors: Sequence[float], ratios: Sequence[float], best_errors: Sequence[float]
+) -> str:
+    """How a selection fares against the best candidate over a set of scenarios.
+
+    Parameters
+    ----------
+    errors, ratios, best_errors : sequence of float
+        Per scenario: the selection's error (m), its ratio to the best candidate's, and
+        the best candidate's error (m).
+
+    Returns
+    -------
+    str
+        Scenarios within 1.2x, the geometric mean ratio (each capped at 100) and the
+        breaks of the 5 cm rule (above 5 cm where the best is below 3 cm).
+
+    Examples
+    --------
+    >>> ratio_summary([0.02, 0.06], [1.0, 4.0], [0.02, 0.015])
+    '1/2 within 1.2x, mean ratio 2.00, 1 above 5 cm'
+    """
+    if len(ratios) == 0:
         return "none"
-    ratios = np.array([min(r.picks[rule][2], 100.0) for r in rows.values()])
-    breaks = sum(r.picks[rule][1] > 0.05 and r.best_error_m < 0.03 for r in rows.values())
-    gmean = float(np.exp(np.log(ratios).mean()))
-    within = int((ratios <= 1.2).sum())
-    return f"{within}/{ratios.size} within 1.2x, mean ratio {gmean:.2f}, {breaks} above 5 cm"
+    r = np.minimum(np.asarray(ratios, dtype=np.float64), 100.0)
+    breaks = sum(e > 0.05 and b < 0.03 for e, b in zip(errors, best_errors, strict=True))
+    gmean = float(np.exp(np.log(r).mean()))
+    within = int((r <= 1.2).sum())
+    return f"{within}/{r.size} within 1.2x, mean ratio {gmean:.2f}, {breaks} above 5 cm"
 
 
 def render(rows: dict[str, RuleRow], held: Sequence[str] = HELD_ASIDE) -> str:
