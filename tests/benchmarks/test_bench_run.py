@@ -78,7 +78,9 @@ def write_room_log(path: Path, hours: float, seed: int = 0, *, truth: bool = Tru
 
     ``truth=False`` leaves ``/truth`` out (a robot's log: no surface metrics are computed).
     """
-    from sonarlog import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE, LogWriter
+    from logbuilders import ring_sensors, ring_walk_readings
+
+    from sonarlog import LogWriter
 
     n = round(hours * 3600 * RATE)
     rng = np.random.default_rng(seed)
@@ -87,26 +89,16 @@ def write_room_log(path: Path, hours: float, seed: int = 0, *, truth: bool = Tru
     x = ROOM / 2 + 8.5 * np.sin(2 * np.pi * t / 1370.0)
     y = ROOM / 2 + 8.5 * np.sin(2 * np.pi * t / 910.0 + 0.7)
     turret = np.deg2rad(10.0) * t
-    ring = np.arange(16) * np.pi / 8
-    sens = np.zeros(16, SENSOR_DTYPE)
-    sens["id"] = np.arange(16)
-    sens["x"], sens["y"], sens["heading"] = 0.22 * np.cos(ring), 0.22 * np.sin(ring), ring
-    sens["half_beamwidth"] = np.deg2rad(12.5)
-    sens["min_range"], sens["max_range"] = 0.15, 10.7
-    k = np.arange(n) % 16
-    h = turret + ring[k]
-    px, py = x + 0.22 * np.cos(h), y + 0.22 * np.sin(h)
-    c, s = np.cos(h), np.sin(h)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.where(c > 0, (ROOM - px) / c, np.where(c < 0, -px / c, np.inf))
-        ty = np.where(s > 0, (ROOM - py) / s, np.where(s < 0, -py / s, np.inf))
-    rng_m = np.minimum(tx, ty) + rng.normal(0.0, 0.01, n)
-    r = np.zeros(n, READING_DTYPE)
-    r["t"], r["x"], r["y"], r["theta"], r["turret"] = t, x, y, 0.0, turret
-    r["tx"] = r["rx"] = k
-    far = rng_m > 10.7
-    r["tof"] = np.where(far, np.nan, 2 * rng_m / C)
-    r["flags"] = np.where(far, FLAG_NO_ECHO, 0)
+    sens = ring_sensors()
+
+    def to_wall(px: np.ndarray, py: np.ndarray, h: np.ndarray) -> np.ndarray:
+        c, s = np.cos(h), np.sin(h)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(c > 0, (ROOM - px) / c, np.where(c < 0, -px / c, np.inf))
+            ty = np.where(s > 0, (ROOM - py) / s, np.where(s < 0, -py / s, np.inf))
+        return np.asarray(np.minimum(tx, ty))
+
+    r = ring_walk_readings(t, x, y, turret, to_wall, rng, sensors=sens, speed_of_sound=C)
     corners = np.array([[0, 0], [ROOM, 0], [ROOM, ROOM], [0, ROOM], [0, 0]], dtype=float)
     with LogWriter(
         path, sens, speed_of_sound=C, robot="bench", truth=corners if truth else None

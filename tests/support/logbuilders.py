@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
-from sonarlog import READING_DTYPE, SENSOR_DTYPE
+from sonarlog import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE
 
 
 def ring_sensors(n: int = 16, radius: float = 0.22) -> np.ndarray:
@@ -28,4 +30,38 @@ def random_readings(rng: np.random.Generator, n: int, n_sensors: int = 16) -> np
     r["x"], r["y"] = rng.uniform(-5, 5, n), rng.uniform(-5, 5, n)
     r["theta"], r["turret"] = rng.uniform(-np.pi, np.pi, n), rng.uniform(-np.pi, np.pi, n)
     r["flags"] = rng.integers(0, 4, n)
+    return r
+
+
+def ring_walk_readings(
+    t: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    turret: np.ndarray,
+    axial_range: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+    rng: np.random.Generator,
+    *,
+    sensors: np.ndarray,
+    speed_of_sound: float,
+    noise_m: float = 0.01,
+) -> np.ndarray:
+    """Readings of a ring walking ``(t, x, y)`` (heading 0) with its turret at ``turret``.
+
+    The sensors fire in turn; each returns ``axial_range(px, py, heading)`` (the range
+    along its beam's axis from its position: a diffusely reflecting world) plus Gaussian
+    noise; beyond the sensor's maximum range, no echo.
+    """
+    n = t.size
+    k = np.arange(n) % sensors.size
+    c, s = np.cos(turret), np.sin(turret)
+    px = x + sensors["x"][k] * c - sensors["y"][k] * s
+    py = y + sensors["x"][k] * s + sensors["y"][k] * c
+    h = turret + sensors["heading"][k]
+    rng_m = axial_range(px, py, h) + rng.normal(0.0, noise_m, n)
+    r = np.zeros(n, READING_DTYPE)
+    r["t"], r["x"], r["y"], r["theta"], r["turret"] = t, x, y, 0.0, turret
+    r["tx"] = r["rx"] = k
+    far = ~(rng_m <= sensors["max_range"][k])
+    r["tof"] = np.where(far, np.nan, 2 * rng_m / speed_of_sound)
+    r["flags"] = np.where(far, FLAG_NO_ECHO, 0)
     return r

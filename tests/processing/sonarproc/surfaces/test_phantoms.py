@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from logbuilders import ring_sensors, ring_walk_readings
 
-from sonarlog import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE, LogWriter, read_log
+from sonarlog import LogWriter, read_log
 from sonarproc.params import RunParams
 from sonarproc.pipeline import process
 from sonarproc.surfaces import EchoGeometry, count_seen_through, echo_points, refine_fits
@@ -52,22 +53,8 @@ def _diffuse_room_log(path: Path, n: int = 12_000, seed: int = 7) -> None:
     y = 3.0 + 2.0 * np.sin(2 * np.pi * t / 97.0 + 0.4)
     x = np.where((y > 1.6) & (y < 3.0), np.minimum(x, 3.9), x)  # keep clear of the box
     turret = np.deg2rad(7.0) * t
-    ring = np.arange(16) * np.pi / 8
-    sens = np.zeros(16, SENSOR_DTYPE)
-    sens["id"] = np.arange(16)
-    sens["x"], sens["y"], sens["heading"] = 0.22 * np.cos(ring), 0.22 * np.sin(ring), ring
-    sens["half_beamwidth"] = np.deg2rad(12.5)
-    sens["min_range"], sens["max_range"] = 0.15, 10.7
-    k = np.arange(n) % 16
-    h = turret + ring[k]
-    px, py = x + 0.22 * np.cos(h), y + 0.22 * np.sin(h)
-    rng_m = _axial_range(px, py, h) + rng.normal(0.0, 0.01, n)
-    r = np.zeros(n, READING_DTYPE)
-    r["t"], r["x"], r["y"], r["theta"], r["turret"] = t, x, y, 0.0, turret
-    r["tx"] = r["rx"] = k
-    far = ~(rng_m <= 10.7)
-    r["tof"] = np.where(far, np.nan, 2 * rng_m / C)
-    r["flags"] = np.where(far, FLAG_NO_ECHO, 0)
+    sens = ring_sensors()
+    r = ring_walk_readings(t, x, y, turret, _axial_range, rng, sensors=sens, speed_of_sound=C)
     truth = np.concatenate((WALLS, [[np.nan, np.nan]], BOX))
     with LogWriter(path, sens, speed_of_sound=C, robot="test", truth=truth) as w:
         w.append(r)
