@@ -2,7 +2,7 @@
 
 ``python -m sonarproc.studies.auto_ends [--scenarios DIR] [--held NAME ...]`` runs
 ``--auto`` (:func:`sonarproc.auto.run_auto`) and every candidate on each scenario, then
-cuts the winner's map to the x-span each rule of :mod:`sonarproc.auto.ends` finds (no
+cuts the winner's map to the x-span each rule of :mod:`sonarproc.studies.end_cuts` finds (no
 ground truth), refits it, and judges the cut profile by the truth (E1 over its own
 columns, as the methods table does). Rules:
 
@@ -20,7 +20,7 @@ columns, as the methods table does). Rules:
     The columns of the top three eligible candidates' maps of distinct methods: all three
     (``shared3``), or at least two (``agree2``).
 
-Every cut keeps at least :data:`sonarproc.auto.ends.COVERAGE_FLOOR` of the winner's
+Every cut keeps at least :data:`sonarproc.studies.end_cuts.COVERAGE_FLOOR` of the winner's
 columns (or is not made). Each rule's row gives the ratio of its error to the best
 candidate's (judged on that candidate's own columns) and the fraction of the truth's
 judged columns kept (``kept``: N after / N before, the completeness cost of the cut).
@@ -38,14 +38,6 @@ from pathlib import Path
 import numpy as np
 
 from sonarproc.auto import AutoChoice, Score, run_auto
-from sonarproc.auto.ends import (
-    EndCut,
-    echo_points,
-    make_cut,
-    span_by_echoes,
-    span_by_end_residuals,
-    span_by_support,
-)
 from sonarproc.auto.holdout import range_loss
 from sonarproc.auto.score import CAP_CELLS
 from sonarproc.auto.select import candidate_map, evaluate_candidate
@@ -56,6 +48,14 @@ from sonarproc.pipeline.selection import Beams
 from sonarproc.studies.auto_rules import HELD_ASIDE, ratio_summary, study_main
 from sonarproc.studies.auto_study import Judge, candidate_errors, candidate_runs
 from sonarproc.studies.auto_study import simulated_scenarios as _scenarios
+from sonarproc.studies.end_cuts import (
+    EndCut,
+    echo_points,
+    make_cut,
+    span_by_echoes,
+    span_by_end_residuals,
+    span_by_support,
+)
 
 __all__ = [
     "ECHO_READINGS", "RULES", "EndsRow", "cuts_for", "main", "render", "run_ends", "summary",

@@ -8,14 +8,6 @@ import numpy as np
 import pytest
 
 from sonarproc.auto import CANDIDATES, Score
-from sonarproc.auto.ends import (
-    COVERAGE_FLOOR,
-    echo_points,
-    make_cut,
-    span_by_echoes,
-    span_by_end_residuals,
-    span_by_support,
-)
 from sonarproc.auto.holdout import predicted_path
 from sonarproc.auto.select import candidate_map, evaluate_candidate
 from sonarproc.fit import fit_polynomial
@@ -25,6 +17,14 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
 from sonarproc.simulate import simulate_to_log
 from sonarproc.studies.auto_ends import RULES, EndsRow, render
+from sonarproc.studies.end_cuts import (
+    COVERAGE_FLOOR,
+    echo_points,
+    make_cut,
+    span_by_echoes,
+    span_by_end_residuals,
+    span_by_support,
+)
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -6,7 +6,8 @@ there follows them or extrapolates. These rules find, without ground truth, the 
 the evidence supports (:class:`EndCut`); :mod:`sonarproc.studies.auto_ends` cuts the
 winner's map to it (:func:`sonarproc.auto.select.evaluate_candidate`) and judges the
 refitted profile by the truth. ``--auto`` does not cut (the study found no rule that
-helps on scenarios it was not made on; see docs/methods.md):
+helps on scenarios it was not made on; see docs/methods.md), so these rules live with
+the study:
 
 ``support``
     The columns from the first to the last whose map support (cells per column, a
