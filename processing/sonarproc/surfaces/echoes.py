@@ -13,7 +13,11 @@ perpendicular from the sensor).
 The direction of the foot is the surface normal even when the estimate is displaced
 along it, so the echo points lie on the true surface: the refit removes the bias. Each
 surface is refitted (:func:`~sonarproc.surfaces.batchfit.fit_surfaces`, same criterion)
-through its echo points, twice, with the tolerances of :data:`ROUNDS_M`; a surface that
+through its echo points, twice, with the tolerances of :data:`ROUNDS_M` (a long log's
+first round scores a fixed random subset of :data:`FIRST_ROUND_READINGS` readings, with
+the fewest echoes scaled down alike: that round only weeds out the chance ridges, a
+thousand of them in an hour's log of a room, and refits the rest roughly for the last
+round, which scores every reading); a surface that
 fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
 :data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point); so
 is one that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through
@@ -67,6 +71,9 @@ MAX_SEEN_THROUGH = 0.25
 MIN_SEEN_THROUGH = 2
 #: Surfaces with fewer echoes are tested for readings seeing through against every reading.
 WEAK_ECHOES = 50
+#: The first round scores at most about this many readings (a random subset, the same
+#: for every run of a log); the last round scores every reading.
+FIRST_ROUND_READINGS = 20_000
 #: A refitted line or arc is stretched over nearby ridge cells by at most this (m) at
 #: each end.
 MAX_STRETCH_M = 0.25
@@ -153,15 +160,23 @@ def refine_fits(
     cur, ridge = merge_collinear(list(fits), list(cells), cell=cell)
     pts_cells: list[SurfaceCells] = []
     pts_idx: list[IntArray] = []
-    for tol in rounds:
-        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], echoes, tol=tol)
+    for r, tol in enumerate(rounds):
+        scored, need = echoes, min_echoes
+        # rounds before the last weed out chance ridges (a thousand in an hour's log):
+        # a fixed subset of readings does that at a fraction of the cost
+        if r < len(rounds) - 1 and echoes.size > FIRST_ROUND_READINGS:
+            frac = FIRST_ROUND_READINGS / echoes.size
+            keep = np.random.default_rng(0).random(echoes.size) < frac
+            scored = echoes.subset(keep)
+            need = max(2, math.ceil(min_echoes * frac))
+        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
         pts_cells, pts_idx = [], []
         todo = [
             k
             for k, (idx, pts, _, through) in enumerate(got)
-            if idx.size >= min_echoes
+            if idx.size >= need
             and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
             and not _seen_through(idx.size, through)
         ]

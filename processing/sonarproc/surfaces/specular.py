@@ -95,6 +95,11 @@ class EchoGeometry:
         """Number of readings."""
         return int(self.range_m.size)
 
+    def subset(self, keep: npt.NDArray[np.bool_]) -> EchoGeometry:
+        """The readings where ``keep`` is true."""
+        return EchoGeometry(self.xy[keep], self.heading[keep], self.half_beam[keep],
+                            self.range_m[keep])  # fmt: skip
+
 
 class SurfaceEchoes(NamedTuple):
     """The readings that echo from one surface (see the module notes)."""

@@ -20,8 +20,10 @@ from sonarlog import LogWriter, read_log
 from sonarproc.params import RunParams
 from sonarproc.pipeline import process
 from sonarproc.surfaces import EchoGeometry, count_seen_through, echo_points, refine_fits
+from sonarproc.surfaces import echoes as echoes_module
 from sonarproc.surfaces.batchfit import fit_surface
 from sonarproc.surfaces.extract import SurfaceCells
+from sonarproc.surfaces.models import SurfaceFit
 from sonarproc.surfaces.polylines import resample
 
 C = 343.3
@@ -80,17 +82,18 @@ def diffuse_room(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_a_diffuse_room_gives_its_walls_and_no_phantoms(diffuse_room: Path) -> None:
-    # without the seen-through rule this log gives 17 surfaces more than 5 cm from the
-    # truth and a precision of 11 cm
-    log_ = read_log(diffuse_room)
+def _run(path: Path) -> list[SurfaceFit]:
+    log_ = read_log(path)
     bbox = (-0.5, ROOM_W + 0.5, -0.5, ROOM_H + 0.5)
     result = process(log_, RunParams(cell=CELL, bbox=bbox, fit="auto"))
     assert result.surfaces is not None and result.surface_metrics is not None
-    fits = result.surfaces.surfaces
+    assert result.surface_metrics["precision_m"] <= 0.02
+    return result.surfaces.surfaces
+
+
+def _assert_walls_and_no_phantoms(fits: list[SurfaceFit]) -> None:
     off = [float(np.median(_distance_to_truth(f.polyline))) for f in fits]
     assert sum(d > 0.05 for d in off) == 0, off
-    assert result.surface_metrics["precision_m"] <= 0.02
     # each wall is found where the robot passed in front of it (x 1-4.2 m, y 1-5 m)
     for axis, value, lo, hi in ((1, 0.0, 1.2, 4.0), (1, ROOM_H, 1.2, 4.0),
                                 (0, 0.0, 1.2, 4.8), (0, ROOM_W, 1.2, 4.8)):  # fmt: skip
@@ -102,6 +105,33 @@ def test_a_diffuse_room_gives_its_walls_and_no_phantoms(diffuse_room: Path) -> N
             and f.polyline[:, along].max() >= hi
             for f in fits
         ), (axis, value)
+
+
+def test_a_diffuse_room_gives_its_walls_and_no_phantoms(diffuse_room: Path) -> None:
+    # without the seen-through rule this log gives 17 surfaces more than 5 cm from the
+    # truth and a precision of 11 cm
+    _assert_walls_and_no_phantoms(_run(diffuse_room))
+
+
+def test_a_long_log_scores_the_first_echo_round_on_a_subset(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # 36 000 readings (another seed, not looked at before the subset was written): the
+    # first round scores a fifth of them, and finds what scoring all of them finds
+    path = tmp_path / "long.h5"
+    _diffuse_room_log(path, n=36_000, seed=11)
+    assert echoes_module.FIRST_ROUND_READINGS < 36_000
+    subset = _run(path)
+    _assert_walls_and_no_phantoms(subset)
+    monkeypatch.setattr(echoes_module, "FIRST_ROUND_READINGS", 10**9)
+    full = _run(path)
+    assert len(subset) == len(full)
+    for a, b in zip(subset, full, strict=True):
+        assert a.model == b.model
+        assert abs(a.length_m - b.length_m) < 0.05
+        assert float(np.median(_distance_to_truth(a.polyline))) < 0.01 + float(
+            np.median(_distance_to_truth(b.polyline))
+        )
 
 
 def test_a_phantom_the_readings_see_through_is_dropped() -> None:
