@@ -12,6 +12,15 @@ contradict each other. A surface's ends are uncertain (a fit is stretched over i
 by up to :data:`~sonarproc.surfaces.echoes.MAX_STRETCH_M`): crossings within
 :data:`END_ZONE_M` of its ends do not make it lose, though they still count against the
 surface whose paths they are (a phantom seen through a wall near a corner).
+
+Walls seen from the middle of a room are found short of its corners: the readings near a
+corner echo from its double reflections, not from the walls. The late echoes of those
+reflections map to phantoms just behind the corner, and their paths pass between the
+walls' ends. So two straight surfaces at least :data:`CORNER_MIN_LENGTH_M` long that
+would meet at an angle of at least :data:`CORNER_MIN_DEG` within
+:data:`CORNER_REACH_M` of both are completed to their corner for this test
+(:func:`corner_extensions`); a path crossing such an extension counts against its own
+surface only, as crossings near an end do.
 """
 
 from __future__ import annotations
@@ -19,7 +28,10 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["END_MARGIN_M", "END_ZONE_M", "MIN_CROSSINGS", "contradicted", "segment_crossings"]
+__all__ = [
+    "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
+    "MIN_CROSSINGS", "contradicted", "corner_extensions", "segment_crossings",
+]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -29,6 +41,12 @@ MIN_CROSSINGS = 3
 END_MARGIN_M = 0.15
 #: Crossings this close (m) to a surface's ends do not make it lose.
 END_ZONE_M = 0.30
+#: Straight surfaces at least this long (m) are completed to the corners they would make...
+CORNER_MIN_LENGTH_M = 1.0
+#: ... with another at an angle of at least this (degrees)...
+CORNER_MIN_DEG = 45.0
+#: ... when the corner is at most this far (m) beyond the end of each.
+CORNER_REACH_M = 1.0
 #: Echo paths tested against all segments at once, at most (bounds the memory).
 _CHUNK = 4096
 
@@ -37,16 +55,78 @@ def _segments(polyline: FloatArray, step: int) -> tuple[FloatArray, FloatArray, 
     """Segments of a polyline thinned to every ``step``-th vertex (ends kept), and the
     arc length of each segment's start; a straight polyline is one segment."""
     p = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
-    chord = p[-1] - p[0]
-    span = float(np.hypot(*chord))
-    if span > 0:
-        dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0]) / span
-        if dev.max() <= 1e-6 * max(span, 1.0):
-            return p[:1], p[-1:], np.zeros(1)
+    if _straight(p):
+        return p[:1], p[-1:], np.zeros(1)
     keep = np.unique(np.r_[np.arange(0, len(p), max(step, 1)), len(p) - 1])
     q = p[keep]
     s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(q, axis=0).T))))
     return q[:-1], q[1:], s[:-1]
+
+
+def _straight(p: FloatArray) -> bool:
+    """Whether a polyline of at least two distinct ends is straight (to rounding)."""
+    chord = p[-1] - p[0]
+    span = float(np.hypot(*chord))
+    if len(p) < 2 or span == 0:
+        return False
+    dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0]) / span
+    return bool(dev.max() <= 1e-6 * max(span, 1.0))
+
+
+def corner_extensions(
+    polylines: list[FloatArray],
+) -> tuple[npt.NDArray[np.intp], FloatArray, FloatArray]:
+    """The stretches that complete long straight surfaces to their corners (module notes).
+
+    Returns
+    -------
+    owner : ndarray of int, shape (X,)
+        The surface each stretch extends.
+    start, end : ndarray, shape (X, 2)
+        The stretch: from the surface's end to the corner.
+
+    Examples
+    --------
+    Two walls of a room found 0.6 m short of their corner at the origin:
+
+    >>> bottom = np.array([[0.6, 0.0], [4.0, 0.0]]); left = np.array([[0.0, 4.0], [0.0, 0.6]])
+    >>> owner, start, end = corner_extensions([bottom, left])
+    >>> owner.tolist(), start.tolist(), np.round(end, 9).tolist()
+    ([0, 1], [[0.6, 0.0], [0.0, 0.6]], [[0.0, 0.0], [0.0, 0.0]])
+    """
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    idx = np.array(
+        [i for i, p in enumerate(polys)
+         if _straight(p) and float(np.hypot(*(p[-1] - p[0]))) >= CORNER_MIN_LENGTH_M],
+        dtype=np.intp,
+    )  # fmt: skip
+    none = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros((0, 2)))
+    if idx.size < 2:
+        return none
+    a = np.array([polys[i][0] for i in idx])
+    b = np.array([polys[i][-1] for i in idx])
+    length = np.hypot(*(b - a).T)
+    d = (b - a) / length[:, None]
+    i, j = np.triu_indices(idx.size, k=1)
+    den = d[i, 0] * d[j, 1] - d[i, 1] * d[j, 0]
+    corner = np.abs(den) >= np.sin(np.radians(CORNER_MIN_DEG))
+    i, j, den = i[corner], j[corner], den[corner]
+    w = a[j] - a[i]
+    t = (w[:, 0] * d[j, 1] - w[:, 1] * d[j, 0]) / den  # along i, from its first point
+    u = (w[:, 0] * d[i, 1] - w[:, 1] * d[i, 0]) / den  # along j
+    gap_i = np.maximum(np.maximum(-t, t - length[i]), 0.0)
+    gap_j = np.maximum(np.maximum(-u, u - length[j]), 0.0)
+    near = (gap_i <= CORNER_REACH_M) & (gap_j <= CORNER_REACH_M)
+    owners, starts, ends = [], [], []
+    for k, along, gap in ((i, t, gap_i), (j, u, gap_j)):
+        sel = near & (gap > 0)
+        kk, tt = k[sel], along[sel]
+        end = a[kk] + d[kk] * tt[:, None]
+        start = np.where((tt < 0)[:, None], a[kk], b[kk])
+        owners.append(idx[kk])
+        starts.append(start)
+        ends.append(end)
+    return np.concatenate(owners), np.concatenate(starts), np.concatenate(ends)
 
 
 def segment_crossings(
@@ -124,6 +204,11 @@ def contradicted(
     b1 = np.concatenate([g[1] for g in segs])
     s0 = np.concatenate([g[2] for g in segs])
     owner = np.repeat(np.arange(m), [len(g[0]) for g in segs])
+    # the completions to corners: crossings there count like those near an end
+    ext_owner, ext0, ext1 = corner_extensions(polylines)
+    b0, b1 = np.concatenate((b0, ext0)), np.concatenate((b1, ext1))
+    s0 = np.concatenate((s0, np.full(ext_owner.size, -np.inf)))
+    owner = np.concatenate((owner, ext_owner))
     total = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polylines])
     echoes = np.array([len(p) for p in points], dtype=np.int64)
     cross_any = np.zeros((m, m), dtype=np.int64)  # a's paths crossing b anywhere

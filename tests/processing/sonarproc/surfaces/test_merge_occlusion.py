@@ -7,11 +7,13 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from sonarproc.surfaces import occlusion
 from sonarproc.surfaces.batchfit import fit_surface
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.merge import merge_collinear
 from sonarproc.surfaces.models import SurfaceFit
-from sonarproc.surfaces.occlusion import contradicted, segment_crossings
+from sonarproc.surfaces.occlusion import contradicted, corner_extensions, segment_crossings
+from sonarproc.surfaces.polylines import resample
 
 CELL = 0.01
 
@@ -94,6 +96,64 @@ def test_crossings_near_a_surfaces_end_do_not_drop_it() -> None:
         cell=CELL,
     )
     assert drop == []
+
+
+def _line(a: tuple[float, float], b: tuple[float, float]) -> np.ndarray:
+    return resample(np.array([a, b], dtype=float), CELL)
+
+
+def test_walls_found_short_of_their_corner_are_completed_to_it() -> None:
+    owner, start, end = corner_extensions(
+        [_line((0.7, 0.0), (4.5, 0.0)), _line((0.0, 5.3), (0.0, 0.7))]
+    )
+    assert owner.tolist() == [0, 1]
+    np.testing.assert_allclose(start, [[0.7, 0.0], [0.0, 0.7]], atol=1e-12)
+    np.testing.assert_allclose(end, [[0.0, 0.0], [0.0, 0.0]], atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("second", "why"),
+    [
+        (((5.5, 0.0), (9.0, 0.0)), "the wall beyond a doorway: collinear, no corner"),
+        (((-4.0, 0.8), (-0.5, 0.1)), "meeting at 11 degrees: less than a corner"),
+        (((-1.5, 5.3), (-1.5, 0.5)), "a corner 1.5 m beyond the first wall's start"),
+        (((0.0, 6.5), (0.0, 5.0)), "a corner 5 m beyond the second one's end"),
+        (((0.0, 1.5), (0.0, 0.7)), "a second surface shorter than a metre"),
+    ],
+)
+def test_no_completion_without_a_near_corner(second: tuple, why: str) -> None:
+    owner, _, _ = corner_extensions([_line((0.0, 0.0), (4.5, 0.0)), _line(*second)])
+    assert owner.size == 0, why
+
+
+def test_a_wall_ending_on_another_is_completed_alone() -> None:
+    # a T: the stem stops 0.4 m short of the wall it meets; the wall goes on both sides
+    owner, start, end = corner_extensions(
+        [_line((-3.0, 0.0), (3.0, 0.0)), _line((0.0, 3.0), (0.0, 0.4))]
+    )
+    assert owner.tolist() == [1]
+    np.testing.assert_allclose(start, [[0.0, 0.4]], atol=1e-12)
+    np.testing.assert_allclose(end, [[0.0, 0.0]], atol=1e-12)
+
+
+def test_a_phantom_seen_past_the_ends_of_two_walls_into_their_corner_goes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # walls y = 0 and x = 0 found from 0.7 m on; a phantom just behind the corner whose
+    # eight paths pass between the walls' ends
+    bottom, left = _line((0.7, 0.0), (4.5, 0.0)), _line((0.0, 5.3), (0.0, 0.7))
+    phantom = _line((0.3, -0.4), (0.1, -0.1))
+    xb = np.linspace(1.0, 4.0, 30)
+    yl = np.linspace(1.0, 5.0, 30)
+    sensors = [np.c_[xb, 1.5 + 0 * xb], np.c_[1.5 + 0 * yl, yl],
+               np.c_[np.linspace(1.2, 2.0, 8), np.linspace(1.5, 2.5, 8)]]  # fmt: skip
+    points = [np.c_[xb, 0 * xb], np.c_[0 * yl, yl],
+              np.c_[np.linspace(0.3, 0.1, 8), np.linspace(-0.4, -0.1, 8)]]  # fmt: skip
+    assert contradicted([bottom, left, phantom], sensors, points, cell=CELL) == [2]
+    # without the completion the paths pass between the walls and the phantom stays
+    none = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros((0, 2)))
+    monkeypatch.setattr(occlusion, "corner_extensions", lambda polylines: none)
+    assert contradicted([bottom, left, phantom], sensors, points, cell=CELL) == []
 
 
 def _crosses(p: np.ndarray, q: np.ndarray, r: np.ndarray, s: np.ndarray) -> bool:

@@ -113,6 +113,16 @@ def test_a_diffuse_room_gives_its_walls_and_no_phantoms(diffuse_room: Path) -> N
     _assert_walls_and_no_phantoms(_run(diffuse_room))
 
 
+@pytest.mark.parametrize("seed", [12, 15])
+def test_no_phantom_behind_the_corners(tmp_path: Path, seed: int) -> None:
+    # the walls are found short of the corners; without completing them to their
+    # corners for the occlusion test, these seeds (kept aside while that was written)
+    # leave one and two phantoms just behind the corners
+    path = tmp_path / "room.h5"
+    _diffuse_room_log(path, seed=seed)
+    _assert_walls_and_no_phantoms(_run(path))
+
+
 def test_a_long_log_scores_the_first_echo_round_on_a_subset(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
