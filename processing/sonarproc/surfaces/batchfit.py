@@ -41,7 +41,9 @@ from sonarproc.surfaces.models import (
     choose_model,
     fit_spline,
     line_candidate,
+    line_params,
 )
+from sonarproc.surfaces.polylines import resample_segments
 
 __all__ = ["fit_surface", "fit_surfaces"]
 
@@ -96,13 +98,13 @@ def fit_surfaces(
         out[big[k]] = SurfaceFailure("all cells at one point", int(n[k]))
     straight = lines.ok & (lines.rms <= bound)
     # a line within the bound is what the criterion picks whatever the others give
-    for k in np.flatnonzero(straight).tolist():
-        c = groups[big[k]]
-        line = line_candidate(
-            lines.point[k], lines.direction[k], float(lines.lo[k]), float(lines.hi[k]),
-            float(lines.rms[k]), cell,
-        )  # fmt: skip
-        out[big[k]] = _surface(c, line, {"line": line.rms})
+    ks = np.flatnonzero(straight)
+    p, d = lines.point[ks], lines.direction[ks]
+    polys = resample_segments(p + d * lines.lo[ks, None], p + d * lines.hi[ks, None], cell)
+    for k, poly in zip(ks.tolist(), polys, strict=True):
+        line_rms = float(lines.rms[k])
+        line = Candidate("line", poly, line_rms, line_params(lines.point[k], lines.direction[k]))
+        out[big[k]] = _surface(groups[big[k]], line, {"line": line_rms})
     rest = np.flatnonzero(lines.ok & ~straight)
     if rest.size == 0:
         return out

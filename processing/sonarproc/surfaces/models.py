@@ -58,6 +58,7 @@ __all__ = [
     "fit_line",
     "fit_spline",
     "line_candidate",
+    "line_params",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -162,7 +163,12 @@ def line_candidate(
 ) -> Candidate:
     """The line segment ``point + u direction`` for ``lo <= u <= hi``, sampled every cell."""
     poly = resample(np.stack((point + direction * lo, point + direction * hi)), cell)
-    return Candidate("line", poly, rms, {"point": point.tolist(), "direction": direction.tolist()})
+    return Candidate("line", poly, rms, line_params(point, direction))
+
+
+def line_params(point: FloatArray, direction: FloatArray) -> dict[str, Any]:
+    """A line's parameters as :class:`Candidate` and ``report.json`` hold them."""
+    return {"point": point.tolist(), "direction": direction.tolist()}
 
 
 def fit_line(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:

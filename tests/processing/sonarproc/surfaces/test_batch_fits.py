@@ -13,7 +13,7 @@ from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
-from sonarproc.surfaces.polylines import resample
+from sonarproc.surfaces.polylines import resample, resample_segments
 from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
 
 CELL = 0.01
@@ -64,6 +64,28 @@ def test_fit_surfaces_equals_fit_surface_one_by_one(seed: int, kinds: list[str])
     want = [fit_surface(g, cell=CELL) for g in groups]
     for got, one in zip(fit_surfaces(groups, cell=CELL), want, strict=True):
         _same(got, one)
+
+
+ends = st.floats(-20.0, 20.0, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.tuples(ends, ends, ends, ends), min_size=0, max_size=8),
+    st.sampled_from([0.01, 0.02, 0.05, 0.3]),
+)
+def test_resample_segments_is_resample_of_each(segs: list[tuple[float, ...]], step: float) -> None:
+    # every segment at once, as the fits of a thousand straight groups need it
+    a = np.array([s[:2] for s in segs]).reshape(-1, 2)
+    b = np.array([s[2:] for s in segs]).reshape(-1, 2)
+    b[::3] = a[::3]  # a point among them
+    got = resample_segments(a, b, step)
+    assert len(got) == len(segs)
+    for p, q, g in zip(a, b, got, strict=True):
+        want = resample(np.stack((p, q)), step)
+        assert g.shape == want.shape
+        np.testing.assert_allclose(g, want, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(g[0], want[0])
 
 
 def test_fit_lines_of_two_walls() -> None:
