@@ -1,6 +1,7 @@
 """sonard: the acquisition daemon for the Nomad 200 sonar ring.
 
-Modules, one job each: :mod:`~sonard.plan` (YAML plans, validation, SI conversion),
+Modules, one job each: :mod:`~sonard.plan` (YAML plans, validation, SI conversion) and
+:mod:`~sonard.plan_steps` (the motion steps a plan lists),
 :mod:`~sonard.link` (bytes per poll, line time), :mod:`~sonard.ring` (the sensors table),
 :mod:`~sonard.tagging` (new firings -> pose-tagged SI readings),
 :mod:`~sonard.writer_thread` (the queue in front of the log writer),
