@@ -2,9 +2,9 @@
 
 :class:`Acquisition` owns the :class:`nomad200.Client`. Every reply the robot sends is a
 state packet; each one (polls and motion commands alike) goes through
-:class:`sonard.tagging.Tagger`, and the new readings and the pose are queued on the
-:class:`sonard.writer_thread.LogSink` (never written here, so a slow disk never stalls the
-serial line).
+:class:`sonard.recording.ReplyRecorder`, which tags it and queues the new readings and the
+pose on the :class:`sonard.writer_thread.LogSink` (never written here, so a slow disk
+never stalls the serial line).
 
 Pacing: polls (GS) go out every ``max(firing interval, line time of one poll)``: the line
 time follows from the mask (:func:`sonard.link.poll_seconds`), and a poll per firing
@@ -14,7 +14,8 @@ is noticed at once.
 Faults: a garbled or missing poll reply is skipped (the next poll sees the same readings).
 When no good reply arrived for ``LINK_LOST_S`` or the port went away, the loop records a
 ``fault`` event, sends ST if it can, and reconnects with exponential backoff (0.1 s doubling
-to 2 s) until ``fault_timeout_s`` has passed; then it records ``reconnect`` and raises
+to 2 s, :func:`sonard.link_faults.reconnect`) until ``fault_timeout_s`` has passed; then it
+records ``reconnect`` and raises
 :class:`Resume` so the current step restarts from its recorded progress, or records
 ``abort`` and raises :class:`FaultAbort`.
 """
@@ -22,61 +23,37 @@ to 2 s) until ``fault_timeout_s`` has passed; then it records ``reconnect`` and 
 from __future__ import annotations
 
 import logging
-import termios
 import threading
 import time
 from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
-from serial import SerialException
 
-from nomad200 import NomadDisconnected, NomadError
+from nomad200 import NomadError
 from sonard.link import poll_seconds
+from sonard.link_faults import (
+    LINK_ERRORS,
+    LINK_LOST_S,
+    FaultAbort,
+    Resume,
+    Stopped,
+    is_link_error,
+    reconnect,
+)
 from sonard.notify import Notifier
-from sonard.ordering import TimeOrder
 from sonard.plan import Plan
-from sonard.tagging import Tagger
+from sonard.recording import ReplyRecorder
 from sonard.writer_thread import LogSink
 
 __all__ = ["Acquisition", "FaultAbort", "Resume", "Stopped"]
 
 log = logging.getLogger(__name__)
 
-#: no good reply for this long (s) means the link is lost
-LINK_LOST_S = 1.0
-#: errors that mean the port went away (the driver may let a raw termios/OS error through)
-LINK_ERRORS = (NomadDisconnected, OSError, termios.error, SerialException)
-
-
-def is_link_error(exc: BaseException) -> bool:
-    """Whether ``exc`` means the port went away, rather than one exchange failing.
-
-    ``NomadTimeout`` is a ``TimeoutError`` and so an ``OSError``, but a missing reply is the
-    line's fault, not the port's: it is retried, and only a link silent for longer than
-    :data:`LINK_LOST_S` is treated as lost.
-    """
-    if isinstance(exc, NomadError):
-        return isinstance(exc, NomadDisconnected)
-    return isinstance(exc, LINK_ERRORS)
-
-
 #: attempts for a configuration command on a noisy line
 CONFIG_TRIES = 20
 #: motor status bits: translating, steering, turret
 MOVING = 0b111
-
-
-class Resume(Exception):
-    """The link came back after a fault: restart the current step from its progress."""
-
-
-class Stopped(Exception):
-    """A stop was requested (SIGTERM/SIGINT)."""
-
-
-class FaultAbort(RuntimeError):
-    """The link stayed down longer than the fault timeout."""
 
 
 class ClientLike(Protocol):
@@ -130,17 +107,7 @@ class Acquisition:
         self.notifier = notifier or Notifier(env={})
         self.fault_timeout_s = plan.fault_timeout_s if fault_timeout_s is None else fault_timeout_s
         self._mask_factory = mask_factory or _default_mask
-        self.tagger = Tagger(
-            plan.sonars,
-            speed_of_sound=plan.speed_of_sound,
-            interval=plan.interval,
-            attachments=plan.use_attachments,
-        )
-        self.gap_s = max(len(plan.sonars) - 1, 1) * plan.interval
-        self._last_reply_t: float | None = None
-        self._recovering = False
-        # two firing intervals: the latest a reply can report a firing (see sonard.ordering)
-        self.order = TimeOrder(hold=2.0 * plan.interval)
+        self.recorder = ReplyRecorder(plan, sink)
         self.poll_period = max(
             plan.interval, poll_seconds(len(plan.sonars), plan.use_attachments, plan.baud)
         )
@@ -149,10 +116,6 @@ class Acquisition:
         self._next_poll = 0.0
         self._last_good = time.monotonic()
         self.n_faults = 0
-        self.n_rejected = 0
-        #: readings and poses are logged only once the plan's frame is set (see run_plan)
-        self.recording = False
-        self._frame_clock = -float("inf")
         #: True when the robot clock runs ahead of real time (emulator --fast): no pacing
         self.virtual_time = False
         self._fast_votes = 0
@@ -186,27 +149,18 @@ class Acquisition:
                 self.check_stop()
         raise AssertionError("unreachable")
 
-    def _note_gap(self, now: float) -> None:
-        """Record a ``gap`` event when good replies were too far apart to see every firing.
+    @property
+    def recording(self) -> bool:
+        """Whether readings and poses are logged (once the plan's frame is set, see run_plan)."""
+        return self.recorder.recording
 
-        A reply shows each sonar's latest firing only; replies closer than one firing cycle
-        minus one interval cannot miss one. Further apart (garbled or lost replies, a
-        stall, a reconnect), firings between them may be missing from the log: the event
-        (at the last good reply, detail ``until T``) says where.
-        """
-        if self._recovering:
-            return  # replies while reconnecting do not end the outage: CT/CONF_SN reset firing
-        prev, self._last_reply_t = self._last_reply_t, now
-        if self.recording and prev is not None and now - prev > self.gap_s:
-            self.sink.event(
-                "gap", f"until {now:.6f}: {now - prev:.3f} s without a good reply", prev
-            )
+    @recording.setter
+    def recording(self, value: bool) -> None:
+        self.recorder.recording = value
 
     def drain(self) -> None:
         """Queue the readings still held for time ordering (the run is ending)."""
-        self.sink.readings(self.order.drain())
-        if self.order.late:
-            self.sink.event("late", f"{self.order.late} out-of-order readings dropped")
+        self.recorder.drain()
 
     def stop_robot(self) -> bool:
         """Send ST (best effort: the client retries once); return whether it was answered."""
@@ -222,22 +176,9 @@ class Acquisition:
         """Tag a state reply, queue its readings and pose, and remember it."""
         if state is None:
             return None
-        if not self.tagger.plausible(state):
-            self.n_rejected += 1
-            log.debug("implausible reply dropped (clock %.3f)", state.clock)
+        rows = self.recorder.record(state, time.time())
+        if rows is None:
             return None
-        offset = self.tagger.offset
-        rows, pose = self.tagger.feed(state, time.time())
-        if self.tagger.offset != offset:
-            self.sink.event("clock", f"robot clock 0 is UNIX time {self.tagger.offset:.6f}")
-        self._note_gap(self.tagger.time_of(float(state.clock)))
-        if self.recording:
-            if len(rows):
-                rows = rows[rows["t"] - (self.tagger.offset or 0.0) >= self._frame_clock]
-            self.sink.readings(self.order.push(rows, self.tagger.time_of(float(state.clock))))
-            self.sink.poses(pose)
-        else:
-            rows = rows[:0]
         self.latest = rows
         self.state = state
         self._last_good = time.monotonic()
@@ -299,9 +240,7 @@ class Acquisition:
             try:
                 reply = fn(*args)
                 if new_frame and reply is not None:
-                    self.tagger.forget_pose()
-                    self._frame_clock = reply.clock
-                    self.recording = True
+                    self.recorder.start_frame(reply.clock)
                 return self.feed(reply)
             except NomadError as exc:
                 if is_link_error(exc):
@@ -368,38 +307,24 @@ class Acquisition:
     def recover(self, exc: BaseException) -> None:
         """Stop the robot, reconnect with backoff, then raise Resume (or FaultAbort)."""
         self.n_faults += 1
-        self._recovering = True
+        self.recorder.link_lost()
         detail = f"{type(exc).__name__}: {exc}"[:200]
         log.warning("link fault: %s", detail)
         self.sink.event("fault", detail)
         self.notifier.status(f"link fault: {detail}")
         if not is_link_error(exc) and self.stop_robot() and self._reconfigure():
             self._resumed("noisy link")  # the robot answers again: the line was only noisy
-        deadline = time.monotonic() + self.fault_timeout_s
-        delay = 0.1
-        while True:
-            self.notifier.watchdog()
-            self.check_stop()
-            try:
-                self.client.close()
-            except Exception as close_exc:
-                log.debug("close failed: %s", close_exc)
-            try:
-                self.client.open()
-            except Exception as open_exc:
-                log.info("reconnect failed: %s", open_exc)
-            else:
-                if self.stop_robot() and self._reconfigure():
-                    self._resumed("reconnected")
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                self.sink.event("abort", f"link down longer than {self.fault_timeout_s:g} s")
-                raise FaultAbort(
-                    f"link down longer than {self.fault_timeout_s:g} s ({detail})"
-                ) from exc
-            if self.stop_event.wait(min(delay, remaining)):
-                raise Stopped from exc
-            delay = min(delay * 2, 2.0)
+        if reconnect(
+            self.client,
+            restart=lambda: self.stop_robot() and self._reconfigure(),
+            stop=self.stop_event,
+            timeout_s=self.fault_timeout_s,
+            ping=self.notifier.watchdog,
+            cause=exc,
+        ):
+            self._resumed("reconnected")
+        self.sink.event("abort", f"link down longer than {self.fault_timeout_s:g} s")
+        raise FaultAbort(f"link down longer than {self.fault_timeout_s:g} s ({detail})") from exc
 
     def _reconfigure(self) -> bool:
         try:
@@ -410,8 +335,7 @@ class Acquisition:
         return True
 
     def _resumed(self, why: str) -> None:
-        self._recovering = False  # the next poll closes the gap the fault opened
-        self.tagger.forget_pose()
+        self.recorder.link_back()
         log.info("link back (%s); resuming", why)
         self.sink.event("reconnect", why)
         self.notifier.status("running")

@@ -7,7 +7,8 @@ angular speeds in deg/s); :func:`load_plan` converts every angle to radians, so 
 it returns hold SI units only (m, s, rad, m/s, rad/s).
 
 Each step is a one-key mapping (``- translate: {distance: 1.5, step: 0.025}``) or a bare
-name for steps without parameters (``- zero``). Errors raise :class:`PlanError` whose
+name for steps without parameters (``- zero``); the step models are in
+:mod:`sonard.plan_steps`. Errors raise :class:`PlanError` whose
 message is one line naming the file, the field and the allowed range.
 """
 
@@ -15,13 +16,27 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from nomad200 import BAUD_RATES, BaudRate, ring
 from sonard.link import poll_seconds
+from sonard.plan_steps import (
+    ANGLE_FIELDS,
+    FRONT_SONAR,
+    STEP_MODELS,
+    DefinePose,
+    Dwell,
+    Goto,
+    Rotate,
+    Step,
+    Translate,
+    TurretSweep,
+    WallFollow,
+    Zero,
+)
 from sonarlog import speed_of_sound_at
 from sonarlog.acoustics import TEMPERATURE_RANGE_C
 from sonarsim.shipped import resolve_shipped
@@ -45,131 +60,10 @@ __all__ = [
 
 #: the sensor board counts the firing interval in 4 ms ticks (CONF_SN rate byte 1..255)
 INTERVAL_TICK_S = 0.004
-#: physical limits of the Nomad 200 (translation 0.6 m/s, rotation 60 deg/s)
-MAX_SPEED = 0.6
-MAX_TURN_DEG = 60.0
-#: where the side sonars look, relative to the turret heading
-LEFT_SONAR = 4
-RIGHT_SONAR = 12
-FRONT_SONAR = 0
 
 
 class PlanError(ValueError):
     """A plan file is missing, unreadable or invalid (a configuration error, exit code 2)."""
-
-
-class _Step(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class Zero(_Step):
-    """ZR: align steering and turret with the bumper zero; pose becomes (0, 0, 0, 0)."""
-
-    type: Literal["zero"] = "zero"
-
-
-class DefinePose(_Step):
-    """DP + DA: declare where the robot stands (x, y in m; theta, turret in rad on load)."""
-
-    type: Literal["define_pose"] = "define_pose"
-    x: float = Field(0.0, ge=-80.0, le=80.0)
-    y: float = Field(0.0, ge=-80.0, le=80.0)
-    theta: float = Field(0.0, ge=-360.0, le=360.0, description="base heading, deg in YAML")
-    turret: float | None = Field(
-        None, ge=-360.0, le=360.0, description="turret heading in the world, deg; default theta"
-    )
-
-
-class Translate(_Step):
-    """Drive along the base heading; stop-and-fire every ``step`` metres or continuously."""
-
-    type: Literal["translate"] = "translate"
-    distance: float = Field(ge=-20.0, le=20.0)
-    step: float | None = Field(None, ge=0.005, le=5.0)
-    speed: float = Field(0.1, ge=0.01, le=MAX_SPEED)
-    mode: Literal["stop-and-fire", "continuous"] = "stop-and-fire"
-    cycles: int = Field(1, ge=1, le=100, description="firing cycles at each stop")
-
-    @model_validator(mode="after")
-    def _step_needed(self) -> Translate:
-        if self.mode == "stop-and-fire" and self.step is None:
-            raise ValueError("step: required for mode stop-and-fire (0.005 to 5.0 m)")
-        return self
-
-
-class Rotate(_Step):
-    """Rotate the base in place by ``angle`` (rad on load); the turret turns with it."""
-
-    type: Literal["rotate"] = "rotate"
-    angle: float = Field(ge=-720.0, le=720.0)
-    speed: float = Field(30.0, ge=1.0, le=MAX_TURN_DEG, description="deg/s in YAML")
-    turret: Literal["follow", "hold"] = "follow"
-
-
-class TurretSweep(_Step):
-    """Turret to ``from``, then by ``step`` to ``to``, firing at each stop (Fig. 20).
-
-    With ``relative`` (default) the angles count from the turret heading when the step
-    starts (the direction the sonars face); otherwise they are world headings.
-    """
-
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
-    type: Literal["turret_sweep"] = "turret_sweep"
-    from_: float = Field(alias="from", ge=-360.0, le=360.0)
-    to: float = Field(ge=-360.0, le=360.0)
-    step: float = Field(ge=0.1, le=180.0)
-    speed: float = Field(30.0, ge=1.0, le=MAX_TURN_DEG)
-    relative: bool = Field(True, description="angles relative to the turret heading at start")
-    cycles: int = Field(1, ge=1, le=100)
-
-
-class Goto(_Step):
-    """Turn towards (x, y), drive there, then optionally turn to ``theta``."""
-
-    type: Literal["goto"] = "goto"
-    x: float = Field(ge=-80.0, le=80.0)
-    y: float = Field(ge=-80.0, le=80.0)
-    theta: float | None = Field(None, ge=-360.0, le=360.0)
-    speed: float = Field(0.1, ge=0.01, le=MAX_SPEED)
-    turn_speed: float = Field(30.0, ge=1.0, le=MAX_TURN_DEG)
-
-
-class Dwell(_Step):
-    """Stand still for ``seconds`` while the sonars keep firing."""
-
-    type: Literal["dwell"] = "dwell"
-    seconds: float = Field(ge=0.0, le=3600.0)
-
-
-class WallFollow(_Step):
-    """Keep ``distance`` to the wall on ``side`` for ``length`` metres of path (Fig. 21)."""
-
-    type: Literal["wall_follow"] = "wall_follow"
-    distance: float = Field(ge=0.3, le=3.0)
-    length: float = Field(ge=0.1, le=500.0)
-    side: Literal["left", "right"] = "left"
-    speed: float = Field(0.1, ge=0.02, le=0.4)
-    turn_speed: float = Field(30.0, ge=5.0, le=MAX_TURN_DEG)
-    gain: float = Field(2.0, ge=0.1, le=20.0, description="rad/s per metre of distance error")
-
-    @property
-    def side_sonar(self) -> int:
-        """The sonar looking at the wall (4 on the left, 12 on the right)."""
-        return LEFT_SONAR if self.side == "left" else RIGHT_SONAR
-
-
-Step = Annotated[
-    Zero | DefinePose | Translate | Rotate | TurretSweep | Goto | Dwell | WallFollow,
-    Field(discriminator="type"),
-]
-
-_ANGLE_FIELDS: dict[str, tuple[str, ...]] = {
-    "define_pose": ("theta", "turret"),
-    "rotate": ("angle", "speed"),
-    "turret_sweep": ("from_", "to", "step", "speed"),
-    "goto": ("theta", "turn_speed"),
-    "wall_follow": ("turn_speed",),
-}
 
 
 class Plan(BaseModel):
@@ -293,7 +187,7 @@ def _normalise_steps(raw: Any) -> Any:
 def _to_radians(plan: Plan) -> Plan:
     steps: list[Any] = []
     for st in plan.steps:
-        fields = _ANGLE_FIELDS.get(st.type, ())
+        fields = ANGLE_FIELDS.get(st.type, ())
         upd = {f: math.radians(v) for f in fields if (v := getattr(st, f)) is not None}
         steps.append(st.model_copy(update=upd))
     return plan.model_copy(update={"steps": steps})
@@ -357,11 +251,11 @@ def _field_info(model: type[BaseModel], name: str) -> Any:
 def _allowed(loc: tuple[Any, ...], err: Any) -> str:
     """The allowed values of the field at ``loc``, from the models' declared bounds."""
     if loc and loc[0] == "steps" and (len(loc) <= 2 or err["type"] == "union_tag_invalid"):
-        return f" (allowed steps: {', '.join(_STEP_MODELS)})"
+        return f" (allowed steps: {', '.join(STEP_MODELS)})"
     model: type[BaseModel] | None = Plan
     name = str(loc[0]) if loc else ""
     if loc and loc[0] == "steps" and len(loc) >= 4:
-        model, name = _STEP_MODELS.get(str(loc[2])), str(loc[3])
+        model, name = STEP_MODELS.get(str(loc[2])), str(loc[3])
     if model is None:
         return ""
     f = _field_info(model, name)
@@ -376,15 +270,9 @@ def _allowed(loc: tuple[Any, ...], err: Any) -> str:
         return ""
     kind = model.model_fields["type"].default if "type" in model.model_fields else ""
     unit = ""
-    if name.rstrip("_") in (a.rstrip("_") for a in _ANGLE_FIELDS.get(kind, ())):
+    if name.rstrip("_") in (a.rstrip("_") for a in ANGLE_FIELDS.get(kind, ())):
         unit = " deg/s" if "speed" in name else " deg"
     return f" (allowed {lo:g} to {hi:g}{unit})"
-
-
-_STEP_MODELS: dict[str, type[BaseModel]] = {
-    m.model_fields["type"].default: m
-    for m in (Zero, DefinePose, Translate, Rotate, TurretSweep, Goto, Dwell, WallFollow)
-}
 
 
 def load_plan(path: str | Path) -> Plan:

@@ -26,7 +26,8 @@ import numpy as np
 
 from sonard.acquisition import Acquisition
 from sonard.motion import turn_to, wrap
-from sonard.plan import FRONT_SONAR, Plan, WallFollow
+from sonard.plan import Plan
+from sonard.plan_steps import FRONT_SONAR, WallFollow
 from sonard.ring import RING_RADIUS
 
 __all__ = ["WallFollower"]

@@ -1,7 +1,7 @@
 """Nomad 200 commands in SI units, over :class:`nomad200.link.Link`.
 
 Metres, radians and seconds in, metres, radians and seconds out: the robot's 1/10 inch and
-1/10 degree exist only here and in :mod:`nomad200.state`. A value the robot cannot carry
+1/10 degree exist only here and in :mod:`nomad200.state_types`. A value the robot cannot carry
 raises ``ValueError`` naming the axis before a byte is sent. State replies are decoded with
 the layout of the last CT mask sent (:attr:`Client.mask`), which the client sends again on
 every (re)open when ``sync_on_open``.

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 from nomad200.codec import encode_frame, from_sm16, to_sm16
 from nomad200.errors import PayloadError
-from nomad200.state import (
+from nomad200.state_types import (
     DEG10,
     IN10,
     INCH,

@@ -14,15 +14,14 @@ from sonarsim.search import (
     first_echo_path,
     pair_echoes,
 )
+from sonarsim.segments import Segments, Surface
 from sonarsim.simulation import SimResult, simulate
 from sonarsim.specular import Sensors
 from sonarsim.surfaces import (
     Circle,
     Curve,
     Polyline,
-    Segments,
     SmoothPolyline,
-    Surface,
     polynomial,
     profile,
     room,

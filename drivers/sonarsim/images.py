@@ -18,8 +18,8 @@ import itertools
 import numpy as np
 
 from sonarsim.geometry import FloatArray, dot, perp
+from sonarsim.segments import Segments
 from sonarsim.specular import Hits, IntArray, Sensors, Tables, in_beam
-from sonarsim.surfaces import Segments
 
 MAX_SEQUENCES = 200_000
 """Refuse orders whose segment sequences would exceed this many (guards memory)."""

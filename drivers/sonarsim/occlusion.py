@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sonarsim.geometry import FloatArray
-from sonarsim.surfaces import Segments
+from sonarsim.segments import Segments
 
 _BLOCK = 64
 """Segments per bounding box in the coarse pass."""

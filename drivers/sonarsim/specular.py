@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sonarsim.geometry import FloatArray, dot, heading_vectors, perp, unit, wrap_angle
-from sonarsim.surfaces import Segments
+from sonarsim.segments import Segments
 
 IntArray = NDArray[np.intp]
 

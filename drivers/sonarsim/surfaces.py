@@ -1,11 +1,12 @@
 """Reflecting surfaces and their discretisation into segments.
 
-Every surface becomes a run of straight segments for the echo search. A segment carries
-the unit tangents at both ends: for *flat* segments (walls, polylines, rooms) both are
-the segment direction and reflections are computed exactly by mirror images; for
-*smooth* segments (samples of a curve or circle) they are the true curve tangents at the
-samples, so a specular point is found between samples even on convex curves, and the
-reflection point and path length are accurate to far below a millimetre at 1 cm sampling.
+Every surface becomes a run of straight segments for the echo search
+(:class:`~sonarsim.segments.Segments`). A segment carries the unit tangents at both ends:
+for *flat* segments (walls, polylines, rooms) both are the segment direction and
+reflections are computed exactly by mirror images; for *smooth* segments (samples of a
+curve or circle) they are the true curve tangents at the samples, so a specular point is
+found between samples even on convex curves, and the reflection point and path length are
+accurate to far below a millimetre at 1 cm sampling.
 
 Surface types: :class:`Polyline` (straight walls and rooms are polylines, see
 :func:`wall` and :func:`room`), :class:`Curve` (``y = f(x)``: see :func:`polynomial`,
@@ -17,96 +18,27 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from sonarsim.geometry import FloatArray, rotate, unit
+from sonarsim.segments import DEFAULT_RESOLUTION, Segments, Surface
 
-DEFAULT_RESOLUTION = 0.01
-"""Default sampling step along curved surfaces (m)."""
-
-
-@dataclass(frozen=True)
-class Segments:
-    """Packed straight segments ``a -> b`` with end tangents.
-
-    Attributes
-    ----------
-    a, b : ndarray, shape (S, 2)
-        Segment end points (m).
-    ta, tb : ndarray, shape (S, 2)
-        Unit tangents at ``a`` and ``b`` (both equal to the direction for flat segments).
-    flat : ndarray of bool, shape (S,)
-        True for truly straight pieces (exact mirror-image reflection).
-    surface : ndarray of intp, shape (S,)
-        Index of the surface each segment belongs to.
-    """
-
-    a: FloatArray
-    b: FloatArray
-    ta: FloatArray
-    tb: FloatArray
-    flat: NDArray[np.bool_]
-    surface: NDArray[np.intp]
-
-    def __len__(self) -> int:
-        return int(self.a.shape[0])
-
-    @staticmethod
-    def empty() -> Segments:
-        """No segments."""
-        z = np.zeros((0, 2))
-        return Segments(z, z, z, z, np.zeros(0, bool), np.zeros(0, np.intp))
-
-    @staticmethod
-    def concat(parts: Sequence[Segments]) -> Segments:
-        """Concatenate segment packs, keeping their surface indices."""
-        if not parts:
-            return Segments.empty()
-        return Segments(
-            np.concatenate([p.a for p in parts]),
-            np.concatenate([p.b for p in parts]),
-            np.concatenate([p.ta for p in parts]),
-            np.concatenate([p.tb for p in parts]),
-            np.concatenate([p.flat for p in parts]),
-            np.concatenate([p.surface for p in parts]),
-        )
-
-    def with_surface(self, index: int) -> Segments:
-        """The same segments labelled as belonging to surface ``index``."""
-        return Segments(
-            self.a, self.b, self.ta, self.tb, self.flat, np.full(len(self), index, np.intp)
-        )
-
-
-class Surface(Protocol):
-    """What the world needs from a surface."""
-
-    @property
-    def name(self) -> str:
-        """Label."""
-        ...
-
-    @property
-    def truth(self) -> bool:
-        """Whether the surface belongs in a simulation's truth profile."""
-        ...
-
-    def segments(self, resolution: float = DEFAULT_RESOLUTION) -> Segments:
-        """Discretise into segments no longer than ``resolution`` where curved."""
-        ...
-
-    def sample(self, spacing: float = DEFAULT_RESOLUTION) -> FloatArray:
-        """Points along the surface, at most ``spacing`` apart, in surface order."""
-        ...
-
-    def transformed(
-        self, angle: float, offset: ArrayLike, resolution: float = DEFAULT_RESOLUTION
-    ) -> Surface:
-        """The surface rotated by ``angle`` about the origin, then shifted by ``offset``."""
-        ...
+__all__ = [
+    "DEFAULT_RESOLUTION",
+    "Circle",
+    "Curve",
+    "Polyline",
+    "Segments",
+    "SmoothPolyline",
+    "Surface",
+    "polynomial",
+    "profile",
+    "room",
+    "sinusoid",
+    "wall",
+]
 
 
 def _as_points(points: ArrayLike, minimum: int) -> FloatArray:

@@ -33,14 +33,12 @@ from numpy.typing import ArrayLike
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from sonarsim.geometry import FloatArray
+from sonarsim.segments import DEFAULT_RESOLUTION, Segments, Surface
 from sonarsim.shipped import resolve_shipped
 from sonarsim.surfaces import (
-    DEFAULT_RESOLUTION,
     Circle,
     Curve,
     Polyline,
-    Segments,
-    Surface,
     polynomial,
     profile,
     room,

@@ -4,6 +4,7 @@
 emulated Nomad 200 on a pseudo-terminal, injecting garbled, dropped and stalled replies and
 unplugging the port in turn) and one long sonard on it, samples sonard's RSS and open file
 descriptors, then kills further sonards at random moments to check crash finalisation.
-:mod:`sonard.soak.accounting` holds the checks: every firing in the emulator's trace is in
-the log or inside a logged outage, and resource slopes per hour.
+:mod:`sonard.soak.processes` starts and samples those processes; :mod:`sonard.soak.accounting`
+holds the checks: every firing in the emulator's trace is in the log or inside a logged
+outage, and resource slopes per hour.
 """

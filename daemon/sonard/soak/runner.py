@@ -22,33 +22,38 @@ Checks (exit 1 when one fails, 2 on bad arguments):
   ``crashed``, and lost at most 1 s of readings before the kill.
 
 A rich progress display is shown when stdout is a terminal; otherwise only the summary.
+The processes themselves are started and sampled by :mod:`sonard.soak.processes`.
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import shutil
 import signal
-import subprocess
 import sys
 import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
 from sonard.soak.accounting import account_firings, load_firings, slope_per_hour
 from sonard.soak.emulator import EPISODE_S
+from sonard.soak.processes import (
+    INTERVAL,
+    Sample,
+    SoakProcesses,
+    sample_process,
+    wait_running,
+    write_plan,
+)
 
 __all__ = ["Sample", "SoakResult", "main", "parse_duration"]
 
-INTERVAL = 0.04
-SONARS = (14, 15, 0, 1, 2)
 #: RSS and fd samples before this are warm-up (s, or 10 % of the run if longer)
 WARMUP_S = 60.0
 RSS_LIMIT_MIB_PER_H = 1.0
@@ -72,15 +77,6 @@ def parse_duration(text: str) -> float:
 
 
 @dataclass
-class Sample:
-    """One look at the sonard process."""
-
-    t: float
-    rss_kib: int
-    fds: int
-
-
-@dataclass
 class SoakResult:
     """Figures and verdicts of one soak."""
 
@@ -88,86 +84,6 @@ class SoakResult:
     faults: int = 0
     figures: dict[str, Any] = field(default_factory=dict)
     failures: list[str] = field(default_factory=list)
-
-
-def _plan(path: Path, seconds: float) -> None:
-    chunks = []
-    left = seconds + 120.0  # sonard is stopped by SIGTERM before the plan ends
-    while left > 0:
-        chunks.append(f"  - dwell: {{seconds: {min(left, 3600.0):.1f}}}\n")
-        left -= 3600.0
-    path.write_text(
-        f"name: soak\nsonars: {list(SONARS)}\ninterval: {INTERVAL}\nbaud: 38400\n"
-        "pose_attachments: true\nfault_timeout_s: 120\nsteps:\n" + "".join(chunks),
-        encoding="utf-8",
-    )
-
-
-def _sample(pid: int) -> Sample | None:
-    try:
-        status = Path(f"/proc/{pid}/status").read_text(encoding="ascii")
-        fds = len(os.listdir(f"/proc/{pid}/fd"))
-    except OSError:
-        return None
-    m = re.search(r"VmRSS:\s+(\d+)", status)
-    return Sample(time.monotonic(), int(m.group(1)) if m else 0, fds)
-
-
-class _Procs:
-    """The emulator and sonard processes of one soak, with the paths they share."""
-
-    def __init__(self, work: Path, fault_every: float) -> None:
-        self.work = work
-        self.link = work / "robot-tty"
-        self.trace = work / "trace.jsonl"
-        self.faults = work / "faults.jsonl"
-        self.plan = work / "plan.yaml"
-        self.env = {k: v for k, v in os.environ.items() if k not in ("NOTIFY_SOCKET",)}
-        self.env["SONARD_LOCK_DIR"] = str(work / "lock")
-        (work / "lock").mkdir(exist_ok=True)
-        (work / "logs").mkdir(exist_ok=True)
-        from sonarsim.shipped import resolve_shipped
-
-        world = resolve_shipped("lab", kind="worlds")
-        self._err = open(work / "emulator.err", "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
-        self.emulator = subprocess.Popen(
-            [
-                *(sys.executable, "-m", "sonard.soak.emulator", "--world", str(world)),
-                *("--link", str(self.link), "--trace", str(self.trace)),
-                *("--faults", str(self.faults), "--every", str(fault_every)),
-            ],
-            stdout=subprocess.PIPE,
-            stderr=self._err,
-            text=True,
-            env=self.env,
-        )
-        assert self.emulator.stdout is not None
-        if not self.emulator.stdout.readline().strip():
-            raise RuntimeError(f"emulator did not start (see {work / 'emulator.err'})")
-
-    def sonard(self, out: Path, err: IO[str]) -> subprocess.Popen[str]:
-        return subprocess.Popen(
-            [
-                *(sys.executable, "-m", "sonard", "--port", str(self.link)),
-                *("--plan", str(self.plan), "--out", str(out)),
-            ],
-            stdout=subprocess.DEVNULL,
-            stderr=err,
-            text=True,
-            env=self.env,
-        )
-
-    def close(self) -> None:
-        if self.emulator.poll() is None:
-            self.emulator.send_signal(signal.SIGTERM)
-            try:
-                self.emulator.wait(10)
-            except subprocess.TimeoutExpired:
-                self.emulator.kill()
-                self.emulator.wait()
-        if self.emulator.stdout is not None:
-            self.emulator.stdout.close()
-        self._err.close()
 
 
 def _progress(tty: bool, duration: float) -> Any:
@@ -187,7 +103,7 @@ def _progress(tty: bool, duration: float) -> Any:
     return bar
 
 
-def _long_run(procs: _Procs, duration: float, result: SoakResult, tty: bool) -> Path:
+def _long_run(procs: SoakProcesses, duration: float, result: SoakResult, tty: bool) -> Path:
     out = procs.work / "logs" / "soak.h5"
     samples: list[Sample] = []
     period = 2.0 if duration < 600 else 10.0
@@ -200,7 +116,7 @@ def _long_run(procs: _Procs, duration: float, result: SoakResult, tty: bool) -> 
                 if proc.poll() is not None:
                     result.failures.append(f"sonard exited early with {proc.returncode}")
                     break
-                s = _sample(proc.pid)
+                s = sample_process(proc.pid)
                 if s is not None:
                     samples.append(s)
                     if bar is not None:
@@ -244,7 +160,7 @@ def _resources(samples: list[Sample], duration: float, result: SoakResult) -> No
         result.failures.append(f"RSS grows {rss_slope:.2f} MiB/h (limit {RSS_LIMIT_MIB_PER_H})")
 
 
-def _check_log(procs: _Procs, out: Path, result: SoakResult) -> None:
+def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
     from sonarlog import read_log
 
     log = read_log(out)
@@ -279,21 +195,7 @@ def _check_log(procs: _Procs, out: Path, result: SoakResult) -> None:
         result.failures.append("no firings in the run")
 
 
-def _wait_running(locks: Path, proc: subprocess.Popen[str]) -> None:
-    """Until ``proc`` holds the port's lock file: it has finalised the logs and runs."""
-    mine = f"{proc.pid:10d}\n"
-    deadline = time.monotonic() + 30.0
-    while time.monotonic() < deadline and proc.poll() is None:
-        for lock in locks.glob("LCK..*"):
-            try:
-                if lock.read_text(encoding="ascii") == mine:
-                    return
-            except OSError:
-                pass  # a lock file being replaced
-        time.sleep(0.1)
-
-
-def _kill_trials(procs: _Procs, n: int, seed: int, result: SoakResult) -> None:
+def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) -> None:
     """Start sonard, SIGKILL it at a random moment, repeat; the next start finalises."""
     import h5py
 
@@ -306,7 +208,7 @@ def _kill_trials(procs: _Procs, n: int, seed: int, result: SoakResult) -> None:
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
             proc = procs.sonard(out, err)
             if i == n:  # the last start only finalises the last killed log
-                _wait_running(procs.work / "lock", proc)
+                wait_running(procs.work / "lock", proc)
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(30)
                 break
@@ -346,8 +248,8 @@ def soak(
 ) -> SoakResult:
     """Run the soak in ``work``; return its figures and failures."""
     result = SoakResult(duration)
-    _plan(work / "plan.yaml", duration)
-    procs = _Procs(work, fault_every)
+    write_plan(work / "plan.yaml", duration)
+    procs = SoakProcesses(work, fault_every)
     try:
         out = _long_run(procs, duration, result, tty)
         if kill_trials:

@@ -2,7 +2,8 @@
 
 - :class:`~nomad200.emulator.model.NomadModel`: the robot's state machine, transport-free;
   it reads host packets with :class:`~nomad200.emulator.rx.HostParser` (NAK, inter-byte
-  timeout).
+  timeout) and runs :class:`~nomad200.emulator.robot.Robot` (clock, drive, sonar firings,
+  watchdog) between them.
 - :class:`~nomad200.emulator.link.Link`: serial timing (10 bits per byte) and fault injection
   in both directions.
 - :mod:`nomad200.protocol_nomad`: the ``nomad://`` pyserial URL scheme (in-process).

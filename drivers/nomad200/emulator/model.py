@@ -2,9 +2,10 @@
 
 :meth:`NomadModel.feed` takes the bytes the host sent and the (simulated) time they arrived
 and returns the replies as ``(time ready, frame)`` pairs. Between commands the robot lives
-on its own clock: axes move, the sonar ring fires in its configured order and rate, the
-CONF_TM watchdog stops the motors when the host falls silent. Time comes from an injected
-clock (real monotonic time, or a :class:`~nomad200.emulator.clock.VirtualClock`).
+on its own clock (its base class :class:`~nomad200.emulator.robot.Robot`): axes move, the
+sonar ring fires in its configured order and rate, the CONF_TM watchdog stops the motors
+when the host falls silent. Time comes from an injected clock (real monotonic time, or a
+:class:`~nomad200.emulator.clock.VirtualClock`).
 
 Host packets are parsed as the robot's firmware does (:class:`~nomad200.emulator.rx.HostParser`):
 a damaged packet (bad checksum or end byte) and a refused one (a payload of the wrong size,
@@ -35,18 +36,15 @@ assumes:
 
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable
 from typing import IO, Any
 
-import numpy as np
-
 from nomad200.codec import Cmd, Command, MvMode, Packet, decode_command, encode_frame
-from nomad200.emulator.clock import Clock, MonotonicClock
-from nomad200.emulator.motion import Drive
+from nomad200.emulator.clock import Clock
+from nomad200.emulator.robot import Robot
 from nomad200.emulator.rx import HostParser
-from nomad200.emulator.sonar import EchoFn, simulate_firings
+from nomad200.emulator.sonar import EchoFn
 from nomad200.errors import (
     ChecksumError,
     EndByteError,
@@ -56,11 +54,9 @@ from nomad200.errors import (
 )
 from nomad200.mask import StateMask
 from nomad200.replies import encode_get_rc, encode_get_rv, encode_get_sn
-from nomad200.state import DEG10, IN10, NO_ECHO, RawState, layout_for
+from nomad200.state import RawState, layout_for
 
 __all__ = ["NomadModel"]
-
-logger = logging.getLogger(__name__)
 
 _STATE_REPLY = frozenset(
     {
@@ -69,18 +65,9 @@ _STATE_REPLY = frozenset(
     }
 )  # fmt: skip
 _NAK = encode_frame(Cmd.NAK)
-_Att = tuple[int, ...]
 
 
-def _clip16(v: float) -> int:
-    return max(-32767, min(32767, round(v)))
-
-
-def _angle10(v: float) -> int:
-    return round(v) % 3600
-
-
-class NomadModel:
+class NomadModel(Robot):
     """An emulated Nomad 200.
 
     Parameters
@@ -110,136 +97,16 @@ class NomadModel:
         cpu_voltage_raw: int = 230,
         motor_voltage_raw: int = 230,
     ) -> None:
-        self.clock: Clock = clock or MonotonicClock()
-        self.echo = echo
-        self.drive = Drive(start=start_pose, start_turret=start_turret)
-        self.trace = trace
-        self.t0 = self.clock()
-        self.t = self.t0
+        super().__init__(
+            echo=echo, start_pose=start_pose, start_turret=start_turret, clock=clock, trace=trace
+        )
         self.mask = StateMask()
         self.cpu_v, self.motor_v = cpu_voltage_raw, motor_voltage_raw
-        self.watchdog_s = 0
-        self.last_cmd_t = self.t0
-        self._watchdog_armed = False
-        self.order: list[int] = []
-        self.interval = 0.04
-        self._next_fire = math.inf
-        self._fire_k = 0
-        self._prev_fire: tuple[float, int, np.ndarray, float] | None = None
-        self.sonar_raw = [NO_ECHO] * 16
-        self.sonar_att: list[_Att] = [(0,) * 9] * 16
-        self._pending_readings: list[tuple[int, int, int, _Att]] = []
         self.rx = HostParser()
         self._last_rx = -math.inf
         self.naks = 0
         self.commands = 0
         self.discarded = 0
-
-    # ------------------------------------------------------------ time
-    def clock_ms(self, t: float | None = None) -> int:
-        """The robot clock (ms since power-on) at time ``t`` (default: model time)."""
-        return round(((self.t if t is None else t) - self.t0) * 1000.0) & 0xFFFFFFFF
-
-    def advance(self, t: float | None = None) -> None:
-        """Run the robot up to time ``t`` (default: the clock): motion, firings, watchdog."""
-        t = self.clock() if t is None else t
-        if t <= self.t:
-            return
-        fires: list[tuple[float, int, tuple[float, float, float, float], _Att]] = []
-        while True:
-            wd = (
-                self.last_cmd_t + self.watchdog_s
-                if self._watchdog_armed and self.watchdog_s
-                else math.inf
-            )
-            nxt = min(t, self._next_fire, wd)
-            self.drive.step(nxt - self.t)
-            self.t = nxt
-            if nxt == wd and wd <= t:
-                logger.info("watchdog: no command for %d s, stopping", self.watchdog_s)
-                for ax in self.drive.axes:
-                    ax.stop()
-                self._watchdog_armed = False
-                self.emit({"type": "watchdog", "t": self.clock_ms() / 1000.0})
-            if nxt == self._next_fire and nxt <= t:
-                sid = self.order[self._fire_k % len(self.order)]
-                fires.append((nxt, sid, self.drive.world_pose(), self._odom_att(nxt)))
-                self._fire_k += 1
-                self._next_fire += self.interval
-            if nxt >= t:
-                break
-        if fires:
-            self._process_fires(fires)
-        if self._pending_readings:
-            now_ms = self.clock_ms()
-            keep = []
-            for rec in self._pending_readings:
-                if rec[0] <= now_ms:
-                    self.sonar_raw[rec[1]] = rec[2]
-                    self.sonar_att[rec[1]] = rec[3]
-                else:
-                    keep.append(rec)
-            self._pending_readings = keep
-
-    def _odom_att(self, t: float) -> _Att:
-        d = self.drive
-        ms = self.clock_ms(t)
-        return (
-            _clip16(d.x),
-            _clip16(d.y),
-            _angle10(d.steer.pos),
-            _angle10(d.turret.pos),
-            _clip16(d.trans.vel),
-            _clip16(d.steer.vel),
-            _clip16(d.turret.vel),
-            ms,
-            ms,
-        )
-
-    def _process_fires(
-        self, fires: list[tuple[float, int, tuple[float, float, float, float], _Att]]
-    ) -> None:
-        t = np.array([f[0] for f in fires])
-        sid = np.array([f[1] for f in fires], dtype=np.int_)
-        xy = np.array([(f[2][0], f[2][1]) for f in fires])
-        tur = np.array([f[2][3] for f in fires])
-        window = np.full(len(fires), self.interval)
-        batch = simulate_firings(self.echo, t, sid, xy, tur, window, self._prev_fire)
-        self._prev_fire = (float(t[-1]), int(sid[-1]), xy[-1].copy(), float(tur[-1]))
-        for k, (tk, s, wp, att) in enumerate(fires):
-            raw = int(batch.raw[k])
-            tau = float(batch.tau[k])
-            done = self.clock_ms(tk + (tau if math.isfinite(tau) else self.interval))
-            # the reading exists once its echo is in (or its window closed)
-            self._pending_readings.append((done, s, raw, (*att[:8], done)))
-            if self.trace is not None:
-                tr = float(batch.true_range[k])
-                self.emit(
-                    {
-                        "type": "firing",
-                        "t": self.clock_ms(tk) / 1000.0,
-                        "sonar": s,
-                        "raw": raw,
-                        "range_m": None if raw == NO_ECHO else raw * 0.0254,
-                        "echo_range_m": None if not math.isfinite(tau) else tau * 343.3 / 2,
-                        "true_range_m": None if not math.isfinite(tr) else tr,
-                        "crosstalk": bool(batch.crosstalk[k]),
-                        "odom": {
-                            "x": att[0] * IN10,
-                            "y": att[1] * IN10,
-                            "steer": att[2] * DEG10,
-                            "turret": att[3] * DEG10,
-                        },
-                        "world": {"x": wp[0], "y": wp[1], "theta": wp[2], "turret": wp[3]},
-                    }
-                )
-
-    def emit(self, rec: dict[str, Any]) -> None:
-        """Write one trace record (no-op without a trace file)."""
-        if self.trace is not None:
-            import json
-
-            self.trace.write(json.dumps(rec) + "\n")
 
     # ------------------------------------------------------------ bytes in, bytes out
     def feed(
@@ -290,8 +157,7 @@ class NomadModel:
         code, a = cmd.code, cmd.args
         d = self.drive
         self.commands += 1
-        self.last_cmd_t = self.t
-        self._watchdog_armed = True
+        self.command_received()
         self.emit(
             {"type": "command", "t": self.clock_ms() / 1000.0, "cmd": code.name, "args": list(a)}
         )
@@ -333,18 +199,16 @@ class NomadModel:
         elif code == Cmd.WS:
             self._wait_stopped(bool(a[0]), bool(a[1]), bool(a[2]), float(a[3]))
         elif code == Cmd.CONF_SN:
-            self._conf_sn(a[0], a[1:])
+            self.configure_sonars(a[0], a[1:])
         elif code == Cmd.CONF_TM:
             self.watchdog_s = a[0]
         elif code == Cmd.GET_SN:
             atts = tuple(self.sonar_att) if self.mask.sonar_pose_attachment else None
             return encode_get_sn(tuple(self.sonar_raw), atts, self.clock_ms())
         elif code == Cmd.GET_RC:
-            return encode_get_rc(
-                _clip16(d.x), _clip16(d.y), _angle10(d.steer.pos), _angle10(d.turret.pos)
-            )
+            return encode_get_rc(*self.pose_words())
         elif code == Cmd.GET_RV:
-            return encode_get_rv(_clip16(d.trans.vel), _clip16(d.steer.vel), _clip16(d.turret.vel))
+            return encode_get_rv(*self.velocity_words())
         if code not in _STATE_REPLY:  # pragma: no cover - decode_command rejects others
             raise PayloadError(f"unsupported command {code.name}")
         return self.state_frame(int(code))
@@ -363,22 +227,6 @@ class NomadModel:
         elif mode == MvMode.SP:
             ax.speed = min(float(abs(v)), ax.max_speed)
 
-    def _conf_sn(self, rate: int, order: tuple[int, ...]) -> None:
-        ids: list[int] = []
-        for o in order:
-            if o == 255:
-                break
-            if not 0 <= o <= 15:
-                raise ValueError(f"sonar id {o} in firing order")
-            ids.append(o)
-        if rate < 1:
-            raise ValueError("sonar rate must be at least 1 (4 ms)")
-        self.order = ids
-        self.interval = rate * 0.004
-        self._fire_k = 0
-        self._prev_fire = None
-        self._next_fire = self.t + self.interval if ids else math.inf
-
     def _wait_stopped(self, tr: bool, st: bool, tu: bool, timeout: float) -> None:
         d = self.drive
         end = self.t + timeout
@@ -391,20 +239,19 @@ class NomadModel:
     # ------------------------------------------------------------ replies
     def raw_state(self) -> RawState:
         """The current state in robot units, laid out for the current mask."""
-        d = self.drive
         m = self.mask
         ids = sorted(m.sonars)
-        now = self._odom_att(self.t)  # idle sensors are read "now"
+        now = self.odometry_attachment(self.t)  # idle sensors are read "now"
         return RawState(
             ir=(15,) * len(m.irs),
             ir_att=(now,) * len(m.irs) if m.ir_pose_attachment else (),
             sonar=tuple(self.sonar_raw[i] for i in ids),
             sonar_att=tuple(self.sonar_att[i] for i in ids) if m.sonar_pose_attachment else (),
             bumper_att=now,
-            pose=(_clip16(d.x), _clip16(d.y), _angle10(d.steer.pos), _angle10(d.turret.pos)),
-            vel=(_clip16(d.trans.vel), _clip16(d.steer.vel), _clip16(d.turret.vel)),
+            pose=self.pose_words(),
+            vel=self.velocity_words(),
             compass_att=now,
-            motor_status=d.motor_status(),
+            motor_status=self.drive.motor_status(),
             clock_ms=self.clock_ms(),
             cpu_voltage=self.cpu_v,
             motor_voltage=self.motor_v,

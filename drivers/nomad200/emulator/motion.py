@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from nomad200.state import DEG10, IN10
+from nomad200.state_types import DEG10, IN10
 
 __all__ = ["Axis", "Drive"]
 

@@ -6,6 +6,7 @@
 - :mod:`~.paper_tables`: Table 1 (the Fig. 2 map) and Table 2 (the Fig. 18 surface);
 - :mod:`~.sampled`: paper-style sampled arcs beside our connected arcs;
 - :mod:`~.own_echo`: did Figs. 10-12 use each sensor's own echo only? (t_CPU and errors);
+  :mod:`~.own_echo_runs`: the simulations and runs it compares;
 - :mod:`~.multi_surface`: multi-surface scenes and a sonard ring log, default options;
 - :mod:`~.discussion`, :mod:`~.document`: the hand-written part and the whole text;
 - :mod:`~.runner`: :func:`reproduce`, which runs them all.
