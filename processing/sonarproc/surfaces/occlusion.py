@@ -28,6 +28,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.surfaces.feet import straight_polylines
+
 __all__ = [
     "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
     "MIN_CROSSINGS", "contradicted", "corner_extensions", "segment_crossings",
@@ -51,11 +53,13 @@ CORNER_REACH_M = 1.0
 _CHUNK = 4096
 
 
-def _segments(polyline: FloatArray, step: int) -> tuple[FloatArray, FloatArray, FloatArray]:
+def _segments(
+    polyline: FloatArray, step: int, straight: bool
+) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Segments of a polyline thinned to every ``step``-th vertex (ends kept), and the
     arc length of each segment's start; a straight polyline is one segment."""
     p = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
-    if _straight(p):
+    if straight:
         return p[:1], p[-1:], np.zeros(1)
     keep = np.unique(np.r_[np.arange(0, len(p), max(step, 1)), len(p) - 1])
     q = p[keep]
@@ -63,20 +67,17 @@ def _segments(polyline: FloatArray, step: int) -> tuple[FloatArray, FloatArray, 
     return q[:-1], q[1:], s[:-1]
 
 
-def _straight(p: FloatArray) -> bool:
-    """Whether a polyline of at least two distinct ends is straight (to rounding)."""
-    chord = p[-1] - p[0]
-    span = float(np.hypot(*chord))
-    if len(p) < 2 or span == 0:
-        return False
-    dev = np.abs((p[:, 0] - p[0, 0]) * chord[1] - (p[:, 1] - p[0, 1]) * chord[0]) / span
-    return bool(dev.max() <= 1e-6 * max(span, 1.0))
+def _straight(polys: list[FloatArray]) -> npt.NDArray[np.bool_]:
+    return straight_polylines(polys, np.array([len(p) >= 2 for p in polys], dtype=bool))
 
 
 def corner_extensions(
-    polylines: list[FloatArray],
+    polylines: list[FloatArray], *, straight: npt.NDArray[np.bool_] | None = None
 ) -> tuple[npt.NDArray[np.intp], FloatArray, FloatArray]:
     """The stretches that complete long straight surfaces to their corners (module notes).
+
+    ``straight``: which polylines are straight, if known
+    (:func:`~sonarproc.surfaces.feet.straight_polylines`).
 
     Returns
     -------
@@ -95,9 +96,11 @@ def corner_extensions(
     ([0, 1], [[0.6, 0.0], [0.0, 0.6]], [[0.0, 0.0], [0.0, 0.0]])
     """
     polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    if straight is None:
+        straight = _straight(polys)
     idx = np.array(
         [i for i, p in enumerate(polys)
-         if _straight(p) and float(np.hypot(*(p[-1] - p[0]))) >= CORNER_MIN_LENGTH_M],
+         if straight[i] and float(np.hypot(*(p[-1] - p[0]))) >= CORNER_MIN_LENGTH_M],
         dtype=np.intp,
     )  # fmt: skip
     none = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros((0, 2)))
@@ -199,13 +202,15 @@ def contradicted(
     m = len(polylines)
     if m < 2:
         return []
-    segs = [_segments(p, 5) for p in polylines]
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    straight = _straight(polys)
+    segs = [_segments(p, 5, bool(f)) for p, f in zip(polys, straight, strict=True)]
     b0 = np.concatenate([g[0] for g in segs])
     b1 = np.concatenate([g[1] for g in segs])
     s0 = np.concatenate([g[2] for g in segs])
     owner = np.repeat(np.arange(m), [len(g[0]) for g in segs])
     # the completions to corners: crossings there count like those near an end
-    ext_owner, ext0, ext1 = corner_extensions(polylines)
+    ext_owner, ext0, ext1 = corner_extensions(polys, straight=straight)
     b0, b1 = np.concatenate((b0, ext0)), np.concatenate((b1, ext1))
     s0 = np.concatenate((s0, np.full(ext_owner.size, -np.inf)))
     owner = np.concatenate((owner, ext_owner))

@@ -12,6 +12,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from sonarproc.surfaces.runs import ragged_arange
+
 __all__ = [
     "distance_to_polylines", "join_polylines", "resample", "resample_segments", "split_polylines",
 ]  # fmt: skip
@@ -102,9 +104,8 @@ def resample_segments(start: npt.ArrayLike, end: npt.ArrayLike, step: float) -> 
     # a last step shorter than rounding is dropped, as resample does
     last = total - step * n >= 1e-9 * max(step, 1.0)
     count = np.where(total > 0, n + 1 + last, 1)
-    seg = np.repeat(np.arange(a.shape[0]), count)
+    seg, k = ragged_arange(count)
     first = np.cumsum(count) - count
-    k = np.arange(seg.size) - first[seg]
     t = np.minimum(step * k, total[seg])
     slope = (b - a) / np.where(total > 0, total, 1.0)[:, None]
     pts = slope[seg] * t[:, None] + a[seg]

@@ -152,7 +152,7 @@ def test_a_phantom_seen_past_the_ends_of_two_walls_into_their_corner_goes(
     assert contradicted([bottom, left, phantom], sensors, points, cell=CELL) == [2]
     # without the completion the paths pass between the walls and the phantom stays
     none = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros((0, 2)))
-    monkeypatch.setattr(occlusion, "corner_extensions", lambda polylines: none)
+    monkeypatch.setattr(occlusion, "corner_extensions", lambda polylines, straight=None: none)
     assert contradicted([bottom, left, phantom], sensors, points, cell=CELL) == []
 
 
