@@ -4,7 +4,8 @@ The record (:meth:`sonarproc.auto.AutoChoice.to_json`) holds the criterion, the 
 (method, options, fit), its held-out residual and the runners-up with theirs (and why
 the guard rails excluded any). The report writers put it into ``report.json`` /
 ``compare.json`` as ``auto`` and show it in the HTML pages
-(:mod:`sonarproc.report.auto_record`); :func:`record_table` is its table for the terminal.
+(:mod:`sonarproc.report.auto_record`); :func:`record_table` is its table for the terminal,
+with a last row for the chosen profile's refit through the echo points.
 """
 
 from __future__ import annotations
@@ -35,4 +36,10 @@ def record_table(record: dict[str, Any]) -> Any:
     )  # fmt: skip
     for r in record["runners_up"]:
         table.add_row(r["name"], r["fit_short"], _cm(r["residual_m"]), r["excluded"] or "")
+    refit = record.get("echo_refit")
+    if refit and refit.get("smoothing_length_m") is not None:
+        length = refit["smoothing_length_m"]
+        best = refit["residuals_m"].get(f"{length:g}")
+        note = ("applied: " if refit["applied"] else "not applied: ") + refit["reason"]
+        table.add_row("echo refit", f"spline L={length:g} m", _cm(best), note)
     return table

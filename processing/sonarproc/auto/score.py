@@ -221,6 +221,8 @@ class AutoChoice:
     readings_scored: int
     folds: int
     repeats: int = 1
+    #: The chosen profile's refit through the echo points (:mod:`sonarproc.auto.echo_refit`)
+    echo_refit: dict[str, Any] | None = None
 
     @property
     def ranked(self) -> list[Score]:
@@ -239,4 +241,5 @@ class AutoChoice:
             "repeats": self.repeats,
             "readings_scored": self.readings_scored,
             "runners_up": others,
+            "echo_refit": self.echo_refit,
         }

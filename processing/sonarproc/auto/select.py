@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
+from sonarproc.auto.echo_refit import choose_refit
 from sonarproc.auto.holdout import (
     hull_excess,
     make_folds,
@@ -46,6 +47,7 @@ from sonarproc.grid import Grid
 from sonarproc.methods import MethodResult
 from sonarproc.metrics import bin_stats
 from sonarproc.params import RunParams
+from sonarproc.pipeline.evaluation import measure_profile
 from sonarproc.pipeline.mapping import MethodMap, evaluate_map
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
@@ -228,6 +230,8 @@ def run_auto(
     """
     choice = choose(log_, base, **kwargs)
     ranked = [s for s in choice.ranked if np.isfinite(s.residual_m)]
+    max_readings = int(kwargs.get("max_readings", 6_000))
+    seed = int(kwargs.get("seed", 0))
     last: tuple[MethodResult, Score] | None = None
     for s in ranked:
         try:
@@ -249,7 +253,41 @@ def run_auto(
             if excess > HULL_CELLS * r.grid.cell:
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
-            return res, s, choice
+            return _echo_refitted(log_, base, res, s, choice, max_readings, seed), s, choice
     if last is None:
         raise NothingToMapError(f"{log_.path}: no automatic candidate left anything on the map")
     return last[0], last[1], choice
+
+
+def _echo_refitted(
+    log_: SonarLog,
+    base: RunParams,
+    res: MethodResult,
+    chosen: Score,
+    choice: AutoChoice,
+    max_readings: int,
+    seed: int,
+) -> MethodResult:
+    """The winner's run with its profile refitted through the echo points, if that wins.
+
+    The refit is scored on the readings and folds the candidates were scored on
+    (:func:`sonarproc.auto.echo_refit.choose_refit`); the record says what it found.
+    """
+    r = res.run
+    beams, _ = select_beams(log_, base)
+    beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
+    refit = choose_refit(
+        r.fit, r.bins, beams, r.grid, chosen_residual=chosen.residual_m, folds=choice.folds,
+        repeats=choice.repeats, cap=max(CAP_CELLS * r.grid.cell, 0.05), seed=seed,
+    )  # fmt: skip
+    choice.echo_refit = refit.to_json()
+    if not refit.applied or refit.fit is None or isinstance(refit.fit, FitFailure):
+        return res
+    params = replace(r.params, fit="spline", order=None, smooth=getattr(refit.fit, "lam", None))
+    metrics = r.metrics
+    if r.truth is not None:
+        metrics = measure_profile(
+            params, r.grid, r.bins, refit.fit, truth=r.truth,
+            raw_columns=np.ones(r.bins.centres.size, dtype=bool),
+        )  # fmt: skip
+    return replace(res, run=replace(r, params=params, fit=refit.fit, metrics=metrics))

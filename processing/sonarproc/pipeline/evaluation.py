@@ -39,7 +39,7 @@ from sonarproc.metrics import (
 )
 from sonarproc.params import MAX_AUTO_ORDER, RunParams
 
-__all__ = ["Evaluation", "fit_and_measure", "map_counts", "no_arc_message"]
+__all__ = ["Evaluation", "fit_and_measure", "map_counts", "measure_profile", "no_arc_message"]
 
 Stage = Callable[[str], None]
 
@@ -202,9 +202,30 @@ def fit_and_measure(
     else:
         fit = _fit_binned(params, bins)
     stage("metrics")
+    metrics = measure_profile(
+        params, grid, bins, fit, truth=truth, raw_columns=np.asarray(raw.any(axis=0), dtype=bool)
+    )
+    return Evaluation(px, py, bins, fit, metrics, None, robot_xy)
+
+
+def measure_profile(
+    params: RunParams,
+    grid: Grid,
+    bins: Bins,
+    fit: Fit,
+    *,
+    truth: npt.NDArray[np.float64] | None,
+    raw_columns: npt.NDArray[np.bool_],
+) -> Metrics:
+    """e, f_c, E1 and E2 of a profile ``fit`` to the map's column ``bins``.
+
+    ``raw_columns`` marks the columns of the unprocessed map (f_c's denominator without
+    truth); with ``params.span == "points"`` only the columns between the first and last
+    with points are judged.
+    """
     truth_bins, spanned = None, None
     if truth is None:
-        spanned = np.asarray(raw.any(axis=0), dtype=bool)
+        spanned = raw_columns.copy()
     else:
         truth_bins = truth_on_columns(truth, bins.centres)
         _, _, bottom, top = grid.extent
@@ -219,7 +240,6 @@ def fit_and_measure(
             truth_bins[~inside] = np.nan
         if spanned is not None:
             spanned &= inside
-    metrics = profile_metrics(
+    return profile_metrics(
         bins, truth=truth_bins, fit=None if isinstance(fit, FitFailure) else fit, spanned=spanned
     )
-    return Evaluation(px, py, bins, fit, metrics, None, robot_xy)

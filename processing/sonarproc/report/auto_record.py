@@ -23,6 +23,8 @@ def _cm(v: Any) -> str:
 def auto_record_html(record: Mapping[str, Any]) -> str:
     """An HTML section: the criterion, the choice with its residual, the runners-up table.
 
+    The chosen profile's refit through the echo points, when tried, is the table's last row.
+
     Examples
     --------
     >>> rec = {"criterion": "held-out", "choice": "a", "fit_short": "poly m=2",
@@ -40,6 +42,13 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
          r.get("excluded") or "")
         for r in record.get("runners_up", [])
     ]  # fmt: skip
+    refit = record.get("echo_refit")
+    if refit and refit.get("smoothing_length_m") is not None:
+        length = refit["smoothing_length_m"]
+        rows.append((
+            "echo refit", f"spline L={length:g} m", refit["residuals_m"].get(f"{length:g}"),
+            ("applied: " if refit["applied"] else "not applied: ") + str(refit["reason"]),
+        ))  # fmt: skip
     body = "".join(
         f"<tr><td>{name}</td><td>{html.escape(str(fit or ''))}</td>"
         f"<td>{html.escape(_cm(res))}</td><td>{html.escape(str(note))}</td></tr>"

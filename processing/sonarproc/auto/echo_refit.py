@@ -1,0 +1,309 @@
+"""``--auto``'s last step: the chosen profile refitted through the readings' echo points.
+
+A reading's range says how far the surface is at the one point where it reflected: its
+specular point, where the surface's normal bisects the directions to the transmitter
+and the receiver. Every map method places the surface from the arcs' overlaps instead,
+and each has its own bias (the crest of the counts lies on the sensors' side of the
+surface, a median across the arcs between the arcs' ends). Given a profile close to
+the surface, :func:`echo_points` finds each reading's specular point on it with the
+first-echo model of :mod:`sonarproc.methods.echo_model` and moves it along the normal
+until its path ``|TP| + |PR|`` equals the measured one (to first order: the path grows
+by ``n . (u_T + u_R)`` per metre along the normal ``n``, ``u_T`` and ``u_R`` the unit
+vectors from transmitter and receiver). The echo points lie on the surface whatever the
+profile's bias; only where the profile is wrong in slope do they slide along it.
+
+:func:`refit_profile` fits a smoothing spline to the echo points' column means (the
+map's column means in the columns no reading echoed from: sensors see a surface only
+where its normal points into their beams, and a wave seen from below echoes from its
+troughs; the map still holds its crests, and its span),
+twice, with range tolerances :data:`ROUNDS_M`. Its smoothing length is chosen by the
+criterion of ``--auto`` itself (:func:`choose_refit`): each length's fit to the echo
+points of the training folds predicts the held-out readings, and the lowest trimmed
+mean range residual wins. The refit replaces the chosen fit only when that residual is
+below the chosen candidate's own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.auto.candidates import SMOOTHING_LENGTHS, spline_lambda
+from sonarproc.auto.holdout import hull_excess, make_folds, range_loss
+from sonarproc.auto.score import HULL_CELLS, robust_residual
+from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
+from sonarproc.grid import Grid
+from sonarproc.methods.echo_model import first_echo
+from sonarproc.metrics import Bins, bin_stats
+from sonarproc.pipeline.selection import Beams
+
+__all__ = ["ROUNDS_M", "RefitChoice", "choose_refit", "echo_points", "refit_profile"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Range tolerances (m) of the two rounds: a reading further than this from the path the
+#: profile predicts echoed from something else (another surface, a spurious echo).
+ROUNDS_M = (0.08, 0.03)
+#: A reading whose path changes by less than this per metre along the normal (grazing
+#: geometry, far off the bisector) says too little about the surface's distance.
+MIN_PATH_GAIN = 0.5
+
+Span = tuple[float, float]
+Profile = PolyFit | SplineFit
+
+
+def _curve(fit: Profile, span: Span, step: float) -> FloatArray:
+    xs = np.arange(span[0], span[1] + 0.5 * step, step)
+    return np.column_stack((xs, np.asarray(fit(xs), dtype=np.float64)))
+
+
+def echo_points(
+    fit: Profile, beams: Beams, span: Span, *, step: float, tol: float
+) -> tuple[IntArray, FloatArray]:
+    """Each reading's echo point on the surface near the profile ``fit`` (module notes).
+
+    Parameters
+    ----------
+    fit : PolyFit or SplineFit
+        A profile y(x) near the surface.
+    beams : Beams
+        The readings.
+    span : (float, float)
+        The x range of the profile to search (its ends are never specular).
+    step : float
+        Spacing (m) of the profile's samples.
+    tol : float
+        Largest range residual (m, half the path) of a reading kept.
+
+    Returns
+    -------
+    rows : ndarray of int, (E,)
+        The readings (indices into ``beams``) that echo from the profile.
+    points : ndarray, (E, 2)
+        Their echo points.
+
+    Examples
+    --------
+    A wall along y = 1 and a sensor looking up at it from (0.1, 0), range 1 m; the
+    profile is 2 cm short of the wall and tilted, the echo point is on the wall.
+
+    >>> from sonarproc.methods.testing import beams_facing
+    >>> from sonarproc.fit import PolyFit
+    >>> xs = np.linspace(-2, 2, 401)
+    >>> wall = np.column_stack((xs, np.ones_like(xs)))
+    >>> beams, _ = beams_facing([[0.1, 0.0]], [np.pi / 2], wall)
+    >>> near = PolyFit(1, np.array([0.98, 0.01]), (-1.0, 1.0))
+    >>> rows, pts = echo_points(near, beams, (-1.0, 1.0), step=0.01, tol=0.05)
+    >>> rows.tolist(), np.round(pts[:, 1], 3).tolist()
+    ([0], [1.0])
+    """
+    curve = _curve(fit, span, step)
+    p = beams.poses
+    path, at = first_echo(
+        p.tx_xy, p.tx_heading, p.tx_half_beamwidth, p.rx_xy, p.rx_heading,
+        p.rx_half_beamwidth, curve, beams.readings["echo"],
+    )  # fmt: skip
+    ok = (at > 0) & (at < curve.shape[0] - 1) & (np.abs(beams.path - path) <= 2.0 * tol)
+    rows = np.flatnonzero(ok)
+    k = at[rows]
+    foot = curve[k]
+    tangent = curve[k + 1] - curve[k - 1]
+    normal = np.column_stack((-tangent[:, 1], tangent[:, 0]))
+    normal /= np.hypot(*normal.T)[:, None]
+    to_tx = foot - p.tx_xy[rows]
+    to_rx = foot - p.rx_xy[rows]
+    gain = np.einsum(
+        "ij,ij->i",
+        normal,
+        to_tx / np.hypot(*to_tx.T)[:, None] + to_rx / np.hypot(*to_rx.T)[:, None],
+    )
+    good = np.abs(gain) >= MIN_PATH_GAIN
+    rows, foot, normal, gain = rows[good], foot[good], normal[good], gain[good]
+    shift = (beams.path[rows] - path[rows]) / gain
+    return rows, foot + shift[:, None] * normal
+
+
+def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray:
+    """The points a refit fits: the echo points, and the map's column means elsewhere."""
+    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
+    echoed = np.zeros(map_bins.centres.size, dtype=bool)
+    echoed[ix[(ix >= 0) & (ix < grid.nx)]] = True
+    other = (map_bins.count > 0) & ~echoed
+    return np.concatenate(
+        (points, np.column_stack((map_bins.centres[other], map_bins.mean[other])))
+    )
+
+
+def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, length: float) -> Fit:
+    """Spline of smoothing ``length`` through the echo points' column means (module notes)."""
+    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
+    inside = (ix >= 0) & (ix < grid.nx)
+    order = np.argsort(ix[inside], kind="stable")
+    echo = bin_stats(ix[inside][order], points[inside][order, 1], grid.centres_x(), presorted=True)
+    from_map = (map_bins.count > 0) & (echo.count == 0)
+    mean = np.where(from_map, np.nan_to_num(map_bins.mean), np.nan_to_num(echo.mean))
+    count = np.where(from_map, map_bins.count, echo.count).astype(np.float64)
+    if not np.any(count > 0):
+        return FitFailure("spline", "no echo point and no map point to fit")
+    lam = spline_lambda(length, float(count[count > 0].mean()), grid.cell)
+    return fit_spline(echo.centres, mean, count, lam=lam)
+
+
+def refit_profile(
+    fit: Profile,
+    map_bins: Bins,
+    beams: Beams,
+    grid: Grid,
+    span: Span,
+    length: float,
+) -> tuple[Fit, IntArray, FloatArray]:
+    """The profile refitted through the readings' echo points, :data:`ROUNDS_M` rounds.
+
+    Returns the new fit and the last round's echoing readings and echo points.
+    """
+    rows = np.zeros(0, np.intp)
+    points = np.zeros((0, 2))
+    for tol in ROUNDS_M:
+        rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol)
+        new = _fit_points(points, map_bins, grid, length)
+        if not isinstance(new, (PolyFit, SplineFit)):
+            return new, rows, points
+        fit = new
+    return fit, rows, points
+
+
+@dataclass
+class RefitChoice:
+    """The echo refit's smoothing lengths, their held-out residuals, and the verdict."""
+
+    criterion: str
+    residuals: dict[float, float] = field(default_factory=dict)
+    excluded: dict[float, str] = field(default_factory=dict)
+    length: float | None = None
+    applied: bool = False
+    reason: str = ""
+    fit: Fit | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready mapping for the ``--auto`` record's ``echo_refit``."""
+        return {
+            "criterion": self.criterion,
+            "residuals_m": {f"{k:g}": _finite(v) for k, v in self.residuals.items()},
+            "excluded": {f"{k:g}": v for k, v in self.excluded.items()},
+            "smoothing_length_m": self.length,
+            "applied": self.applied,
+            "reason": self.reason,
+        }
+
+
+def _finite(v: float) -> float | None:
+    return float(v) if np.isfinite(v) else None
+
+
+def choose_refit(
+    fit: Fit,
+    map_bins: Bins,
+    beams: Beams,
+    grid: Grid,
+    *,
+    chosen_residual: float,
+    folds: int = 4,
+    repeats: int = 1,
+    heldout_per_fold: int = 300,
+    cap: float,
+    seed: int = 0,
+    lengths: tuple[float, ...] = SMOOTHING_LENGTHS,
+) -> RefitChoice:
+    """Choose the echo refit's smoothing length by the held-out range residual.
+
+    Parameters
+    ----------
+    fit : Fit
+        The chosen candidate's profile on every scored reading.
+    map_bins : Bins
+        Its map's points per column (they fill the columns no reading echoes from).
+    beams : Beams
+        The scored readings (the same folds as the candidates' are drawn from ``seed``).
+    grid : Grid
+        The map's grid.
+    chosen_residual : float
+        The chosen candidate's held-out residual (m): the refit must beat it.
+    folds, repeats, heldout_per_fold, cap, seed
+        As :func:`sonarproc.auto.choose`.
+    lengths : tuple of float
+        Smoothing lengths (m) tried.
+
+    Returns
+    -------
+    RefitChoice
+    """
+    criterion = (
+        "the chosen profile refitted through the readings' echo points (a spline; its "
+        "smoothing length by the same held-out range residual); kept only when that "
+        "residual is below the chosen candidate's"
+    )
+    out = RefitChoice(criterion)
+    occupied = np.flatnonzero(map_bins.count > 0)
+    if not isinstance(fit, (PolyFit, SplineFit)) or occupied.size < 2:
+        out.reason = "no profile y(x) to refit"
+        return out
+    span = (float(map_bins.centres[occupied[0]]), float(map_bins.centres[occupied[-1]]))
+    # the held-out readings of the candidates' folds (same seeds, same order of draws)
+    rng = np.random.default_rng(seed + 2)
+    splits: list[tuple[npt.NDArray[np.bool_], IntArray]] = []
+    for rep in range(repeats):
+        fold = make_folds(beams.readings, folds, by="firings", seed=seed + 1000 * rep)
+        for f in range(folds):
+            test = np.flatnonzero(fold == f)
+            if test.size:
+                splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
+    fits: dict[float, Fit] = {}
+    p = beams.poses
+    for length in lengths:
+        whole, rows, points = refit_profile(fit, map_bins, beams, grid, span, length)
+        if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
+            continue
+        hull = _fitted_points(points, map_bins, grid)
+        excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
+        if excess > HULL_CELLS * grid.cell:
+            out.excluded[length] = f"leaves its points' hull by {100 * excess:.3g} cm"
+            continue
+        losses = []
+        for train, held in splits:
+            part = _fit_points(points[train[rows]], map_bins, grid, length)
+            if not isinstance(part, (PolyFit, SplineFit)):
+                losses.append(np.full(held.size, cap))
+                continue
+            path, _ = first_echo(
+                p.tx_xy[held], p.tx_heading[held], p.tx_half_beamwidth[held],
+                p.rx_xy[held], p.rx_heading[held], p.rx_half_beamwidth[held],
+                _curve(part, span, grid.cell), beams.readings["echo"][held],
+            )  # fmt: skip
+            losses.append(range_loss(beams.path[held], path, cap))
+        if losses:
+            out.residuals[length] = robust_residual(np.concatenate(losses))
+            fits[length] = whole
+    if not out.residuals:
+        out.reason = (
+            "every refit leaves its points' hull" if out.excluded
+            else "no reading echoes from the chosen profile"
+        )  # fmt: skip
+        return out
+    best = min(out.residuals, key=lambda k: out.residuals[k])
+    out.length = best
+    if out.residuals[best] < chosen_residual:
+        out.applied, out.fit = True, fits[best]
+        out.reason = (
+            f"held-out residual {100 * out.residuals[best]:.3g} cm below the chosen "
+            f"candidate's {100 * chosen_residual:.3g} cm"
+        )
+    else:
+        out.reason = (
+            f"held-out residual {100 * out.residuals[best]:.3g} cm not below the chosen "
+            f"candidate's {100 * chosen_residual:.3g} cm"
+        )
+    return out

@@ -1,0 +1,170 @@
+"""``--auto``'s echo refit: echo points on the surface, the refit, and its record."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sonarproc.auto import run_auto
+from sonarproc.auto.echo_refit import ROUNDS_M, choose_refit, echo_points, refit_profile
+from sonarproc.fit import PolyFit, fit_polynomial
+from sonarproc.methods.echo_model import first_echo_path
+from sonarproc.methods.testing import beams_facing
+from sonarproc.metrics import bin_stats
+from sonarproc.params import RunParams
+from sonarproc.pipeline import load_log
+from sonarproc.pipeline.selection import Beams, TransducerPoses
+from sonarproc.simulate import simulate_to_log
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _wave(x: np.ndarray) -> np.ndarray:
+    return 1.5 + 0.08 * np.sin(2 * np.pi * x / 1.3)
+
+
+def _wave_curve() -> np.ndarray:
+    xs = np.linspace(-0.5, 4.5, 5001)
+    return np.column_stack((xs, _wave(xs)))
+
+
+def _bistatic_beams(rng: np.random.Generator, n: int) -> Beams:
+    """Random transmitter/receiver pairs below the wave, their first echoes off it."""
+    from sonarlog.schema import empty_readings
+    from sonarproc.arcs import arcs_of
+
+    t = np.column_stack((rng.uniform(0.3, 3.7, n), rng.uniform(0.0, 0.6, n)))
+    r = t + np.column_stack((rng.uniform(-0.3, 0.3, n), rng.uniform(-0.05, 0.05, n)))
+    ht = rng.uniform(np.radians(70), np.radians(110), n)
+    hr = ht + rng.uniform(-0.1, 0.1, n)
+    half = np.full(n, np.radians(25.0))
+    path = first_echo_path(t, ht, half, r, hr, half, _wave_curve())
+    ok = np.isfinite(path)
+    t, r, ht, hr, half, path = t[ok], r[ok], ht[ok], hr[ok], half[ok], path[ok]
+    m = int(ok.sum())
+    readings = empty_readings(m)
+    readings["t"] = np.arange(m)
+    readings["x"], readings["y"], readings["theta"] = t[:, 0], t[:, 1], ht
+    readings["tof"] = path / 343.3
+    poses = TransducerPoses(t, ht, r, hr, half, half.copy(), np.zeros(m), np.full(m, 10.0))
+    return Beams(readings, poses, path, arcs_of(poses, path))
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    offset=st.floats(-0.03, 0.03),
+    tilt=st.floats(-0.02, 0.02),
+    seed=st.integers(0, 2**16),
+)
+def test_echo_points_of_a_displaced_wall_lie_on_the_wall(
+    offset: float, tilt: float, seed: int
+) -> None:
+    # a flat wall y = 1.2, sensors below looking up; the profile is shifted and tilted
+    rng = np.random.default_rng(seed)
+    xs = np.linspace(-2.0, 6.0, 801)
+    wall = np.column_stack((xs, np.full_like(xs, 1.2)))
+    xy = np.column_stack((rng.uniform(0.0, 4.0, 40), rng.uniform(0.0, 0.5, 40)))
+    heading = rng.uniform(np.radians(75), np.radians(105), 40)
+    beams, _ = beams_facing(xy, heading, wall)
+    near = PolyFit(1, np.array([1.2 + offset, 2.0 * tilt]), (0.0, 4.0))
+    rows, pts = echo_points(near, beams, (-1.0, 5.0), step=0.005, tol=0.08)
+    assert rows.size >= 0.8 * len(beams.path)
+    # on the wall to well under a millimetre (the profile was centimetres off)
+    assert np.max(np.abs(pts[:, 1] - 1.2)) < 5e-4
+    # and at the measured range from the sensor (monostatic: along the normal)
+    d = np.hypot(*(pts - beams.poses.tx_xy[rows]).T)
+    np.testing.assert_allclose(d, beams.path[rows] / 2, atol=5e-4)
+
+
+def test_bistatic_echo_points_lie_on_a_wave() -> None:
+    beams = _bistatic_beams(np.random.default_rng(5), 600)
+    x = np.linspace(0.0, 4.0, 401)
+    near = fit_polynomial(x, _wave(x) - 0.02, np.ones_like(x), order=12)  # 2 cm short
+    assert isinstance(near, PolyFit)
+    rows, pts = echo_points(near, beams, (0.0, 4.0), step=0.005, tol=0.08)
+    assert rows.size > 0.7 * len(beams.path)
+    err = pts[:, 1] - _wave(pts[:, 0])
+    assert np.percentile(np.abs(err), 90) < 1e-3
+
+
+def test_refit_recovers_a_wave_a_biased_profile_missed() -> None:
+    from sonarproc.grid import Grid
+
+    beams = _bistatic_beams(np.random.default_rng(9), 1500)
+    grid = Grid.covering(0.0, 4.0, 0.0, 2.0, cell=0.01)
+    # the "map": points 1.5 cm short of the wave, one per column (the sensors below see
+    # the troughs, not the crests: there the map's points stay)
+    cx = grid.centres_x()
+    ix = np.arange(cx.size)
+    bins = bin_stats(ix, _wave(cx) - 0.015, cx, presorted=True)
+    start = fit_polynomial(cx, _wave(cx) - 0.015, np.ones_like(cx), order=15)
+    assert isinstance(start, PolyFit)
+    fit, rows, pts = refit_profile(start, bins, beams, grid, (0.2, 3.8), 0.2)
+    x = np.linspace(0.5, 3.5, 301)
+    before = np.sqrt(np.mean((start(x) - _wave(x)) ** 2))
+    after = np.sqrt(np.mean((fit(x) - _wave(x)) ** 2))
+    assert before > 0.0145 and after < 0.6 * before
+    xe = pts[:, 0]
+    at_echoes = np.sqrt(np.mean((fit(xe) - _wave(xe)) ** 2))
+    assert at_echoes < 0.25 * before
+    assert rows.size > 500 and len(ROUNDS_M) == 2
+
+
+def test_choose_refit_scores_lengths_and_applies_only_a_better_one() -> None:
+    from sonarproc.grid import Grid
+
+    beams = _bistatic_beams(np.random.default_rng(21), 1200)
+    grid = Grid.covering(0.0, 4.0, 0.0, 2.0, cell=0.01)
+    cx = grid.centres_x()
+    bins = bin_stats(np.arange(cx.size), _wave(cx) - 0.015, cx, presorted=True)
+    start = fit_polynomial(cx, _wave(cx) - 0.015, np.ones_like(cx), order=15)
+    assert isinstance(start, PolyFit)
+    got = choose_refit(start, bins, beams, grid, chosen_residual=0.01, cap=0.05)
+    assert set(got.residuals) | set(got.excluded) == {0.1, 0.2, 0.4, 0.8, 1.6}
+    assert got.applied and got.length is not None and got.fit is not None
+    assert got.residuals[got.length] == min(got.residuals.values()) < 0.01
+    doc = got.to_json()
+    assert doc["applied"] is True and doc["smoothing_length_m"] == got.length
+    assert "held-out" in doc["criterion"] and "below the chosen" in doc["reason"]
+    # a chosen candidate that already predicts better keeps its own fit
+    kept = choose_refit(start, bins, beams, grid, chosen_residual=1e-9, cap=0.05)
+    assert not kept.applied and kept.fit is None and "not below" in kept.reason
+
+
+def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path) -> None:
+    path = tmp_path / "fig02.h5"
+    simulate_to_log(ROOT / "configs/scenarios/fig02.yaml", path)
+    res, chosen, choice = run_auto(load_log(path), RunParams())
+    rec = choice.to_json(chosen)["echo_refit"]
+    assert rec is not None and set(rec) >= {"criterion", "residuals_m", "applied", "reason"}
+    r = res.run
+    if rec["applied"]:
+        assert r.params.fit == "spline" and r.fit.kind == "spline"
+        assert min(v for v in rec["residuals_m"].values() if v is not None) < chosen.residual_m
+    # E1 is that of the profile returned, on the judged columns
+    x = r.bins.centres[r.bins.occupied]
+    assert r.metrics.E1_m is not None and np.isfinite(r.fit(x)).all()
+
+
+def test_the_record_shows_the_refit_in_the_terminal_and_the_page() -> None:
+    from rich.console import Console
+
+    from sonarproc.auto.record import record_table
+    from sonarproc.report.auto_record import auto_record_html
+
+    rec = {
+        "criterion": "held-out", "choice": "a", "fit_short": "poly m=2", "residual_m": 0.004,
+        "folds": 4, "runners_up": [],
+        "echo_refit": {"criterion": "echo", "residuals_m": {"0.2": 0.0021, "0.4": 0.003},
+                       "excluded": {}, "smoothing_length_m": 0.2, "applied": True,
+                       "reason": "held-out residual 0.21 cm below the chosen candidate's 0.4 cm"},
+    }  # fmt: skip
+    console = Console(width=200, record=True)
+    console.print(record_table(rec))
+    text = console.export_text()
+    assert "echo refit" in text and "spline L=0.2 m" in text and "0.21 cm" in text
+    page = auto_record_html(rec)
+    assert "<td>echo refit</td>" in page and "applied: held-out residual" in page
