@@ -121,7 +121,10 @@ def render_auto_table(auto: Rows) -> str:
     lines = [
         "**`--auto` against its best candidate (by the truth, which auto never sees: E1 over "
         "the columns with points for a profile; `precision_m`, the mean distance of the "
-        "fitted curves to the truth, with completeness, for several surfaces)**",
+        "fitted curves to the truth, with completeness, for several surfaces). `+ echo L` "
+        "says that the chosen profile was refitted through the echo points with that "
+        "smoothing length; auto's error is that of the profile it returns, the candidates' "
+        "are without the refit**",
         "",
         head,
         "|---" * 9 + "|",
@@ -133,8 +136,13 @@ def render_auto_table(auto: Rows) -> str:
         if isinstance(comp, (int, float)):
             metric += f" (auto complete {float(comp):.2f})"
         ratio = float(r["ratio"])  # type: ignore[arg-type]
+        record = r.get("record")
+        refit = record.get("echo_refit") if isinstance(record, dict) else None
+        chose = str(r["choice"])
+        if refit and refit.get("applied"):
+            chose += f" + echo L={refit['smoothing_length_m']:g}"
         lines.append(
-            f"| {scen} | {r['readings']} | {metric} | {r['choice']} | {_cm(r['auto_error_m'])} "
+            f"| {scen} | {r['readings']} | {metric} | {chose} | {_cm(r['auto_error_m'])} "
             f"| {r['best']} | {_cm(r['best_error_m'])} "
             f"| {ratio:.2f} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
         )
