@@ -180,48 +180,42 @@ def minimum_spanning_forest(
 
 @dataclass(frozen=True)
 class ForestTours:
-    """The Euler tours of a forest's trees, ranked (from :func:`forest_tours`).
+    """The Euler tours of a forest's trees (from :func:`forest_tours`).
 
-    Every edge is two arcs, one each way. The tours lie one after the other, each
-    starting at its tree's smallest node: arc ``a`` is at ``start[labels[tail[a]]] +
-    position[a]`` (and ``order`` lists the arcs in that sequence).
+    Every edge is two arcs, one each way. The arcs are listed tour after tour, each
+    tour from its tree's smallest node; the arrays over arcs follow that order.
 
     Attributes
     ----------
-    n : int
-        Number of nodes.
     labels : ndarray of intp, shape (n,)
-        Tree of each node (:func:`connected_components` numbering).
-    tail, head : ndarray of intp, shape (2E,)
-        Arc ends.
+        Tree of each node (as given, else :func:`connected_components` numbering).
+    first : ndarray of intp, shape (n,)
+        An arc out of each node (-1 for a node without edges).
+    start : ndarray of intp, shape (T + 1,)
+        Where each tree's tour starts among the arcs (and the end).
+    tree : ndarray of intp, shape (2E,)
+        Tree of each arc.
+    head : ndarray of intp, shape (2E,)
+        The node each arc leads to.
     edge : ndarray of intp, shape (2E,)
-        Edge of each arc.
+        Edge of each arc (index into the edges given).
     reverse : ndarray of intp, shape (2E,)
         The arc the other way along the same edge.
-    first : ndarray of intp, shape (n,)
-        An arc out of each node (meaningless for a node without edges).
-    position : ndarray of intp, shape (2E,)
-        Place of each arc in its tree's tour.
-    start : ndarray of intp, shape (T + 1,)
-        Where each tree's tour starts in ``order`` (and the end).
-    order : ndarray of intp, shape (2E,)
-        All arcs, tour after tour.
     """
 
-    n: int
     labels: IntArray
-    tail: IntArray
+    first: IntArray
+    start: IntArray
+    tree: IntArray
     head: IntArray
     edge: IntArray
     reverse: IntArray
-    first: IntArray
-    position: IntArray
-    start: IntArray
-    order: IntArray
 
 
-def forest_tours(n: int, i: npt.ArrayLike, j: npt.ArrayLike) -> ForestTours:
-    """Rank the Euler tour of every tree of a forest (edges ``(i[e], j[e])``).
+def forest_tours(
+    n: int, i: npt.ArrayLike, j: npt.ArrayLike, *, labels: npt.ArrayLike | None = None
+) -> ForestTours:
+    """The Euler tour of every tree of a forest (edges ``(i[e], j[e])``).
 
     Parameters
     ----------
@@ -229,6 +223,9 @@ def forest_tours(n: int, i: npt.ArrayLike, j: npt.ArrayLike) -> ForestTours:
         Number of nodes.
     i, j : array_like of int, shape (E,)
         Edge ends; the edges must form a forest (no cycle, no repeated edge).
+    labels : array_like of int, shape (n,), optional
+        The tree of each node, ``0 .. T-1``, when it is known already (as from
+        :func:`minimum_spanning_forest`); checked, not trusted. Found when not given.
 
     Returns
     -------
@@ -238,19 +235,31 @@ def forest_tours(n: int, i: npt.ArrayLike, j: npt.ArrayLike) -> ForestTours:
     Raises
     ------
     ValueError
-        When the edges hold a cycle.
+        When the edges hold a cycle, or do not join the nodes into the given trees.
+
+    Examples
+    --------
+    >>> t = forest_tours(4, [0, 1], [1, 2])
+    >>> t.labels.tolist(), t.head.tolist(), t.edge.tolist()
+    ([0, 0, 0, 1], [1, 2, 1, 0], [0, 1, 1, 0])
     """
     a, b = _edges(n, i, j)
     m = a.size
-    k, labels = connected_components(n, a, b)
-    nodes = np.bincount(labels, minlength=k)
-    edges = np.bincount(labels[a], minlength=k)
+    if labels is None:
+        k, tree_of = connected_components(n, a, b)
+    else:
+        tree_of = np.asarray(labels, dtype=np.intp).ravel()
+        if tree_of.size != n or (n and tree_of.min() < 0):
+            raise ValueError(f"labels must be {n} trees numbered from 0")
+        k = int(tree_of.max()) + 1 if n else 0
+        if np.any(tree_of[a] != tree_of[b]):
+            raise ValueError("labels: an edge joins two trees")
+    nodes = np.bincount(tree_of, minlength=k)
+    edges = np.bincount(tree_of[a], minlength=k)
     if np.any(edges != nodes - 1):
-        raise ValueError("the edges are not a forest: a tree holds a cycle or a repeated edge")
+        raise ValueError("the edges are not a forest of the trees: a cycle or a node apart")
     tail, head = np.concatenate((a, b)), np.concatenate((b, a))
-    # arcs by tail, then head: the pairs are unique in a forest, so any sort agrees
-    by_tail = np.argsort(tail.astype(np.int64) * max(n, 1) + head, kind="stable")
-    by_tail = by_tail.astype(np.intp)
+    by_tail = _stable_order(tail)
     tail, head = tail[by_tail], head[by_tail]
     place = np.empty_like(by_tail)
     place[by_tail] = np.arange(2 * m, dtype=np.intp)
@@ -263,34 +272,51 @@ def forest_tours(n: int, i: npt.ArrayLike, j: npt.ArrayLike) -> ForestTours:
     after[wrap] = first[tail[wrap]]
     succ = after[reverse]
     # cut every tour just before the first arc out of its tree's smallest node
-    smallest = np.flatnonzero(labels > np.maximum.accumulate(np.concatenate(([-1], labels[:-1]))))
-    roots = smallest[degree[smallest] > 0]
+    smallest = np.full(k, n, dtype=np.intp)
+    np.minimum.at(smallest, tree_of, np.arange(n, dtype=np.intp))
+    roots = smallest[edges > 0]
     succ[reverse[first[roots] + degree[roots] - 1]] = -1
-    tree = labels[tail]
-    position = 2 * edges[tree] - 1 - _rank_lists(succ)
+    tree = tree_of[tail]
+    longest = 2 * int(edges.max()) if k else 0
+    count, done = _count_after(succ, longest)
+    if not done:  # a tour left uncut: its tree was not one tree of the labels
+        raise ValueError("the edges are not a forest of the trees: a cycle or a node apart")
+    position = 2 * edges[tree] - 1 - count
     start = np.concatenate(([0], np.cumsum(2 * edges))).astype(np.intp)
-    order = np.empty_like(position)
-    order[start[tree] + position] = np.arange(2 * m, dtype=np.intp)
-    return ForestTours(n, labels, tail, head, by_tail % max(m, 1), reverse, first, position,
-                       start, order)  # fmt: skip
+    at = start[tree] + position
+    order = np.empty_like(at)
+    order[at] = np.arange(2 * m, dtype=np.intp)
+    first = np.where(degree > 0, at[np.minimum(first, max(2 * m - 1, 0))], -1)
+    return ForestTours(tree_of, first.astype(np.intp), start, tree[order], head[order],
+                       by_tail[order] % max(m, 1), at[reverse[order]])  # fmt: skip
 
 
-def _rank_lists(succ: IntArray) -> IntArray:
+def _stable_order(keys: IntArray) -> IntArray:
+    """``argsort(keys, kind="stable")`` for keys >= 0, as 16-bit radix passes (O(N) each)."""
+    order = np.arange(keys.size, dtype=np.intp)
+    top = int(keys.max()) if keys.size else 0
+    for shift in range(0, max(top.bit_length(), 1), 16):
+        digit = ((keys[order] >> shift) & 0xFFFF).astype(np.uint16)
+        order = order[np.argsort(digit, kind="stable")]
+    return order
+
+
+def _count_after(succ: IntArray, longest: int) -> tuple[IntArray, bool]:
     """Number of arcs after each one in its list (``succ``: next arc, -1 at the end).
 
     Wyllie's pointer jumping: every round each arc adds the count of the arc it points
-    at and then points where that one pointed, so a list of L arcs takes log2 L rounds.
+    at and then points where that one pointed, so lists of at most ``longest`` arcs
+    take ``log2(longest)`` rounds. The end is an arc of its own that points at itself
+    and counts nothing, so every round is two gathers over all arcs. Also whether every
+    arc reached an end (not so on a cycle).
     """
-    nxt = succ.copy()
-    count = (nxt >= 0).astype(np.intp)
-    live = np.flatnonzero(nxt >= 0)
-    while live.size:
-        ahead = nxt[live]
-        gained, beyond = count[ahead], nxt[ahead]
-        count[live] += gained
-        nxt[live] = beyond
-        live = live[beyond >= 0]
-    return count
+    end = succ.size
+    nxt = np.append(np.where(succ >= 0, succ, end), end)
+    count = np.append(succ >= 0, False).astype(np.intp)
+    for _ in range(max(longest - 1, 0).bit_length()):
+        count += count[nxt]
+        nxt = nxt[nxt]
+    return count[:end], bool(np.all(nxt == end))
 
 
 def forest_distances(
@@ -328,10 +354,11 @@ def forest_distances(
     >>> forest_distances(t, [1.0, 2.0, 4.0, 0.5], [2, 5]).tolist()
     [3.0, 2.0, 0.0, 4.0, 0.5, 0.0]
     """
-    n, labels, start = tours.n, tours.labels, tours.start
+    labels, start, tree = tours.labels, tours.start, tours.tree
+    n = labels.size
     w = np.asarray(weight, dtype=np.float64).ravel()
-    if w.size != tours.tail.size // 2:
-        raise ValueError(f"weight must have one entry per edge ({tours.tail.size // 2})")
+    if 2 * w.size != tree.size:
+        raise ValueError(f"weight must have one entry per edge ({tree.size // 2})")
     src = np.unique(np.asarray(sources, dtype=np.intp).ravel())
     if src.size and (src[0] < 0 or src[-1] >= n):
         raise ValueError(f"sources must be nodes 0 .. {n - 1}")
@@ -340,26 +367,27 @@ def forest_distances(
     if np.count_nonzero(source_of >= 0) != src.size:
         raise ValueError("each tree may hold at most one source")
     dist = np.where(source_of[labels] >= 0, 0.0, np.inf)
-    if tours.tail.size == 0:
+    if tree.size == 0:
         return dist
-    # the tour from a source is its tree's tour turned to begin at the source's first arc
-    tree = labels[tours.tail]
-    s = source_of[tree]
-    begin = tours.position[tours.first[np.maximum(s, 0)]]
-    length = np.diff(start)[tree]
-    turned = (tours.position - begin) % length
-    # an arc away from the source comes before its reverse on that tour
+    # each tour turned to begin at its source's first arc: an arc leads away from the
+    # source when it comes before its reverse on the turned tour
+    sourced = source_of >= 0
+    begin = np.where(sourced, tours.first[np.maximum(source_of, 0)], start[:-1])
+    turned = np.arange(tree.size, dtype=np.intp) - begin[tree]
+    wrapped = turned < 0
+    turned[wrapped] += np.diff(start)[tree[wrapped]]
     down = turned < turned[tours.reverse]
-    signed = np.where(down, w[tours.edge], -w[tours.edge])
-    # prefix sums along the tours as they lie; the stretch from the source's first arc to
-    # an arc wraps round the end of the tour when the arc comes before that first arc
-    total = np.cumsum(signed[tours.order])
-    before = total - signed[tours.order]
-    at = start[tree] + tours.position
-    last = total.size - 1  # (trees without edges have empty tours: their sums go unused)
+    step = w[tours.edge]
+    signed = np.where(down, step, -step)
+    # prefix sums along the tours as they lie; the stretch from a source's first arc
+    # to an arc before it wraps round the end of the tour
+    total = np.cumsum(signed)
+    before = total - signed
+    last = tree.size - 1  # (trees without edges have empty tours: their sums go unused)
     tour_sum = total[np.clip(start[1:] - 1, 0, last)] - before[np.minimum(start[:-1], last)]
-    wrapped = np.where(tours.position < begin, tour_sum[tree], 0.0)
-    reach = total[at] - before[start[tree] + begin] + wrapped
-    into = np.flatnonzero(down & (s >= 0))
+    offset = before[np.clip(begin, 0, last)]
+    reach = total - offset[tree]
+    reach[wrapped] += tour_sum[tree[wrapped]]
+    into = np.flatnonzero(down & sourced[tree])
     dist[tours.head[into]] = reach[into]
     return dist

@@ -206,17 +206,18 @@ def tree_paths(
             inside = active[a] & active[b] & (group[a] == group[b])
             both = (a[inside], b[inside], both[2][inside])
         keep = active[ei] & active[ej] & (group[ei] == group[ej])
-        # the active nodes' trees (one per group), numbered among the active nodes
-        local = np.full(n, -1, dtype=np.intp)
-        local[act] = np.arange(act.size)
-        tours = forest_tours(act.size, local[ei[keep]], local[ej[keep]])
-        trees = (tours, ew[keep], act, local)
         order = act[np.argsort(group[act], kind="stable")]
         sorted_group = group[order]
         starts = np.flatnonzero(np.diff(sorted_group, prepend=-1))
         ids = sorted_group[starts]
         bounds = np.append(starts, order.size).astype(np.intp)
         first = order[bounds[:-1]]
+        # the active nodes' trees (one per group), numbered among the active nodes
+        local = np.full(n, -1, dtype=np.intp)
+        local[act] = np.arange(act.size)
+        tours = forest_tours(act.size, local[ei[keep]], local[ej[keep]],
+                             labels=np.searchsorted(ids, group[act]))  # fmt: skip
+        trees = (tours, ew[keep], act, local)
         d0 = _along(trees, first, n)
         u = _argmax_per_group(d0, order, bounds)
         du = _along(trees, u, n)
