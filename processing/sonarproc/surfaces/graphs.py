@@ -286,8 +286,10 @@ def forest_tours(
     at = start[tree] + position
     order = np.empty_like(at)
     order[at] = np.arange(2 * m, dtype=np.intp)
-    first = np.where(degree > 0, at[np.minimum(first, max(2 * m - 1, 0))], -1)
-    return ForestTours(tree_of, first.astype(np.intp), start, tree[order], head[order],
+    joined = np.flatnonzero(degree > 0)
+    out = np.full(n, -1, dtype=np.intp)
+    out[joined] = at[first[joined]]
+    return ForestTours(tree_of, out, start, tree[order], head[order],
                        by_tail[order] % max(m, 1), at[reverse[order]])  # fmt: skip
 
 
