@@ -150,30 +150,29 @@ def minimum_spanning_forest(
     # (weight, key) is a strict order of the edges, so every component's lightest
     # outgoing edge is unique and the picked edges never close a cycle
     key = np.minimum(a, b).astype(np.int64) * max(n, 1) + np.maximum(a, b)
-    live = np.flatnonzero(a != b).astype(np.intp)
+    # the edges still between two components: their index, components, weight and key
+    idx = np.flatnonzero(a != b).astype(np.intp)
+    ca, cb, lw, lk = a[idx], b[idx], w[idx], key[idx]
     comp = np.arange(n, dtype=np.intp)
+    k = n
     picked: list[IntArray] = []
-    none = np.iinfo(np.int64).max
-    while live.size:
-        ca, cb = comp[a[live]], comp[b[live]]
-        out = np.flatnonzero(ca != cb)
-        if out.size == 0:
-            break
-        live, ca, cb = live[out], ca[out], cb[out]
-        lw, lk = w[live], key[live]
-        lightest = np.full(n, np.inf)
+    while idx.size:
+        lightest = np.full(k, np.inf)
         np.minimum.at(lightest, ca, lw)
         np.minimum.at(lightest, cb, lw)
-        first = np.full(n, none, dtype=np.int64)
-        at_a, at_b = lw == lightest[ca], lw == lightest[cb]
-        np.minimum.at(first, ca[at_a], lk[at_a])
-        np.minimum.at(first, cb[at_b], lk[at_b])
-        chosen = (at_a & (lk == first[ca])) | (at_b & (lk == first[cb]))
-        pick = live[chosen]
-        picked.append(pick)
-        # components join along the picked edges (as component ids, labels are 0 .. k-1)
-        _, joined = connected_components(n, ca[chosen], cb[chosen])
+        at_a = np.flatnonzero(lw == lightest[ca])
+        at_b = np.flatnonzero(lw == lightest[cb])
+        least = np.full(k, np.iinfo(np.int64).max)
+        np.minimum.at(least, ca[at_a], lk[at_a])
+        np.minimum.at(least, cb[at_b], lk[at_b])
+        chosen = np.union1d(at_a[lk[at_a] == least[ca[at_a]]], at_b[lk[at_b] == least[cb[at_b]]])
+        picked.append(idx[chosen])
+        # components join along the picked edges (component ids are labels 0 .. k-1)
+        k, joined = connected_components(k, ca[chosen], cb[chosen])
         comp = joined[comp]
+        ca, cb = joined[ca], joined[cb]
+        apart = np.flatnonzero(ca != cb)
+        idx, ca, cb, lw, lk = idx[apart], ca[apart], cb[apart], lw[apart], lk[apart]
     edges = np.sort(np.concatenate(picked)) if picked else np.zeros(0, dtype=np.intp)
     return edges.astype(np.intp), comp
 
