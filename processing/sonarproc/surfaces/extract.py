@@ -5,7 +5,7 @@ The cells (cell centres in world metres) are first pooled into *nodes*: squares 
 and thin ridges cost about the same. Nodes closer than ``bridge_m`` are joined (that is
 the gap bridging), and each connected group is reduced to its minimum spanning tree
 (:mod:`~sonarproc.surfaces.graphs`). A surface is the tree's longest path (found with two
-Dijkstra passes from every group at once); nodes off that path hang on it, at the arc
+distance passes along every tree at once); nodes off that path hang on it, at the arc
 length of the path node they hang from. Side branches that reach more than ``bridge_m``
 off the path and are at least ``min_length_m`` long (a T junction, a box against a wall)
 become groups of their own and go round again. A group whose two path ends lie within
