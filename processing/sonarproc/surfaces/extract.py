@@ -4,8 +4,8 @@ The cells (cell centres in world metres) are first pooled into *nodes*: squares 
 ``h = max(cell, bridge_m / 4)``, each node at the mean of its cells, so that thick bands
 and thin ridges cost about the same. Nodes closer than ``bridge_m`` are joined (that is
 the gap bridging), and each connected group is reduced to its minimum spanning tree
-(:mod:`scipy.sparse.csgraph`). A surface is the tree's longest path (found with two
-Dijkstra passes from every group at once); nodes off that path hang on it, at the arc
+(:mod:`~sonarproc.surfaces.graphs`). A surface is the tree's longest path (found with two
+distance passes along every tree at once); nodes off that path hang on it, at the arc
 length of the path node they hang from. Side branches that reach more than ``bridge_m``
 off the path and are at least ``min_length_m`` long (a T junction, a box against a wall)
 become groups of their own and go round again. A group whose two path ends lie within
@@ -33,11 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components, minimum_spanning_tree
 
 from sonarproc.grid import Grid
 from sonarproc.surfaces.corners import centrelines, corners
+from sonarproc.surfaces.graphs import minimum_spanning_forest
 from sonarproc.surfaces.neighbours import close_pairs
 from sonarproc.surfaces.runs import bounds_of, run_searchsorted
 from sonarproc.surfaces.treepaths import TreePaths, tree_paths
@@ -205,8 +204,8 @@ def extract_surfaces(
     pi, pj, d2 = close_pairs(pos, p.bridge_m + 1e-9)
     xs, ys = pos[:, 0].copy(), pos[:, 1].copy()  # contiguous: faster gathers
     d = np.hypot(xs[pi] - xs[pj], ys[pi] - ys[pj]) + 1e-12
-    graph = coo_matrix((d, (pi, pj)), shape=(n, n)).tocsr()
-    _, labels = connected_components(graph, directed=False)
+    # the forest's trees are the connected groups: one pass gives both
+    tree, labels = minimum_spanning_forest(n, pi, pj, d)
     # groups too small to hold a surface min_length_m long go now (noise): a surface of
     # length L spans a box whose diagonal is at least about 0.45 L (a full circle)
     big = _diagonal(pos, labels)[labels] >= 0.4 * p.min_length_m
@@ -220,14 +219,14 @@ def extract_surfaces(
     px, py, pw, node = px[keep_pt], py[keep_pt], pw[keep_pt], node[keep_pt]
     pos = pos[sub]
     n = sub.size
-    graph = graph[sub][:, sub]
     # whole components are kept: their labels, renumbered in the same order
     kept_label = np.zeros(int(labels.max()) + 1, dtype=bool)
     kept_label[labels[sub]] = True
     labels = (np.cumsum(kept_label) - 1)[labels[sub]].astype(np.intp)
     kept_pair = big[pi]
     pairs = (remap[pi[kept_pair]], remap[pj[kept_pair]], d2[kept_pair])
-    forest = minimum_spanning_tree(graph)
+    tree = tree[big[pi[tree]]]
+    forest = (remap[pi[tree]], remap[pj[tree]], d[tree])
     paths = tree_paths(forest, pos, labels, pairs, p)
     piece, s_node, loop = _pieces(paths, pos, pairs, p)
     return _surfaces(px, py, pw, paths.group[node], piece[node], s_node[node], loop, p)

@@ -14,11 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from sonarproc.surfaces.batchfit import fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
+from sonarproc.surfaces.graphs import connected_components
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 
 __all__ = ["MERGE_ANGLE_RAD", "MERGE_GAP_M", "MERGE_OFFSET_M", "merge_collinear"]
@@ -82,8 +81,7 @@ def merge_collinear(
     i, j = i[ok], j[ok]
     if i.size == 0:
         return list(fits), list(cells)
-    join = coo_matrix((np.ones(i.size), (i, j)), shape=(len(line), len(line)))
-    _, label = connected_components(join, directed=False)
+    _, label = connected_components(len(line), i, j)
     out_fits: list[SurfaceFit] = []
     out_cells: list[SurfaceCells] = []
     groups: dict[int, list[int]] = {}

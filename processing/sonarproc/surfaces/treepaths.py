@@ -1,14 +1,14 @@
 """The longest path of every tree of a spanning forest, side branches split off.
 
-A surface is its tree's longest path, found with two Dijkstra passes from every tree at
-once (from any node to the farthest, ``u``; from ``u`` to the farthest, ``v``; the path
-is where ``d(u) + d(v)`` equals the length). A node off the path hangs on the nearest
-path node of its tree in the plane (on a thick band the tree may run beside the path
-for a long way) and takes that node's arc length. Side branches reaching more than
-``bridge_m`` off the path, whose farthest node is at least ``min_length_m`` from it,
-become trees of their own and go round again (at most :data:`MAX_ROUNDS` rounds). A
-tree whose path ends lie within ``1.5 bridge_m`` of each other, around a path at least
-``4 bridge_m`` long, is closed.
+A surface is its tree's longest path, found with two distance passes along every tree
+at once (from any node to the farthest, ``u``; from ``u`` to the farthest, ``v``; the
+path is where ``d(u) + d(v)`` equals the length; :mod:`~sonarproc.surfaces.graphs`).
+A node off the path hangs on the nearest path node of its tree in the plane (on a thick
+band the tree may run beside the path for a long way) and takes that node's arc length.
+Side branches reaching more than ``bridge_m`` off the path, whose farthest node is at
+least ``min_length_m`` from it, become trees of their own and go round again (at most
+:data:`MAX_ROUNDS` rounds). A tree whose path ends lie within ``1.5 bridge_m`` of each
+other, around a path at least ``4 bridge_m`` long, is closed.
 """
 
 from __future__ import annotations
@@ -18,9 +18,13 @@ from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components, dijkstra
 
+from sonarproc.surfaces.graphs import (
+    ForestTours,
+    connected_components,
+    forest_distances,
+    forest_tours,
+)
 from sonarproc.surfaces.neighbours import nearest_in_run, nearest_within
 from sonarproc.surfaces.runs import bounds_of
 
@@ -83,6 +87,20 @@ def _argmax_per_group(values: FloatArray, order: IntArray, bounds: IntArray) -> 
     return np.asarray(np.maximum.reduceat(at_top, bounds[:-1]), dtype=np.intp)
 
 
+def _along(
+    trees: tuple[ForestTours, FloatArray, IntArray, IntArray], sources: IntArray, n: int
+) -> FloatArray:
+    """Distances along the active nodes' trees from ``sources`` (inf off them).
+
+    ``trees`` is the tours of the active nodes' forest, its edge lengths, the active
+    nodes and the number of each node among them.
+    """
+    tours, weight, act, local = trees
+    d = np.full(n, np.inf)
+    d[act] = forest_distances(tours, weight, local[sources])
+    return d
+
+
 def _near_path(
     pairs: tuple[IntArray, IntArray, FloatArray], path: BoolArray
 ) -> tuple[FloatArray, IntArray]:
@@ -139,7 +157,7 @@ def _far_path(
 
 
 def tree_paths(
-    forest: csr_matrix,
+    forest: tuple[IntArray, IntArray, FloatArray],
     pos: FloatArray,
     labels: IntArray,
     pairs: tuple[IntArray, IntArray, FloatArray],
@@ -149,8 +167,8 @@ def tree_paths(
 
     Parameters
     ----------
-    forest : csr_matrix, shape (N, N)
-        Minimum spanning forest of the nodes (edge weights in m).
+    forest : tuple of ndarray
+        ``i, j, w``: the edges of the nodes' minimum spanning forest and their lengths (m).
     pos : ndarray, shape (N, 2)
         Node positions (m).
     labels : ndarray of intp
@@ -177,8 +195,7 @@ def tree_paths(
         np.concatenate((pairs[1], pairs[0])),
         np.concatenate((pairs[2], pairs[2])),
     )
-    coo = forest.tocoo()
-    ei, ej, ew = coo.row, coo.col, coo.data
+    ei, ej, ew = forest
     active = np.ones(n, dtype=bool)
     for round_ in range(MAX_ROUNDS):
         act = np.flatnonzero(active)
@@ -189,19 +206,24 @@ def tree_paths(
             inside = active[a] & active[b] & (group[a] == group[b])
             both = (a[inside], b[inside], both[2][inside])
         keep = active[ei] & active[ej] & (group[ei] == group[ej])
-        g = csr_matrix((ew[keep], (ei[keep], ej[keep])), shape=(n, n))
         order = act[np.argsort(group[act], kind="stable")]
         sorted_group = group[order]
         starts = np.flatnonzero(np.diff(sorted_group, prepend=-1))
         ids = sorted_group[starts]
         bounds = np.append(starts, order.size).astype(np.intp)
         first = order[bounds[:-1]]
-        d0 = np.asarray(dijkstra(g, directed=False, indices=first, min_only=True))
+        # the active nodes' trees (one per group), numbered among the active nodes
+        local = np.full(n, -1, dtype=np.intp)
+        local[act] = np.arange(act.size)
+        tours = forest_tours(act.size, local[ei[keep]], local[ej[keep]],
+                             labels=np.searchsorted(ids, group[act]))  # fmt: skip
+        trees = (tours, ew[keep], act, local)
+        d0 = _along(trees, first, n)
         u = _argmax_per_group(d0, order, bounds)
-        du = np.asarray(dijkstra(g, directed=False, indices=u, min_only=True))
+        du = _along(trees, u, n)
         du[~active] = np.nan
         v = _argmax_per_group(du, order, bounds)
-        dv = np.asarray(dijkstra(g, directed=False, indices=v, min_only=True))
+        dv = _along(trees, v, n)
         length = np.zeros(next_label + 1)
         length[ids] = du[v]
         tol = 1e-9 * max(1.0, float(np.nanmax(du)) if np.isfinite(du).any() else 1.0)
@@ -218,8 +240,7 @@ def tree_paths(
         if branch.any():
             # branches: components of the forest restricted to branch nodes
             bk = branch[ei] & branch[ej]
-            bg = csr_matrix((ew[bk], (ei[bk], ej[bk])), shape=(n, n))
-            _, blab = connected_components(bg, directed=False)
+            _, blab = connected_components(n, ei[bk], ej[bk])
             far = np.flatnonzero(off & (src < 0))
             if far.size:
                 # a node farther than both bridge_m and min_length_m from the path is in
