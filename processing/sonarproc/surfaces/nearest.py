@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.surfaces.neighbours import nearest_within
 from sonarproc.surfaces.runs import ragged_arange
 
 __all__ = ["BRANCH", "nearest_points"]
@@ -36,6 +37,11 @@ IntArray = npt.NDArray[np.intp]
 
 #: Points per bottom node and nodes per node above.
 BRANCH = 8
+#: Queries with a target within this many target spacings (the median distance of
+#: consecutive targets) are answered by one bucket search, the others by the tree.
+NEAR_STEPS = 4.0
+#: Queries walked down the tree at once.
+QUERY_CHUNK = 4096
 
 
 @dataclass(frozen=True)
@@ -194,30 +200,85 @@ def nearest_points(
     pts = np.asarray(targets, dtype=np.float64).reshape(-1, 2)
     q = np.asarray(queries, dtype=np.float64).reshape(-1, 2)
     bnd = np.asarray([0, pts.shape[0]] if bounds is None else bounds, dtype=np.intp)
+    runs = None if run is None else np.asarray(run, dtype=np.intp).reshape(-1)
     n = q.shape[0]
     dist = np.full(n, np.inf)
     nearest = np.full(n, -1, dtype=np.intp)
     if n == 0 or pts.shape[0] == 0:
         return dist, nearest
+    piece_of = np.repeat(np.arange(bnd.size - 1), np.diff(bnd))
+    # queries near a target: one bucket search, exact for every query it answers (ties
+    # to the lower index, as below), within a few target spacings
+    gap = np.hypot(*np.diff(pts, axis=0).T)[piece_of[1:] == piece_of[:-1]]
+    radius = NEAR_STEPS * float(np.median(gap[gap > 0])) if np.any(gap > 0) else 0.0
+    rest = np.arange(n)
+    if radius > 0:
+        group_q = np.zeros(n, np.intp) if runs is None else runs
+        group_t = np.zeros(pts.shape[0], np.intp) if runs is None else piece_of
+        d, k = nearest_within(
+            np.concatenate((pts, q)),
+            np.arange(pts.shape[0], pts.shape[0] + n),
+            np.arange(pts.shape[0]),
+            np.concatenate((group_t, group_q)),
+            radius,
+        )
+        near = k >= 0
+        dist[near], nearest[near] = d[near], k[near]
+        rest = np.flatnonzero(~near)
+    if rest.size == 0:
+        return dist, nearest
     order = np.arange(pts.shape[0])
+    n_pieces = bnd.size - 1
+    if runs is None and n_pieces > 1:
+        # searched together, the pieces are ordered along a Z-order curve (by their
+        # middle points), so that the levels above one node per piece are compact too
+        mid = pts[np.minimum((bnd[:-1] + bnd[1:]) // 2, pts.shape[0] - 1)]  # empty: any
+        by = np.argsort(_morton(mid), kind="stable")
+        rank = np.empty(n_pieces, dtype=np.intp)
+        rank[by] = np.arange(n_pieces)
+        order = np.lexsort((order, rank[piece_of]))
+        sizes = np.diff(bnd)[by]
+        bnd = np.concatenate(([0], np.cumsum(sizes))).astype(np.intp)
+        piece_of = np.repeat(np.arange(n_pieces), sizes)
     if reorder:
-        piece_of = np.repeat(np.arange(bnd.size - 1), np.diff(bnd))
-        order = np.lexsort((_morton(pts), piece_of))
-        pts = pts[order]
-    levels = _build(pts, bnd, join=run is None)
+        order = order[np.lexsort((_morton(pts[order]), piece_of))]
+    tp = pts[order]
+    levels = _build(tp, bnd, join=runs is None)
+    slack = 1e-9 * (float(np.abs(tp).max()) + float(np.abs(q).max()) + 1.0)
+    # queries in chunks: the frontier arrays stay small (in cache, reused)
+    for c0 in range(0, rest.size, QUERY_CHUNK):
+        sel = rest[c0 : c0 + QUERY_CHUNK]
+        sub = None if runs is None else runs[sel]
+        dist[sel], nearest[sel] = _descend(levels, tp, order, n_pieces, q[sel], sub, slack)
+    return dist, nearest
+
+
+def _descend(
+    levels: list[_Level],
+    pts: FloatArray,
+    order: IntArray,
+    n_pieces: int,
+    q: FloatArray,
+    run: IntArray | None,
+    slack: float,
+) -> tuple[FloatArray, IntArray]:
+    """The tree search of :func:`nearest_points` for the queries ``q`` (module notes).
+
+    ``pts`` are the targets in tree order, ``order`` their indices in the caller's;
+    equally near targets go to the lower of those.
+    """
+    n = q.shape[0]
     top = levels[-1]
     # frontier: (query, node) pairs of the top level, one node per non-empty piece
     if run is None:
         qi = np.repeat(np.arange(n), top.lo.size)
         node = np.tile(np.arange(top.lo.size), n)
     else:
-        node_of_piece = np.full(bnd.size - 1, -1, dtype=np.intp)
+        node_of_piece = np.full(n_pieces, -1, dtype=np.intp)
         node_of_piece[top.piece] = np.arange(top.lo.size)
-        node = node_of_piece[np.asarray(run, dtype=np.intp)]
+        node = node_of_piece[run]
         qi = np.flatnonzero(node >= 0)
         node = node[qi]
-    scale = float(np.abs(pts).max()) + float(np.abs(q).max()) + 1.0
-    slack = 1e-9 * scale  # rounding in the bounds never drops the nearest point
     upper = np.full(n, np.inf)
     tx, ty = pts[:, 0], pts[:, 1]
     for depth in range(len(levels) - 1, -1, -1):
@@ -241,5 +302,4 @@ def nearest_points(
     pick = np.full(n, np.iinfo(np.intp).max, dtype=np.intp)
     np.minimum.at(pick, qi[tie], order[ti[tie]])
     found = np.isfinite(best)
-    dist[found], nearest[found] = np.sqrt(best[found]), pick[found]
-    return dist, nearest
+    return np.where(found, np.sqrt(best), np.inf), np.where(found, pick, -1)

@@ -16,7 +16,6 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.nearest import nearest_points
 from sonarproc.surfaces.runs import ragged_arange
 
 __all__ = ["close_pairs", "nearest_in_run", "nearest_within", "pairs_within"]
@@ -27,6 +26,8 @@ BoolArray = npt.NDArray[np.bool_]
 
 #: Up to this many buckets, the buckets are one dense array (else sorted keys).
 DENSE_BUCKETS = 1 << 22
+#: Candidate pairs tested at once by :func:`pairs_within` (temporaries of a few hundred kB).
+PAIR_CHUNK = 1 << 15
 #: Above this many candidate pairs the nearest-point search goes through a tree of runs
 #: of points (:func:`sonarproc.surfaces.nearest.nearest_points`).
 BRUTE_FORCE_PAIRS = 4_000_000
@@ -260,6 +261,9 @@ def _nearest_by_tree(
     pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
 ) -> tuple[FloatArray, IntArray]:
     """:func:`nearest_in_run` for many points: one tree search, a piece per run."""
+    # here, not at the top: the tree search uses this module's bucket search
+    from sonarproc.surfaces.nearest import nearest_points
+
     # each run's targets by index, so that the lower index among equally near targets
     # (the tree's tie rule) is the lower index into pos
     t_run = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
@@ -336,11 +340,25 @@ def pairs_within(
     reach = ra[ci] + 1e-9 * (side + extent)
     use = np.flatnonzero((count[bucket] > 0) & (gx * gx + gy * gy <= reach * reach))
     ci, bucket = ci[use], bucket[use]
-    which, k = ragged_arange(count[bucket])
-    ai = ci[which]
-    sj = start[bucket][which] + k
-    dx = cx[ai] - xs[sj]
-    dy = cy[ai] - ys[sj]
-    d2 = dx * dx + dy * dy
-    close = np.flatnonzero(d2 <= ra[ai] * ra[ai])
-    return ai[close].astype(np.intp), order[sj[close]].astype(np.intp), d2[close]
+    # the (centre, point) candidates in slices of about PAIR_CHUNK: small temporaries
+    ends = np.cumsum(count[bucket])
+    cuts = np.searchsorted(
+        ends, np.arange(PAIR_CHUNK, int(ends[-1]) if ends.size else 0, PAIR_CHUNK)
+    )
+    got_i, got_j, got_d2 = [], [], []
+    for lo, hi in zip(np.concatenate(([0], cuts)), np.concatenate((cuts, [ci.size])), strict=True):
+        which, k = ragged_arange(count[bucket[lo:hi]])
+        ai = ci[lo:hi][which]
+        sj = start[bucket[lo:hi]][which] + k
+        dx = cx[ai] - xs[sj]
+        dy = cy[ai] - ys[sj]
+        d2 = dx * dx + dy * dy
+        close = np.flatnonzero(d2 <= ra[ai] * ra[ai])
+        got_i.append(ai[close])
+        got_j.append(order[sj[close]])
+        got_d2.append(d2[close])
+    return (
+        np.concatenate(got_i).astype(np.intp),
+        np.concatenate(got_j).astype(np.intp),
+        np.concatenate(got_d2),
+    )

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.pipeline.surfacefit import column_spans
+from sonarproc.surfaces import nearest, neighbours
 from sonarproc.surfaces.feet import feet_on_polyline, feet_on_polylines
 from sonarproc.surfaces.nearest import BRANCH, nearest_points
 from sonarproc.surfaces.neighbours import pairs_within
@@ -149,3 +151,24 @@ def test_column_spans_are_lowest_to_highest_kept_cell(
     top = np.where(m, rows, -1).max(axis=0)[occupied]
     bottom = np.where(m, rows, ny).min(axis=0)[occupied]
     assert np.array_equal(column_spans(m, 0.25), (top - bottom + 1) * 0.25)
+
+
+def test_searches_in_small_slices_give_the_same_answers(monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(4)
+    t = _targets(rng, 1, 500)
+    q = np.concatenate((t[::7] + rng.normal(0, 0.01, (72, 2)), rng.normal(0, 5.0, (60, 2))))
+    r = rng.uniform(0.0, 2.0, q.shape[0])
+    want_pairs = pairs_within(q, t, r)
+    want_near = nearest_points(t, q, bounds=[0, 200, 500])
+    monkeypatch.setattr(neighbours, "PAIR_CHUNK", 7)
+    monkeypatch.setattr(nearest, "QUERY_CHUNK", 5)
+    got_pairs = pairs_within(q, t, r)
+    for g, w in zip(got_pairs, want_pairs, strict=True):
+        assert np.array_equal(g, w)
+    got_near = nearest_points(t, q, bounds=[0, 200, 500])
+    for g, w in zip(got_near, want_near, strict=True):
+        assert np.array_equal(g, w)
+    # the tree alone (no bucket search first) finds the same
+    monkeypatch.setattr(nearest, "NEAR_STEPS", 0.0)
+    for g, w in zip(nearest_points(t, q, bounds=[0, 200, 500]), want_near, strict=True):
+        assert np.array_equal(g, w)
