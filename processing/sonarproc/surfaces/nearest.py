@@ -8,13 +8,17 @@ points, and those into nodes of :data:`BRANCH` nodes, up to one node per piece: 
 whose nodes are runs of consecutive points, each with a bounding box, a chord (its first
 point to its last) and the largest distance of its points from that chord.
 
-The search walks all queries down the tree together, one level at a time. A node's
+Queries with a target within a few target spacings are answered first, all at once, by
+the bucket search of :func:`sonarproc.surfaces.neighbours.nearest_within` (exact for
+every query it answers). The others walk down the tree together, one level at a time, in
+chunks of :data:`QUERY_CHUNK`. Pieces searched together are ordered along a Z-order curve
+first, so that the levels above one node per piece are compact too. A node's
 points are at least ``max(distance to its box, distance to its chord - deviation)`` from
 a query (the chord is what makes a far query cheap: on a smooth polyline the deviation
 is tiny and only the nodes near the foot are kept); its middle point gives an upper bound
 on the nearest distance. Nodes whose lower bound exceeds the query's best upper bound
 are dropped, the rest are opened; at the bottom the remaining points are compared. The
-loops are over tree levels (a handful), never over queries or points.
+loops are over tree levels (a handful) and query chunks, never over queries or points.
 
 The result is exact: squared distances ``dx * dx + dy * dy`` compared, ties to the lower
 target index, the distance their square root.
