@@ -87,9 +87,10 @@ def column_spans(processed: npt.NDArray[np.bool_], cell: float) -> npt.NDArray[n
     """
     m = np.asarray(processed, dtype=bool)
     occupied = m.any(axis=0)
-    rows = np.arange(m.shape[0])[:, None]
-    top = np.where(m, rows, -1).max(axis=0)[occupied]
-    bottom = np.where(m, rows, m.shape[0]).min(axis=0)[occupied]
+    # the first kept cell from the bottom row up and from the top row down (argmax of a
+    # bool map stops at the first True: no integer maps)
+    bottom = m.argmax(axis=0)[occupied]
+    top = m.shape[0] - 1 - m[::-1].argmax(axis=0)[occupied]
     return (top - bottom + 1).astype(np.float64) * cell
 
 

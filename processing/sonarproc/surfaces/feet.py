@@ -2,7 +2,8 @@
 
 The foot of a reading on a surface is where the surface's normal points at the sensor.
 On a straight polyline it is one closed-form projection for any number of points and
-surfaces at once; on a curved one, a k-d tree of its vertices gives the nearest vertex
+surfaces at once; on a curved one, a tree search of its vertices gives the nearest vertex
+(:func:`sonarproc.surfaces.nearest.nearest_points`)
 and the two segments beside it are searched. A foot within half a step of an open end
 counts as the end (the reading saw past the surface's end, not its face).
 """
@@ -11,9 +12,17 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
 
-__all__ = ["feet_on_polyline", "feet_on_segments", "median_steps", "straight_polylines"]
+from sonarproc.surfaces.nearest import nearest_points
+from sonarproc.surfaces.runs import run_cumsum
+
+__all__ = [
+    "feet_on_polyline",
+    "feet_on_polylines",
+    "feet_on_segments",
+    "median_steps",
+    "straight_polylines",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -46,18 +55,53 @@ def feet_on_polyline(
     >>> np.round(d, 6).tolist(), np.round(s, 6).tolist(), inside.tolist()
     ([1.0, 1.0], [0.5, 2.0], [True, False])
     """
-    seg = np.hypot(*np.diff(poly, axis=0).T)
-    s_vert = np.concatenate(([0.0], np.cumsum(seg)))
-    _, k = cKDTree(poly).query(q)
-    k = np.asarray(k, dtype=np.intp)
-    best_d = np.hypot(*(q - poly[k]).T)
-    best_f = poly[k].copy()
+    return feet_on_polylines(q, [poly], np.zeros(q.shape[0], dtype=np.intp), [closed])
+
+
+def feet_on_polylines(
+    q: FloatArray, polys: list[FloatArray], surf: IntArray, closed: list[bool]
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.bool_]]:
+    """:func:`feet_on_polyline` of each ``q[k]`` on ``polys[surf[k]]``, all at once.
+
+    Parameters
+    ----------
+    q : ndarray, shape (N, 2)
+        The points.
+    polys : list of ndarray, shape (K_i, 2)
+        Finely sampled polylines (those used have K_i >= 2).
+    surf : ndarray of int, shape (N,)
+        Which polyline each point is tested against.
+    closed : list of bool
+        Whether each polyline closes on itself.
+
+    Returns
+    -------
+    distance, foot, along, inside : ndarray
+        As :func:`feet_on_polyline` (the same values, to the last bit).
+    """
+    ids = np.unique(surf)
+    parts = [np.asarray(polys[i], dtype=np.float64).reshape(-1, 2) for i in ids]
+    sizes = np.array([p.shape[0] for p in parts], dtype=np.intp)
+    bounds = np.concatenate(([0], np.cumsum(sizes))).astype(np.intp)
+    verts = np.concatenate(parts) if parts else np.zeros((0, 2))
+    piece = np.searchsorted(ids, surf)
+    # segment lengths and arc length at each vertex, each polyline on its own
+    seg_all = np.hypot(*np.diff(verts, axis=0).T)
+    inner = np.ones(seg_all.size, dtype=bool)
+    inner[bounds[1:-1] - 1] = False  # the gaps from one polyline to the next
+    seg = seg_all[inner]
+    seg_bounds = bounds - np.arange(bounds.size)
+    s_vert = np.zeros(verts.shape[0])
+    s_vert[np.flatnonzero(inner) + 1] = run_cumsum(seg, seg_bounds)
+    first, last = bounds[:-1][piece], bounds[1:][piece] - 1
+    _, k = nearest_points(verts, q, bounds=bounds, run=piece)
+    best_d = np.hypot(*(q - verts[k]).T)
+    best_f = verts[k].copy()
     best_s = s_vert[k].copy()
-    last = poly.shape[0] - 1
     for side in (-1, 1):
         j = k + side
-        ok = (j >= 0) & (j <= last)
-        a, b = poly[k[ok]], poly[j[ok]]
+        ok = (j >= first) & (j <= last)
+        a, b = verts[k[ok]], verts[j[ok]]
         ab = b - a
         den = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
         t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / den, 0.0, 1.0)
@@ -68,11 +112,10 @@ def feet_on_polyline(
         best_d[idx] = d[better]
         best_f[idx] = foot[better]
         best_s[idx] = (s_vert[k[ok]] + t * (s_vert[j[ok]] - s_vert[k[ok]]))[better]
-    if closed:
-        inside = np.ones(q.shape[0], dtype=bool)
-    else:
-        step = float(np.median(seg)) if seg.size else 0.0
-        inside = (best_s > 0.5 * step) & (best_s < s_vert[-1] - 0.5 * step)
+    step = median_steps(parts)[piece] if parts else np.zeros(0)
+    is_closed = np.asarray(closed, dtype=bool)[ids][piece]
+    length = s_vert[last]
+    inside = is_closed | ((best_s > 0.5 * step) & (best_s < length - 0.5 * step))
     return best_d, best_f, best_s, inside
 
 

@@ -1,15 +1,16 @@
 """Points near each other in the plane, found through a grid of buckets (no k-d tree).
 
 The extraction needs, for a few ten thousand nodes, every pair closer than the bridging
-distance, and for nodes off a surface's path the nearest node on it. Buckets of side
-``r`` hold the points; a pair closer than ``r`` lies in one bucket or two adjacent ones,
-so only those bucket pairs are compared, all at once. Distances are compared squared
-(``dx * dx + dy * dy <= r * r``), as :class:`scipy.spatial.cKDTree` does, so both find
-the same pairs.
+distance, and for nodes off a surface's path the nearest node on it; the echo search
+needs the readings near each surface. Buckets of side ``r`` hold the points; a pair
+closer than ``r`` lies in one bucket or two adjacent ones, so only those bucket pairs
+are compared, all at once. Distances are compared squared (``dx * dx + dy * dy <= r *
+r``), as :class:`scipy.spatial.cKDTree` does, so both find the same pairs.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -17,7 +18,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.runs import ragged_arange
 
-__all__ = ["close_pairs", "nearest_in_run"]
+__all__ = ["close_pairs", "nearest_in_run", "nearest_within", "pairs_within"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -25,7 +26,10 @@ BoolArray = npt.NDArray[np.bool_]
 
 #: Up to this many buckets, the buckets are one dense array (else sorted keys).
 DENSE_BUCKETS = 1 << 22
-#: Above this many candidate pairs the nearest-point search goes through a k-d tree.
+#: Candidate pairs tested at once by :func:`pairs_within` (temporaries of a few hundred kB).
+PAIR_CHUNK = 1 << 15
+#: Above this many candidate pairs the nearest-point search goes through a tree of runs
+#: of points (:func:`sonarproc.surfaces.nearest.nearest_points`).
 BRUTE_FORCE_PAIRS = 4_000_000
 
 
@@ -203,8 +207,9 @@ def nearest_in_run(
 ) -> tuple[FloatArray, IntArray]:
     """For each query point, the nearest target point of its run (ties: the lower index).
 
-    Beyond :data:`BRUTE_FORCE_PAIRS` query-target pairs, one k-d tree answers instead
-    (its choice among equally near targets).
+    Beyond :data:`BRUTE_FORCE_PAIRS` query-target pairs, a tree search
+    (:func:`~sonarproc.surfaces.nearest.nearest_points`) answers instead, with the
+    same result.
 
     Parameters
     ----------
@@ -255,13 +260,105 @@ def nearest_in_run(
 def _nearest_by_tree(
     pos: FloatArray, queries: IntArray, targets: IntArray, bounds: IntArray, run: IntArray
 ) -> tuple[FloatArray, IntArray]:
-    """:func:`nearest_in_run` for many points: one k-d tree, runs set far apart in a 3rd axis."""
-    from scipy.spatial import cKDTree  # only here: a cold import costs a third of a second
+    """:func:`nearest_in_run` for many points: one tree search, a piece per run."""
+    # here, not at the top: the tree search uses this module's bucket search
+    from sonarproc.surfaces.nearest import nearest_points
 
-    span = float(max(np.ptp(pos[:, 0]), np.ptp(pos[:, 1]))) if pos.size else 0.0
-    apart = 4.0 * span + 1.0
+    # each run's targets by index, so that the lower index among equally near targets
+    # (the tree's tie rule) is the lower index into pos
     t_run = np.repeat(np.arange(bounds.size - 1), np.diff(bounds))
-    t_xyz = np.column_stack((pos[targets], t_run * apart))
-    q_xyz = np.column_stack((pos[queries], run * apart))
-    dist, k = cKDTree(t_xyz).query(q_xyz)
-    return np.asarray(dist, dtype=np.float64), targets[np.asarray(k, dtype=np.intp)]
+    ordered = targets[np.lexsort((targets, t_run))]
+    dist, k = nearest_points(pos[ordered], pos[queries], bounds=bounds, run=run, reorder=True)
+    return dist, ordered[k]
+
+
+def pairs_within(
+    a: FloatArray, b: FloatArray, r: float | FloatArray
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """Every pair ``(i, j)`` with ``b[j]`` at most ``r[i]`` from ``a[i]``.
+
+    Meant for few centres ``a`` (surfaces) and many points ``b`` (readings): ``b`` goes
+    into a grid of buckets about a quarter of the typical radius wide; each centre
+    takes the buckets its disk touches (a ragged block per centre), then the points in
+    them are tested.
+
+    Parameters
+    ----------
+    a, b : ndarray, shape (N, 2) and (M, 2)
+        Centres and points (m).
+    r : float or ndarray, shape (N,)
+        Radius of each centre (m), >= 0.
+
+    Returns
+    -------
+    i, j : ndarray of intp
+        The pairs, by ascending ``i`` (in no particular order within one ``i``).
+    d2 : ndarray of float
+        ``dx * dx + dy * dy`` of each pair.
+
+    Examples
+    --------
+    >>> a = np.array([[0.0, 0.0], [5.0, 5.0]])
+    >>> b = np.array([[0.3, 0.4], [2.0, 0.0], [5.0, 5.5], [0.0, -0.5]])
+    >>> i, j, d2 = pairs_within(a, b, np.array([0.5, 0.1]))
+    >>> o = np.lexsort((j, i))
+    >>> i[o].tolist(), j[o].tolist(), d2[o].round(12).tolist()
+    ([0, 0], [0, 3], [0.25, 0.25])
+    """
+    ra = np.broadcast_to(np.asarray(r, dtype=np.float64), (a.shape[0],))
+    empty = np.zeros(0, dtype=np.intp)
+    if a.shape[0] == 0 or b.shape[0] == 0:
+        return empty, empty, np.zeros(0)
+    low = _low_corner(b)
+    extent = float(max(np.ptp(b[:, 0]), np.ptp(b[:, 1])))
+    # a quarter of the median radius: the buckets a disk touches hold little beyond it;
+    # never more than DENSE_BUCKETS buckets
+    side = max(0.25 * float(np.median(ra)), extent / math.sqrt(DENSE_BUCKETS), 1e-9)
+    bx = np.floor((b[:, 0] - low[0]) / side).astype(np.int64)
+    by = np.floor((b[:, 1] - low[1]) / side).astype(np.int64)
+    cols, rows = int(bx.max()) + 1, int(by.max()) + 1
+    key = bx * rows + by
+    order = np.argsort(key, kind="stable")
+    count = np.bincount(key, minlength=cols * rows)
+    start = np.cumsum(count) - count
+    xs, ys = b[order, 0], b[order, 1]
+    # each centre's block of buckets, clipped to the grid (one bucket of slack for
+    # rounding in the division)
+    cx, cy = a[:, 0], a[:, 1]
+    x0 = np.clip(np.floor((cx - ra - low[0]) / side).astype(np.int64) - 1, 0, cols)
+    x1 = np.clip(np.floor((cx + ra - low[0]) / side).astype(np.int64) + 2, 0, cols)
+    y0 = np.clip(np.floor((cy - ra - low[1]) / side).astype(np.int64) - 1, 0, rows)
+    y1 = np.clip(np.floor((cy + ra - low[1]) / side).astype(np.int64) + 2, 0, rows)
+    h = np.maximum(y1 - y0, 0)
+    ci, k = ragged_arange(np.maximum(x1 - x0, 0) * h)
+    ux = x0[ci] + k // h[ci]
+    uy = y0[ci] + k % h[ci]
+    bucket = ux * rows + uy
+    # buckets with points whose box the disk reaches (the box a hair larger)
+    gx = np.maximum(np.maximum(low[0] + ux * side - cx[ci], cx[ci] - low[0] - (ux + 1) * side), 0.0)
+    gy = np.maximum(np.maximum(low[1] + uy * side - cy[ci], cy[ci] - low[1] - (uy + 1) * side), 0.0)
+    reach = ra[ci] + 1e-9 * (side + extent)
+    use = np.flatnonzero((count[bucket] > 0) & (gx * gx + gy * gy <= reach * reach))
+    ci, bucket = ci[use], bucket[use]
+    # the (centre, point) candidates in slices of about PAIR_CHUNK: small temporaries
+    ends = np.cumsum(count[bucket])
+    cuts = np.searchsorted(
+        ends, np.arange(PAIR_CHUNK, int(ends[-1]) if ends.size else 0, PAIR_CHUNK)
+    )
+    got_i, got_j, got_d2 = [], [], []
+    for lo, hi in zip(np.concatenate(([0], cuts)), np.concatenate((cuts, [ci.size])), strict=True):
+        which, k = ragged_arange(count[bucket[lo:hi]])
+        ai = ci[lo:hi][which]
+        sj = start[bucket[lo:hi]][which] + k
+        dx = cx[ai] - xs[sj]
+        dy = cy[ai] - ys[sj]
+        d2 = dx * dx + dy * dy
+        close = np.flatnonzero(d2 <= ra[ai] * ra[ai])
+        got_i.append(ai[close])
+        got_j.append(order[sj[close]])
+        got_d2.append(d2[close])
+    return (
+        np.concatenate(got_i).astype(np.intp),
+        np.concatenate(got_j).astype(np.intp),
+        np.concatenate(got_d2),
+    )

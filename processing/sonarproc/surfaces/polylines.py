@@ -2,16 +2,16 @@
 
 A set of polylines is an ``(N, 2)`` array whose pieces are separated by rows of NaN (the
 ``/truth/profile`` convention of sonarlog v1.1). Everything here is vectorised; distances
-go through a KD-tree of the polyline vertices and then the exact distance to the two
-segments meeting at the nearest vertex.
+go through a tree search of the polyline vertices (:mod:`sonarproc.surfaces.nearest`) and
+then the exact distance to the two segments meeting at the nearest vertex.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
 
+from sonarproc.surfaces.nearest import nearest_points
 from sonarproc.surfaces.runs import ragged_arange
 
 __all__ = [
@@ -138,11 +138,10 @@ def distance_to_polylines(
     lengths = np.array([len(p) for p in parts])
     first = np.repeat(np.cumsum(lengths) - lengths, lengths)
     last = first + np.repeat(lengths, lengths) - 1
-    tree = cKDTree(verts)
+    bounds = np.concatenate(([0], np.cumsum(lengths)))
     for c0 in range(0, len(q), chunk):
         qq = q[c0 : c0 + chunk]
-        d, k = tree.query(qq)
-        best = np.asarray(d, dtype=np.float64)
+        best, k = nearest_points(verts, qq, bounds=bounds)
         for side in (-1, 1):
             j = k + side
             ok = (j >= first[k]) & (j <= last[k])

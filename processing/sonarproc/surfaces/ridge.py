@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
+
+from sonarproc.surfaces.gridfilters import bilinear_nearest, gaussian_filters
 
 __all__ = ["RIDGE_SIGMA_CELLS", "ridge_directions", "ridge_nms"]
 
@@ -27,8 +28,13 @@ RIDGE_SIGMA_CELLS = 1.0
 #: the direction is that of the wall, not of the single arcs crossing it.
 DIRECTION_SIGMA_CELLS = 2.0
 
+#: Derivative orders (rows, columns) of the Hessian's terms d2/dx2, d2/dy2, d2/dxdy.
+HESSIAN_ORDERS = [(0, 2), (2, 0), (1, 1)]
+
 BoolArray = npt.NDArray[np.bool_]
 FloatArray = npt.NDArray[np.float64]
+FloatingArray = npt.NDArray[np.floating]
+IntArray = npt.NDArray[np.intp]
 
 
 def _crop(mask: BoolArray, margin: int) -> tuple[slice, slice] | None:
@@ -39,6 +45,23 @@ def _crop(mask: BoolArray, margin: int) -> tuple[slice, slice] | None:
     r0, r1 = max(int(rows[0]) - margin, 0), min(int(rows[-1]) + margin + 1, mask.shape[0])
     c0, c1 = max(int(cols[0]) - margin, 0), min(int(cols[-1]) + margin + 1, mask.shape[1])
     return slice(r0, r1), slice(c0, c1)
+
+
+def _smoothed_near(counts: FloatingArray, cells: IntArray, sigma: float) -> FloatingArray:
+    """The smoothed counts, exact at ``cells`` and their eight neighbours.
+
+    The comparisons along the normal read only there: one cell away, bilinearly.
+    """
+    if not sigma > 0:
+        return counts
+    near = np.zeros(counts.shape, dtype=bool)
+    near.ravel()[cells] = True
+    # grown by one cell (a neighbour may lie in the next tile of the filter)
+    near[1:] |= near[:-1].copy()
+    near[:-1] |= near[1:].copy()
+    near[:, 1:] |= near[:, :-1].copy()
+    near[:, :-1] |= near[:, 1:].copy()
+    return gaussian_filters(counts, sigma, [(0, 0)], where=near)[0]
 
 
 def ridge_directions(
@@ -57,9 +80,7 @@ def ridge_directions(
     (1.0, 0.0)
     """
     c = np.asarray(counts, dtype=np.float32)
-    hxx = ndimage.gaussian_filter(c, sigma, order=(0, 2))
-    hyy = ndimage.gaussian_filter(c, sigma, order=(2, 0))
-    hxy = ndimage.gaussian_filter(c, sigma, order=(1, 1))
+    hxx, hyy, hxy = gaussian_filters(c, sigma, HESSIAN_ORDERS)
     # eigenvector of the larger eigenvalue at angle 0.5 atan2(2 hxy, hxx - hyy); the
     # normal is perpendicular to it
     theta = 0.5 * np.arctan2(2.0 * hxy, hxx - hyy) + 0.5 * np.pi
@@ -117,11 +138,9 @@ def ridge_nms(
         return out
     mc = m[box]
     cc = np.asarray(c[box], dtype=np.float32)
-    smooth = ndimage.gaussian_filter(cc, sigma) if sigma > 0 else cc
-    hxx = ndimage.gaussian_filter(cc, direction_sigma, order=(0, 2))
-    hyy = ndimage.gaussian_filter(cc, direction_sigma, order=(2, 0))
-    hxy = ndimage.gaussian_filter(cc, direction_sigma, order=(1, 1))
     flat = np.flatnonzero(mc)
+    # the Hessian only at the kept cells, the smoothed counts only next to the crests
+    hxx, hyy, hxy = gaussian_filters(cc, direction_sigma, HESSIAN_ORDERS, where=mc)
     a, b, d = (h.ravel()[flat].astype(np.float64) for h in (hxx, hxy, hyy))
     root = np.sqrt(0.25 * (a - d) ** 2 + b * b)
     lam_min, lam_max = 0.5 * (a + d) - root, 0.5 * (a + d) + root
@@ -131,10 +150,11 @@ def ridge_nms(
     iy, ix = np.divmod(flat, mc.shape[1])
     theta = 0.5 * np.arctan2(2.0 * b, a - d) + 0.5 * np.pi
     nx, ny = np.cos(theta), np.sin(theta)
+    smooth = _smoothed_near(cc, flat, sigma)
     here = smooth.ravel()[flat]
     fy, fx = iy.astype(np.float64), ix.astype(np.float64)
-    ahead = ndimage.map_coordinates(smooth, [fy + ny, fx + nx], order=1, mode="nearest")
-    behind = ndimage.map_coordinates(smooth, [fy - ny, fx - nx], order=1, mode="nearest")
+    ahead = bilinear_nearest(smooth, fy + ny, fx + nx)
+    behind = bilinear_nearest(smooth, fy - ny, fx - nx)
     crest = (here >= ahead) & (here > behind)
     hits = np.zeros(mc.size, dtype=bool)
     hits[flat[crest]] = True

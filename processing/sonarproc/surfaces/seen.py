@@ -6,12 +6,12 @@ and on the reading's ellipse, ``| |p - tx| + |p - rx| - path | <= 2 tol`` (for a
 own echo: its range circle within ``tol``).
 
 Every point the exact test accepts lies in a ball around the reading's beam sector, so
-candidate (reading, point) pairs come from KD-trees: readings sorted by ball radius are
+candidate (reading, point) pairs come from radius searches
+(:func:`sonarproc.surfaces.neighbours.pairs_within`): readings sorted by ball radius are
 taken in chunks of about the same radius, and each chunk is paired with the truth points
-within its largest radius. Most readings see points that earlier readings already saw
-(a robot passes the same wall again and again), so the truth tree holds only the points
-not seen yet and is rebuilt as they go; a chunk whose balls hold none of them costs one
-tree query. Pairs are tested cheapest first (ball, then ellipse, then both beams), so the
+within its balls. Most readings see points that earlier readings already saw (a robot
+passes the same wall again and again), so the search holds only the points not seen yet,
+refreshed as they go. Pairs are tested cheapest first (ball, then ellipse, then both beams), so the
 arc tangents are taken only for the few pairs on the ellipse. The answer is the same as
 testing every pair: the ball is a strict superset of the exact test, and a point already
 seen cannot be unseen.
@@ -23,7 +23,8 @@ import logging
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
+
+from sonarproc.surfaces.neighbours import pairs_within
 
 __all__ = ["SEEN_TOLERANCE_M", "seen_truth"]
 
@@ -36,7 +37,7 @@ IntArray = npt.NDArray[np.intp]
 SEEN_TOLERANCE_M = 0.02
 #: Candidate (reading, truth point) pairs tested at once: bounds the memory (~100 B a pair).
 PAIRS_PER_CHUNK = 300_000
-#: The truth tree is rebuilt once this fraction of its points has been seen.
+#: The points searched are refreshed once this fraction of them has been seen.
 REBUILD_SEEN_FRACTION = 0.25
 
 
@@ -142,26 +143,20 @@ def seen_truth(
     sorted_radius = radius[order]
     area = max(float(np.ptp(pts[:, 0]) * np.ptp(pts[:, 1])), 1e-6)
     step = _point_step(pts)
-    live: IntArray = np.arange(pts.shape[0])  # the points the truth tree holds
-    tree = cKDTree(pts)
+    live: IntArray = np.arange(pts.shape[0])  # the points still searched
     c0 = chunks = 0
     while c0 < order.size:
         if np.count_nonzero(seen[live]) > REBUILD_SEEN_FRACTION * live.size:
             live = np.flatnonzero(~seen)
             if live.size == 0:
                 break
-            tree = cKDTree(pts[live])
         size = _chunk_size(sorted_radius[c0:], live.size / area, step)
         idx = order[c0 : c0 + size]
         c0 += size
         chunks += 1
-        near = cKDTree(centre[idx]).sparse_distance_matrix(
-            tree, float(radius[idx].max()), output_type="ndarray"
-        )
-        k = idx[near["i"]]
-        j = live[near["j"]]
-        keep = (near["v"] <= radius[k]) & ~seen[j]
-        del near
+        i, jl, _ = pairs_within(centre[idx], pts[live], radius[idx])
+        k, j = idx[i], live[jl]
+        keep = ~seen[j]
         k, j = k[keep], j[keep]
         _mark_hits(seen, pts, j, k, txy, rxy, th, rh, L, tb, rb, tol)
     logger.debug("seen truth: %d of %d points, %d chunks", seen.sum(), seen.size, chunks)

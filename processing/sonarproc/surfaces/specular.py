@@ -17,9 +17,10 @@ the surface's normal points at the sensor. For a surface and a reading:
   readings its search finds (arcs ending near the surface, see below), a lower bound;
   :func:`count_seen_through` tests every reading.
 
-All surfaces are tested at once. Candidate pairs come from radius searches between
-k-d trees of the surfaces' centres and of the readings' arc midpoints (every point of an
-arc lies within its chord's reach of the midpoint), surfaces and readings taken in
+All surfaces are tested at once. Candidate pairs come from radius searches (a grid of
+buckets, :func:`sonarproc.surfaces.neighbours.pairs_within`) between the surfaces'
+centres and the readings' arc midpoints (every point of an arc lies within its chord's
+reach of the midpoint), surfaces and readings taken in
 classes of similar size; cheap range and bearing tests go next; the feet on straight
 surfaces are one closed-form projection for all pairs, those on curved ones a search of
 the polyline per surface (:mod:`sonarproc.surfaces.feet`).
@@ -36,9 +37,14 @@ from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
 
-from sonarproc.surfaces.feet import feet_on_polyline, feet_on_segments, straight_polylines
+from sonarproc.surfaces.feet import (
+    feet_on_polyline,
+    feet_on_polylines,
+    feet_on_segments,
+    straight_polylines,
+)
+from sonarproc.surfaces.neighbours import pairs_within
 
 __all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
@@ -169,13 +175,10 @@ def echo_points(
         d[line], foot[line], along[line], inside[line] = feet_on_segments(
             echoes.xy[read[line]], polys, surf[line]
         )
-    bounds = np.searchsorted(surf, np.arange(m + 1))
-    for i in np.flatnonzero(usable & ~straight):
-        sel = slice(bounds[i], bounds[i + 1])
-        if bounds[i] < bounds[i + 1]:
-            d[sel], foot[sel], along[sel], inside[sel] = feet_on_polyline(
-                echoes.xy[read[sel]], polys[i], bool(closed[i])
-            )
+    if not line.all():
+        d[~line], foot[~line], along[~line], inside[~line] = feet_on_polylines(
+            echoes.xy[read[~line]], polys, surf[~line], list(closed)
+        )
     v = foot - echoes.xy[read]
     off = np.abs(
         (np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[read] + math.pi) % (2 * math.pi) - math.pi
@@ -328,28 +331,24 @@ def _ball_pairs(
 ) -> tuple[IntArray, IntArray]:
     """Pairs (surface k, reading j) with ``|mid_j - c_k| <= h_k + reach_j``.
 
-    Surfaces and readings are split into classes of similar size (powers of two of ``h``
-    and of ``reach``), so that each class pair is one radius search between two KD-trees
-    with a radius close to the pairs' own (one radius for all would take every reading
-    within the largest reach of every small surface).
+    Readings are split into classes of similar reach (powers of two), so that each class
+    is one radius search (:func:`~sonarproc.surfaces.neighbours.pairs_within`) with a
+    radius per surface close to the pairs' own, ``h_k`` plus the class's largest reach
+    (one reach for all would take every reading within the largest reach of every
+    surface).
     """
 
     def classes(v: FloatArray) -> IntArray:
         return np.floor(np.log2(np.maximum(v, 0.125) / 0.125)).astype(np.intp)
 
-    hc, rc = classes(h), classes(reach)
-    by_reach = [np.flatnonzero(rc == b) for b in np.unique(rc)]
-    trees = [cKDTree(mid[rj]) for rj in by_reach]
+    rc = classes(reach)
     ks: list[IntArray] = []
     js: list[IntArray] = []
-    for a in np.unique(hc):
-        sk = np.flatnonzero(hc == a)
-        tree_s = cKDTree(c[sk])
-        for rj, tree_r in zip(by_reach, trees, strict=True):
-            radius = float(h[sk].max() + reach[rj].max())
-            got = tree_s.sparse_distance_matrix(tree_r, radius, output_type="ndarray")
-            kk, jj = sk[got["i"]], rj[got["j"]]
-            keep = got["v"] <= h[kk] + reach[jj]
-            ks.append(kk[keep])
-            js.append(jj[keep])
+    for b in np.unique(rc):
+        rj = np.flatnonzero(rc == b)
+        i, j, d2 = pairs_within(c, mid[rj], h + float(reach[rj].max()))
+        jj = rj[j]
+        keep = np.sqrt(d2) <= h[i] + reach[jj]
+        ks.append(i[keep])
+        js.append(jj[keep])
     return np.concatenate(ks), np.concatenate(js)

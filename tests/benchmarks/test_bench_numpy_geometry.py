@@ -1,0 +1,125 @@
+"""Benchmark: the surface stage's numpy filters and searches against scipy's C.
+
+The surface stage imports no scipy (a cold ``scipy.ndimage`` or ``scipy.spatial`` import
+costs a fifth of a second or more); its own numpy code does the work instead. Each figure
+here is the numpy version's time and its ratio to the scipy call it replaces, measured in
+the same run (best of five), on inputs of the room benchmark's sizes: a 1000 x 1000 count
+map whose sonar arcs (3000 sensors, four walls each) pile up along the walls
+(:func:`sonarproc.surfaces.ridge_nms` against the same ridge through ``scipy.ndimage``;
+the Hessian filters alone on the whole map), the nearest vertex of a wall sampled every
+1 cm for sensors metres away and for points near it (against ``cKDTree.query``), and
+every reading within a ball round each of a thousand surface centres (against
+``cKDTree.sparse_distance_matrix``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from sonarproc.surfaces import ridge_nms
+from sonarproc.surfaces.gridfilters import bilinear_nearest, gaussian_filters
+from sonarproc.surfaces.nearest import nearest_points
+from sonarproc.surfaces.neighbours import pairs_within
+from sonarproc.surfaces.ridge import HESSIAN_ORDERS
+
+
+def _best(fn: Callable[[], object], repeat: int = 5) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _room_counts(rng: np.random.Generator, n: int = 1000) -> np.ndarray:
+    """Arc counts of a square room: each sensor's arcs (+-0.22 rad) tangent to the walls."""
+    sensors = rng.uniform(0.05 * n, 0.95 * n, (3000, 2))
+    # the four walls: range to each, and the direction of its foot
+    ranges = np.concatenate((sensors, n - 1 - sensors), axis=1)  # x0, y0, x1, y1 walls
+    heading = np.array([np.pi, -np.pi / 2, 0.0, np.pi / 2])
+    r = ranges.ravel()
+    centre = np.repeat(sensors, 4, axis=0)
+    h = np.tile(heading, sensors.shape[0])
+    count = np.ceil(0.44 * r).astype(np.intp) + 1  # a point per cell along the arc
+    arc = np.repeat(np.arange(r.size), count)
+    k = np.arange(arc.size) - np.repeat(np.cumsum(count) - count, count)
+    theta = h[arc] - 0.22 + 0.44 * k / np.maximum(count[arc] - 1, 1)
+    x = np.clip(np.rint(centre[arc, 0] + r[arc] * np.cos(theta)), 0, n - 1).astype(np.intp)
+    y = np.clip(np.rint(centre[arc, 1] + r[arc] * np.sin(theta)), 0, n - 1).astype(np.intp)
+    return np.bincount(y * n + x, minlength=n * n).reshape(n, n)
+
+
+def _ridge_scipy(mask: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    cc = counts.astype(np.float32)
+    smooth = ndimage.gaussian_filter(cc, 1.0)
+    hxx, hyy, hxy = (ndimage.gaussian_filter(cc, 2.0, order=o) for o in HESSIAN_ORDERS)
+    flat = np.flatnonzero(mask)
+    a, b, d = (h.ravel()[flat].astype(np.float64) for h in (hxx, hxy, hyy))
+    root = np.sqrt(0.25 * (a - d) ** 2 + b * b)
+    lam_min, lam_max = 0.5 * (a + d) - root, 0.5 * (a + d) + root
+    ridge = np.flatnonzero((lam_min < 0) & (-lam_min > np.abs(lam_max)))
+    flat, a, b, d = flat[ridge], a[ridge], b[ridge], d[ridge]
+    iy, ix = np.divmod(flat, mask.shape[1])
+    theta = 0.5 * np.arctan2(2.0 * b, a - d) + 0.5 * np.pi
+    nx, ny = np.cos(theta), np.sin(theta)
+    here = smooth.ravel()[flat]
+    ahead = ndimage.map_coordinates(smooth, [iy + ny, ix + nx], order=1, mode="nearest")
+    behind = ndimage.map_coordinates(smooth, [iy - ny, ix - nx], order=1, mode="nearest")
+    out = np.zeros(mask.size, dtype=bool)
+    out[flat[(here >= ahead) & (here > behind)]] = True
+    return out.reshape(mask.shape)
+
+
+def _line(label: str, ours: float, theirs: float) -> None:
+    print(f"  {label}: numpy {ours * 1e3:.1f} ms, scipy {theirs * 1e3:.1f} ms, "
+          f"ratio {ours / theirs:.2f}")  # fmt: skip
+
+
+@pytest.mark.benchmark
+def test_bench_numpy_geometry_against_scipy() -> None:
+    rng = np.random.default_rng(0)
+    counts = _room_counts(rng)
+    mask = counts > 0
+    print(f"\nsurface stage without scipy: {mask.mean():.0%} of a 1000 x 1000 map kept")
+    assert np.array_equal(ridge_nms(mask, counts), _ridge_scipy(mask, counts))
+    _line("ridge_nms", _best(lambda: ridge_nms(mask, counts)),
+          _best(lambda: _ridge_scipy(mask, counts)))  # fmt: skip
+    cc = counts.astype(np.float32)
+    _line(
+        "Hessian filters (whole map)",
+        _best(lambda: gaussian_filters(cc, 2.0, HESSIAN_ORDERS)),
+        _best(lambda: [ndimage.gaussian_filter(cc, 2.0, order=o) for o in HESSIAN_ORDERS]),
+    )
+    y, x = rng.uniform(0, 999, (2, 150_000))
+    _line("bilinear sampling, 150 000 points", _best(lambda: bilinear_nearest(cc, y, x)),
+          _best(lambda: ndimage.map_coordinates(cc, [y, x], order=1, mode="nearest")))  # fmt: skip
+    # a wall of 20 m every 1 cm: sensors 0.5-10 m away, and cells near it
+    s = np.linspace(0.0, 20.0, 2001)
+    wall = np.column_stack((s, 0.05 * np.sin(s)))
+    far = np.column_stack((rng.uniform(0, 20, 20_000), rng.uniform(0.5, 10, 20_000)))
+    near = wall[rng.integers(0, 2001, 20_000)] + rng.normal(0, 0.02, (20_000, 2))
+    for label, q in (("sensors metres away", far), ("points near it", near)):
+        assert np.array_equal(nearest_points(wall, q)[1], cKDTree(wall).query(q)[1])
+        _line(f"nearest vertex of a 2001-vertex wall, 20 000 {label}",
+              _best(lambda q=q: nearest_points(wall, q)),
+              _best(lambda q=q: cKDTree(wall).query(q)))  # fmt: skip
+    # a thousand surface centres, 20 000 readings' arc midpoints, balls of 0.5-1.5 m
+    centres = rng.uniform(0, 20, (1000, 2))
+    mids = rng.uniform(0, 20, (20_000, 2))
+    radius = rng.uniform(0.5, 1.5, 1000)
+
+    def kd() -> None:
+        got = cKDTree(centres).sparse_distance_matrix(
+            cKDTree(mids), float(radius.max()), output_type="ndarray"
+        )
+        _ = got["v"] <= radius[got["i"]]
+
+    _line("readings within a ball of each of 1000 surfaces",
+          _best(lambda: pairs_within(centres, mids, radius)), _best(kd))  # fmt: skip
