@@ -32,8 +32,8 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import SMOOTHING_LENGTHS, spline_lambda
-from sonarproc.auto.holdout import hull_excess, make_folds, range_loss
-from sonarproc.auto.score import HULL_CELLS, robust_residual
+from sonarproc.auto.holdout import hull_excess, make_folds, range_loss, subset_beams
+from sonarproc.auto.score import HULL_CELLS, SURFACES_MAX_CELLS, robust_residual
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo
@@ -48,6 +48,9 @@ IntArray = npt.NDArray[np.intp]
 #: Range tolerances (m) of the two rounds: a reading further than this from the path the
 #: profile predicts echoed from something else (another surface, a spurious echo).
 ROUNDS_M = (0.08, 0.03)
+#: The echo points are searched for on at most this many (reading, profile sample) pairs:
+#: a longer log's readings are subsampled (seeded) so that the refit stays a few runs.
+MAX_PAIRS = 5_000_000
 #: A reading whose path changes by less than this per metre along the normal (grazing
 #: geometry, far off the bisector) says too little about the surface's distance.
 MIN_PATH_GAIN = 0.5
@@ -247,6 +250,12 @@ def choose_refit(
         "residual is below the chosen candidate's"
     )
     out = RefitChoice(criterion)
+    if grid.nx * grid.ny > SURFACES_MAX_CELLS:
+        out.reason = (
+            f"not tried: the grid has {grid.nx * grid.ny} cells, more than "
+            f"{SURFACES_MAX_CELLS} (--auto's time budget, as for the surfaces candidate)"
+        )
+        return out
     occupied = np.flatnonzero(map_bins.count > 0)
     if not isinstance(fit, (PolyFit, SplineFit)) or occupied.size < 2:
         out.reason = "no profile y(x) to refit"
@@ -263,8 +272,17 @@ def choose_refit(
                 splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
     fits: dict[float, Fit] = {}
     p = beams.poses
+    samples = int((span[1] - span[0]) / grid.cell) + 1
+    echoing = beams
+    if len(beams.path) * samples > MAX_PAIRS:
+        keep = np.random.default_rng(seed + 3).random(len(beams.path)) < MAX_PAIRS / (
+            len(beams.path) * samples
+        )
+        echoing = subset_beams(beams, keep)
+        # the folds are the readings' own: carry them over to the subset
+        splits = [(train[keep], held) for train, held in splits]
     for length in lengths:
-        whole, rows, points = refit_profile(fit, map_bins, beams, grid, span, length)
+        whole, rows, points = refit_profile(fit, map_bins, echoing, grid, span, length)
         if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
             continue
         hull = _fitted_points(points, map_bins, grid)
