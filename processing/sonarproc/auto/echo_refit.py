@@ -32,7 +32,13 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import SMOOTHING_LENGTHS, spline_lambda
-from sonarproc.auto.holdout import hull_excess, make_folds, range_loss, subset_beams
+from sonarproc.auto.holdout import (
+    curve_path,
+    hull_excess,
+    make_folds,
+    range_loss,
+    subset_beams,
+)
 from sonarproc.auto.score import HULL_CELLS, SURFACES_MAX_CELLS, robust_residual
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
@@ -44,6 +50,7 @@ __all__ = ["ROUNDS_M", "RefitChoice", "choose_refit", "echo_points", "refit_prof
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+BoolArray = npt.NDArray[np.bool_]
 
 #: Range tolerances (m) of the two rounds: a reading further than this from the path the
 #: profile predicts echoed from something else (another surface, a spurious echo).
@@ -130,24 +137,26 @@ def echo_points(
     return rows, foot + shift[:, None] * normal
 
 
+def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, BoolArray]:
+    """The echo points per column, and the map's columns that no echo point falls in."""
+    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
+    inside = (ix >= 0) & (ix < grid.nx)
+    order = np.argsort(ix[inside], kind="stable")
+    echo = bin_stats(ix[inside][order], points[inside][order, 1], grid.centres_x(), presorted=True)
+    return echo, (map_bins.count > 0) & (echo.count == 0)
+
+
 def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray:
     """The points a refit fits: the echo points, and the map's column means elsewhere."""
-    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
-    echoed = np.zeros(map_bins.centres.size, dtype=bool)
-    echoed[ix[(ix >= 0) & (ix < grid.nx)]] = True
-    other = (map_bins.count > 0) & ~echoed
+    _, from_map = _columns(points, map_bins, grid)
     return np.concatenate(
-        (points, np.column_stack((map_bins.centres[other], map_bins.mean[other])))
+        (points, np.column_stack((map_bins.centres[from_map], map_bins.mean[from_map])))
     )
 
 
 def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, length: float) -> Fit:
     """Spline of smoothing ``length`` through the echo points' column means (module notes)."""
-    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
-    inside = (ix >= 0) & (ix < grid.nx)
-    order = np.argsort(ix[inside], kind="stable")
-    echo = bin_stats(ix[inside][order], points[inside][order, 1], grid.centres_x(), presorted=True)
-    from_map = (map_bins.count > 0) & (echo.count == 0)
+    echo, from_map = _columns(points, map_bins, grid)
     mean = np.where(from_map, np.nan_to_num(map_bins.mean), np.nan_to_num(echo.mean))
     count = np.where(from_map, map_bins.count, echo.count).astype(np.float64)
     if not np.any(count > 0):
@@ -163,15 +172,22 @@ def refit_profile(
     grid: Grid,
     span: Span,
     length: float,
+    *,
+    first: tuple[IntArray, FloatArray] | None = None,
 ) -> tuple[Fit, IntArray, FloatArray]:
     """The profile refitted through the readings' echo points, :data:`ROUNDS_M` rounds.
 
-    Returns the new fit and the last round's echoing readings and echo points.
+    ``first``: the first round's echo points on ``fit``, if already found (they do not
+    depend on ``length``). Returns the new fit and the last round's echoing readings and
+    echo points.
     """
     rows = np.zeros(0, np.intp)
     points = np.zeros((0, 2))
-    for tol in ROUNDS_M:
-        rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol)
+    for r, tol in enumerate(ROUNDS_M):
+        if r == 0 and first is not None:
+            rows, points = first
+        else:
+            rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol)
         new = _fit_points(points, map_bins, grid, length)
         if not isinstance(new, (PolyFit, SplineFit)):
             return new, rows, points
@@ -271,7 +287,6 @@ def choose_refit(
             if test.size:
                 splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
     fits: dict[float, Fit] = {}
-    p = beams.poses
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:
@@ -281,8 +296,10 @@ def choose_refit(
         echoing = subset_beams(beams, keep)
         # the folds are the readings' own: carry them over to the subset
         splits = [(train[keep], held) for train, held in splits]
+    # the first round starts from the chosen fit whatever the length: search it once
+    first = echo_points(fit, echoing, span, step=grid.cell, tol=ROUNDS_M[0])
     for length in lengths:
-        whole, rows, points = refit_profile(fit, map_bins, echoing, grid, span, length)
+        whole, rows, points = refit_profile(fit, map_bins, echoing, grid, span, length, first=first)
         if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
             continue
         hull = _fitted_points(points, map_bins, grid)
@@ -296,11 +313,7 @@ def choose_refit(
             if not isinstance(part, (PolyFit, SplineFit)):
                 losses.append(np.full(held.size, cap))
                 continue
-            path, _ = first_echo(
-                p.tx_xy[held], p.tx_heading[held], p.tx_half_beamwidth[held],
-                p.rx_xy[held], p.rx_heading[held], p.rx_half_beamwidth[held],
-                _curve(part, span, grid.cell), beams.readings["echo"][held],
-            )  # fmt: skip
+            path = curve_path(_curve(part, span, grid.cell), beams, held)
             losses.append(range_loss(beams.path[held], path, cap))
         if losses:
             out.residuals[length] = robust_residual(np.concatenate(losses))

@@ -30,6 +30,7 @@ MAX_SAMPLES = 500
 __all__ = [
     "FOLD_SCHEMES",
     "MAX_SAMPLES",
+    "curve_path",
     "firing_folds",
     "hull_excess",
     "make_folds",
@@ -151,7 +152,11 @@ def predicted_path(fit: Fit, beams: Beams, rows: npt.NDArray[np.intp], step: flo
         return np.full(rows.size, np.nan)
     lo, hi = fit.domain
     # at most MAX_SAMPLES points: a long profile is sampled more coarsely
-    curve = fit.sample(max(step, (hi - lo) / MAX_SAMPLES))
+    return curve_path(fit.sample(max(step, (hi - lo) / MAX_SAMPLES)), beams, rows)
+
+
+def curve_path(curve: FloatArray, beams: Beams, rows: npt.NDArray[np.intp]) -> FloatArray:
+    """Path length a sampled curve ``(K, 2)`` predicts for readings ``rows`` (NaN: none)."""
     p = beams.poses
     return first_echo_path(
         p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],
