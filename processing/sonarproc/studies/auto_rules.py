@@ -56,6 +56,7 @@ HELD_ASIDE = (
     "wavy-ring-walk", "auto-sparse-gentle", "auto-bistatic-sinusoid", "auto-linear-sinusoid",
     "auto2-linear-wave", "auto2-sparse-curve", "auto2-bistatic-step",
     "auto3-sparse-tilted", "auto3-ring-wavy", "auto4-pair-tilted-wave", "auto4-ring-curve",
+    "auto5-linear-bump", "auto5-ring-sine", "auto5-sparse-wave",
 )  # fmt: skip
 
 
