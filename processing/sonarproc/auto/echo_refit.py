@@ -12,11 +12,16 @@ by ``n . (u_T + u_R)`` per metre along the normal ``n``, ``u_T`` and ``u_R`` the
 vectors from transmitter and receiver). The echo points lie on the surface whatever the
 profile's bias; only where the profile is wrong in slope do they slide along it.
 
-:func:`refit_profile` fits a smoothing spline to the echo points' column means (the
-map's column means in the columns no reading echoed from: sensors see a surface only
-where its normal points into their beams, and a wave seen from below echoes from its
-troughs; the map still holds its crests, and its span),
-twice, with range tolerances :data:`ROUNDS_M`. Its smoothing length is chosen by the
+:func:`refit_profile` fits a smoothing spline to the echo points' column means, each at
+its points' mean x, twice, with range tolerances :data:`ROUNDS_M`. Between echo points
+the spline interpolates: the map's column means are used only beyond the first and the
+last echo point, to carry the profile to the map's span. (Sensors see a surface only
+where its normal points into their beams, so a wave seen from below echoes from its
+troughs and crests but not its flanks; the map does hold cells on the flanks, but they
+lie where the arcs overlap, centimetres off the wall, and filling the gaps with them
+made the refit worse on every wave tried.) A later round searches only the readings
+that echoed in the round before: its tolerance is narrower and its profile moved by
+less than that. Its smoothing length is chosen by the
 criterion of ``--auto`` itself (:func:`choose_refit`): each length's fit to the echo
 points of the training folds predicts the held-out readings, and the lowest trimmed
 mean range residual wins. The refit replaces the chosen fit only when that residual is
@@ -39,7 +44,7 @@ from sonarproc.auto.holdout import (
     range_loss,
     subset_beams,
 )
-from sonarproc.auto.score import HULL_CELLS, SURFACES_MAX_CELLS, robust_residual
+from sonarproc.auto.score import HULL_CELLS, robust_residual
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo
@@ -72,7 +77,13 @@ def _curve(fit: Profile, span: Span, step: float) -> FloatArray:
 
 
 def echo_points(
-    fit: Profile, beams: Beams, span: Span, *, step: float, tol: float
+    fit: Profile,
+    beams: Beams,
+    span: Span,
+    *,
+    step: float,
+    tol: float,
+    among: IntArray | None = None,
 ) -> tuple[IntArray, FloatArray]:
     """Each reading's echo point on the surface near the profile ``fit`` (module notes).
 
@@ -87,7 +98,10 @@ def echo_points(
     step : float
         Spacing (m) of the profile's samples.
     tol : float
-        Largest range residual (m, half the path) of a reading kept.
+        Largest range residual (m, half the path) of a reading kept, and largest distance
+        of its echo point from the profile.
+    among : ndarray of int, optional
+        Search only these readings (indices into ``beams``); all of them by default.
 
     Returns
     -------
@@ -113,41 +127,49 @@ def echo_points(
     """
     curve = _curve(fit, span, step)
     p = beams.poses
+    ids = np.arange(len(beams.path)) if among is None else among
+    measured = beams.path[ids]
     path, at = first_echo(
-        p.tx_xy, p.tx_heading, p.tx_half_beamwidth, p.rx_xy, p.rx_heading,
-        p.rx_half_beamwidth, curve, beams.readings["echo"],
+        p.tx_xy[ids], p.tx_heading[ids], p.tx_half_beamwidth[ids], p.rx_xy[ids],
+        p.rx_heading[ids], p.rx_half_beamwidth[ids], curve, beams.readings["echo"][ids],
     )  # fmt: skip
-    ok = (at > 0) & (at < curve.shape[0] - 1) & (np.abs(beams.path - path) <= 2.0 * tol)
-    rows = np.flatnonzero(ok)
-    k = at[rows]
+    ok = (at > 0) & (at < curve.shape[0] - 1) & (np.abs(measured - path) <= 2.0 * tol)
+    hit = np.flatnonzero(ok)
+    k = at[hit]
     foot = curve[k]
     tangent = curve[k + 1] - curve[k - 1]
     normal = np.column_stack((-tangent[:, 1], tangent[:, 0]))
     normal /= np.hypot(*normal.T)[:, None]
-    to_tx = foot - p.tx_xy[rows]
-    to_rx = foot - p.rx_xy[rows]
+    to_tx = foot - p.tx_xy[ids[hit]]
+    to_rx = foot - p.rx_xy[ids[hit]]
     gain = np.einsum(
         "ij,ij->i",
         normal,
         to_tx / np.hypot(*to_tx.T)[:, None] + to_rx / np.hypot(*to_rx.T)[:, None],
     )
-    good = np.abs(gain) >= MIN_PATH_GAIN
-    rows, foot, normal, gain = rows[good], foot[good], normal[good], gain[good]
-    shift = (beams.path[rows] - path[rows]) / gain
-    return rows, foot + shift[:, None] * normal
+    shift = (measured[hit] - path[hit]) / np.where(gain == 0.0, np.nan, gain)
+    # a small gain magnifies the path's error: the echo point must lie within the
+    # tolerance of the profile too, not only its path
+    good = (np.abs(gain) >= MIN_PATH_GAIN) & (np.abs(shift) <= tol)
+    hit, foot, normal, shift = hit[good], foot[good], normal[good], shift[good]
+    return ids[hit], foot + shift[:, None] * normal
 
 
 def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, BoolArray]:
-    """The echo points per column, and the map's columns that no echo point falls in."""
+    """The echo points per column, and the map's columns beyond the echo points' ends."""
     ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
     inside = (ix >= 0) & (ix < grid.nx)
     order = np.argsort(ix[inside], kind="stable")
     echo = bin_stats(ix[inside][order], points[inside][order, 1], grid.centres_x(), presorted=True)
-    return echo, (map_bins.count > 0) & (echo.count == 0)
+    beyond = np.ones(grid.nx, dtype=bool)
+    echoed = np.flatnonzero(echo.count > 0)
+    if echoed.size:
+        beyond[echoed[0] : echoed[-1] + 1] = False
+    return echo, (map_bins.count > 0) & beyond
 
 
 def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray:
-    """The points a refit fits: the echo points, and the map's column means elsewhere."""
+    """The points a refit fits: the echo points, and the map's column means beyond them."""
     _, from_map = _columns(points, map_bins, grid)
     return np.concatenate(
         (points, np.column_stack((map_bins.centres[from_map], map_bins.mean[from_map])))
@@ -161,8 +183,14 @@ def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, length: float) -
     count = np.where(from_map, map_bins.count, echo.count).astype(np.float64)
     if not np.any(count > 0):
         return FitFailure("spline", "no echo point and no map point to fit")
+    # an echo column's mean height belongs at its points' mean x, not at the column's
+    # centre: on a slope the difference is the slope times the offset
+    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
+    inside = (ix >= 0) & (ix < grid.nx)
+    sum_x = np.bincount(ix[inside], points[inside, 0], minlength=grid.nx)
+    xs = np.where(echo.count > 0, sum_x / np.maximum(echo.count, 1), echo.centres)
     lam = spline_lambda(length, float(count[count > 0].mean()), grid.cell)
-    return fit_spline(echo.centres, mean, count, lam=lam)
+    return fit_spline(xs, mean, count, lam=lam)
 
 
 def refit_profile(
@@ -187,7 +215,10 @@ def refit_profile(
         if r == 0 and first is not None:
             rows, points = first
         else:
-            rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol)
+            # a later round's tolerance is narrower and its profile moved by less than the
+            # earlier one's: only the readings that echoed then can echo now
+            among = None if r == 0 else rows
+            rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol, among=among)
         new = _fit_points(points, map_bins, grid, length)
         if not isinstance(new, (PolyFit, SplineFit)):
             return new, rows, points
@@ -266,12 +297,6 @@ def choose_refit(
         "residual is below the chosen candidate's"
     )
     out = RefitChoice(criterion)
-    if grid.nx * grid.ny > SURFACES_MAX_CELLS:
-        out.reason = (
-            f"not tried: the grid has {grid.nx * grid.ny} cells, more than "
-            f"{SURFACES_MAX_CELLS} (--auto's time budget, as for the surfaces candidate)"
-        )
-        return out
     occupied = np.flatnonzero(map_bins.count > 0)
     if not isinstance(fit, (PolyFit, SplineFit)) or occupied.size < 2:
         out.reason = "no profile y(x) to refit"

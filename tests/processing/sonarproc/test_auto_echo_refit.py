@@ -96,7 +96,7 @@ def test_refit_recovers_a_wave_a_biased_profile_missed() -> None:
     beams = _bistatic_beams(np.random.default_rng(9), 1500)
     grid = Grid.covering(0.0, 4.0, 0.0, 2.0, cell=0.01)
     # the "map": points 1.5 cm short of the wave, one per column (the sensors below see
-    # the troughs, not the crests: there the map's points stay)
+    # the troughs and the crests, not the flanks: there the spline interpolates)
     cx = grid.centres_x()
     ix = np.arange(cx.size)
     bins = bin_stats(ix, _wave(cx) - 0.015, cx, presorted=True)
@@ -106,11 +106,59 @@ def test_refit_recovers_a_wave_a_biased_profile_missed() -> None:
     x = np.linspace(0.5, 3.5, 301)
     before = np.sqrt(np.mean((start(x) - _wave(x)) ** 2))
     after = np.sqrt(np.mean((fit(x) - _wave(x)) ** 2))
-    assert before > 0.0145 and after < 0.6 * before
+    assert before > 0.0145 and after < 0.75 * before
     xe = pts[:, 0]
-    at_echoes = np.sqrt(np.mean((fit(xe) - _wave(xe)) ** 2))
-    assert at_echoes < 0.25 * before
+    at_echoes = np.median(np.abs(fit(xe) - _wave(xe)))
+    assert at_echoes < 0.1 * before
     assert rows.size > 500 and len(ROUNDS_M) == 2
+
+
+def test_the_map_fills_only_beyond_the_echo_points() -> None:
+    from sonarproc.grid import Grid
+
+    # a flat wall y = 1.2 seen from below by sensors between x = 1 and 3 m
+    rng = np.random.default_rng(4)
+    xs = np.linspace(-1.0, 5.0, 1201)
+    wall = np.column_stack((xs, np.full_like(xs, 1.2)))
+    xy = np.column_stack((rng.uniform(1.0, 3.0, 200), rng.uniform(0.0, 0.4, 200)))
+    beams, _ = beams_facing(xy, np.full(200, np.pi / 2), wall)
+    grid = Grid.covering(0.0, 4.0, 0.0, 2.0, cell=0.01)
+    cx = grid.centres_x()
+    # the map: 5 cm short of the wall where the sensors are, 3 cm beyond it elsewhere
+    among = (cx > 1.0) & (cx < 3.0)
+    bins = bin_stats(np.arange(cx.size), np.where(among, 1.15, 1.23), cx, presorted=True)
+    start = PolyFit(0, np.array([1.18]), (0.0, 4.0))
+    fit, rows, pts = refit_profile(start, bins, beams, grid, (0.0, 4.0), 0.2)
+    assert rows.size > 150 and np.percentile(np.abs(pts[:, 1] - 1.2), 95) < 1e-3
+    lo, hi = pts[:, 0].min(), pts[:, 0].max()
+    # between the echo points the map is not used; beyond them it carries the profile
+    # (a smoothing length from the step between the two)
+    inner = np.linspace(lo + 0.3, hi - 0.3, 200)
+    np.testing.assert_allclose(fit(inner), 1.2, atol=1e-3)
+    np.testing.assert_allclose(fit(np.array([0.2, 0.5, 3.5, 3.8])), 1.23, atol=5e-3)
+
+
+def test_a_column_mean_sits_at_its_points_mean_x() -> None:
+    from sonarproc.grid import Grid
+
+    # a wall sloping at 45 degrees seen along its normal: each echo point is exact, and
+    # a column's points cluster on one side of it; the refit must not be biased by that
+    rng = np.random.default_rng(8)
+    xs = np.linspace(-1.0, 5.0, 1201)
+    wall = np.column_stack((xs, 1.0 + xs))
+    along = rng.uniform(1.0, 3.0, 300)
+    foot = np.column_stack((along, 1.0 + along))
+    normal = np.array([1.0, -1.0]) / np.sqrt(2.0)
+    xy = foot + rng.uniform(0.8, 1.2, 300)[:, None] * normal
+    beams, _ = beams_facing(xy, np.full(300, 3 * np.pi / 4), wall)
+    grid = Grid.covering(0.0, 4.0, 0.0, 6.0, cell=0.01)
+    cx = grid.centres_x()
+    bins = bin_stats(np.arange(cx.size), 1.0 + cx, cx, presorted=True)
+    start = PolyFit(1, np.array([0.99 + 1.0 * 2.0, 2.0]), (0.0, 4.0))  # 1 cm off, same slope
+    fit, rows, _ = refit_profile(start, bins, beams, grid, (0.0, 4.0), 0.2)
+    assert rows.size > 250
+    x = np.linspace(1.2, 2.8, 161)
+    np.testing.assert_allclose(fit(x), 1.0 + x, atol=1e-3)
 
 
 def test_choose_refit_scores_lengths_and_applies_only_a_better_one() -> None:
