@@ -119,10 +119,10 @@ def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) 
             assert all(np.isfinite(v) and v >= 0 for v in s.hull.values())
 
 
-# Where auto stands on small scenarios (E1 by the truth, which auto never sees): the
-# bound is the measured ratio to the best candidate plus a margin; the brief's 1.2x is
-# met on fig06a-like cases, not on every sparse one (see docs/methods.md).
-@pytest.mark.parametrize(("scenario", "max_ratio"), [("wavy-sparse", 2.0), ("fig06a", 1.5)])
+# Where auto stands on small scenarios (E1 by the truth, which auto never sees): within
+# 1.2x of the best candidate (measured 0.64x and 0.37x; not met on every scenario, see
+# docs/methods.md).
+@pytest.mark.parametrize(("scenario", "max_ratio"), [("wavy-sparse", 1.2), ("fig06a", 1.2)])
 def test_auto_against_its_best_candidate(tmp_path: Path, scenario: str, max_ratio: float) -> None:
     path = tmp_path / f"{scenario}.h5"
     simulate_to_log(ROOT / f"configs/scenarios/{scenario}.yaml", path)
