@@ -155,8 +155,9 @@ def echo_points(
     return ids[hit], foot + shift[:, None] * normal
 
 
-def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, BoolArray]:
-    """The echo points per column, and the map's columns beyond the echo points' ends."""
+def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, BoolArray, FloatArray]:
+    """The echo points per column, the map's columns beyond the echo points' ends, and
+    each column's abscissa (its echo points' mean x, else its centre)."""
     ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
     inside = (ix >= 0) & (ix < grid.nx)
     order = np.argsort(ix[inside], kind="stable")
@@ -165,12 +166,16 @@ def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, Bool
     echoed = np.flatnonzero(echo.count > 0)
     if echoed.size:
         beyond[echoed[0] : echoed[-1] + 1] = False
-    return echo, (map_bins.count > 0) & beyond
+    # an echo column's mean height belongs at its points' mean x, not at the column's
+    # centre: on a slope the difference is the slope times the offset
+    sum_x = np.bincount(ix[inside], points[inside, 0], minlength=grid.nx)
+    xs = np.where(echo.count > 0, sum_x / np.maximum(echo.count, 1), echo.centres)
+    return echo, (map_bins.count > 0) & beyond, xs
 
 
 def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray:
     """The points a refit fits: the echo points, and the map's column means beyond them."""
-    _, from_map = _columns(points, map_bins, grid)
+    _, from_map, _ = _columns(points, map_bins, grid)
     return np.concatenate(
         (points, np.column_stack((map_bins.centres[from_map], map_bins.mean[from_map])))
     )
@@ -178,17 +183,11 @@ def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray
 
 def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, length: float) -> Fit:
     """Spline of smoothing ``length`` through the echo points' column means (module notes)."""
-    echo, from_map = _columns(points, map_bins, grid)
+    echo, from_map, xs = _columns(points, map_bins, grid)
     mean = np.where(from_map, np.nan_to_num(map_bins.mean), np.nan_to_num(echo.mean))
     count = np.where(from_map, map_bins.count, echo.count).astype(np.float64)
     if not np.any(count > 0):
         return FitFailure("spline", "no echo point and no map point to fit")
-    # an echo column's mean height belongs at its points' mean x, not at the column's
-    # centre: on a slope the difference is the slope times the offset
-    ix = np.floor((points[:, 0] - grid.x0) / grid.cell).astype(np.intp)
-    inside = (ix >= 0) & (ix < grid.nx)
-    sum_x = np.bincount(ix[inside], points[inside, 0], minlength=grid.nx)
-    xs = np.where(echo.count > 0, sum_x / np.maximum(echo.count, 1), echo.centres)
     lam = spline_lambda(length, float(count[count > 0].mean()), grid.cell)
     return fit_spline(xs, mean, count, lam=lam)
 
