@@ -8,6 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sonarproc.surfaces import dirbins
 from sonarproc.surfaces.batchfit import fit_surface
 from sonarproc.surfaces.echoes import refine_fits
 from sonarproc.surfaces.extract import SurfaceCells
@@ -125,3 +126,36 @@ def test_a_wall_with_a_gap_is_kept_whole() -> None:
     np.testing.assert_allclose(np.sort(ends[:, 0]), [0.0, 1.99], atol=0.12)
     np.testing.assert_allclose(ends[:, 1], 2.0, atol=0.005)
     assert pts[0].size == 50
+
+
+def _brute_normal_pairs(
+    ends: np.ndarray, reach: np.ndarray, g: EchoGeometry
+) -> set[tuple[int, int]]:
+    """The pairs normal_bin_pairs promises: a normal in the beam, its point near the segment."""
+    out = set()
+    for i, (a, b) in enumerate(ends):
+        t = (b - a) / np.hypot(*(b - a))
+        for u in (np.array([-t[1], t[0]]), np.array([t[1], -t[0]])):
+            off = np.abs((math.atan2(u[1], u[0]) - g.heading + math.pi) % (2 * math.pi) - math.pi)
+            p = g.xy + g.range_m[:, None] * u
+            s = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+            gap = np.hypot(*(a + s[:, None] * (b - a) - p).T)
+            out |= {(i, int(j)) for j in np.flatnonzero((off <= g.half_beam) & (gap <= reach[i]))}
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 12), st.booleans())
+def test_normal_bin_pairs_hold_every_promised_pair(seed: int, walls: int, table: bool) -> None:
+    polys, g = _scene(seed, walls, 300)
+    ends = np.stack([p[[0, -1]] for p in polys])
+    reach = np.random.default_rng(seed).uniform(0.0, 1.0, walls)
+    old = dirbins.DENSE_KEYS
+    dirbins.DENSE_KEYS = old if table else 0  # the sorted search instead of the table
+    try:
+        seg, read = dirbins.normal_bin_pairs(ends, reach, g.xy, g.heading, g.half_beam, g.range_m)
+    finally:
+        dirbins.DENSE_KEYS = old
+    got = set(zip(seg.tolist(), read.tolist(), strict=True))
+    assert len(got) == seg.size  # distinct
+    assert _brute_normal_pairs(ends, reach, g) <= got
