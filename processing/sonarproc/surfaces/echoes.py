@@ -32,9 +32,11 @@ After every round a refitted line or open arc is stretched over the ridge cells 
 that round's tolerance of it (the ridge sees the surface further than the perpendiculars
 reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
 its ends in the next round), by at most :data:`MAX_STRETCH_M` at each end. Before the
-first round the pieces of one wall are joined (:mod:`sonarproc.surfaces.merge`); after
-the last, of two surfaces that contradict each other the weaker goes
-(:mod:`sonarproc.surfaces.occlusion`).
+first round the straight pieces that no reading of that round echoes from are dropped
+(:mod:`sonarproc.surfaces.screen`: half the chance ridges of an hour's log, found far
+faster than by that round) and the pieces of one wall are joined
+(:mod:`sonarproc.surfaces.merge`); after the last, of two surfaces that contradict each
+other the weaker goes (:mod:`sonarproc.surfaces.occlusion`).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ from sonarproc.surfaces.merge import merge_collinear
 from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.occlusion import contradicted
 from sonarproc.surfaces.polylines import resample
+from sonarproc.surfaces.screen import screen_fits
 from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
 
 __all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "ROUNDS_M", "refine_fits"]
@@ -125,6 +128,19 @@ def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> Su
     return replace(fit, polyline=poly, length_m=length)
 
 
+def _scored(echoes: EchoGeometry, r: int, rounds: int, min_echoes: int) -> tuple[EchoGeometry, int]:
+    """The readings round ``r`` scores, and the fewest echoes it keeps a surface with.
+
+    Rounds before the last weed out chance ridges (a thousand in an hour's log): a fixed
+    subset of :data:`FIRST_ROUND_READINGS` readings does that at a fraction of the cost.
+    """
+    if r == rounds - 1 or echoes.size <= FIRST_ROUND_READINGS:
+        return echoes, min_echoes
+    frac = FIRST_ROUND_READINGS / echoes.size
+    keep = np.random.default_rng(0).random(echoes.size) < frac
+    return echoes.subset(keep), max(2, math.ceil(min_echoes * frac))
+
+
 def refine_fits(
     fits: list[SurfaceFit],
     cells: list[SurfaceCells],
@@ -156,19 +172,17 @@ def refine_fits(
     fits, cells : list of SurfaceFit, list of SurfaceCells
         The refitted surfaces (longest first) and their echo points as cells.
     """
-    # pieces of one wall cut apart on the ridge share its echoes: join them first
-    cur, ridge = merge_collinear(list(fits), list(cells), cell=cell)
+    # straight pieces no reading of the first round echoes from go at once (most of the
+    # chance ridges); pieces of one wall cut apart on the ridge share its echoes: join them
+    cur, ridge = list(fits), list(cells)
+    if rounds:
+        first, _ = _scored(echoes, 0, len(rounds), min_echoes)
+        cur, ridge = screen_fits(cur, ridge, first, tol=rounds[0])
+    cur, ridge = merge_collinear(cur, ridge, cell=cell)
     pts_cells: list[SurfaceCells] = []
     pts_idx: list[IntArray] = []
     for r, tol in enumerate(rounds):
-        scored, need = echoes, min_echoes
-        # rounds before the last weed out chance ridges (a thousand in an hour's log):
-        # a fixed subset of readings does that at a fraction of the cost
-        if r < len(rounds) - 1 and echoes.size > FIRST_ROUND_READINGS:
-            frac = FIRST_ROUND_READINGS / echoes.size
-            keep = np.random.default_rng(0).random(echoes.size) < frac
-            scored = echoes.subset(keep)
-            need = max(2, math.ceil(min_echoes * frac))
+        scored, need = _scored(echoes, r, len(rounds), min_echoes)
         got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []

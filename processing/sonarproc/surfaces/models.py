@@ -199,9 +199,47 @@ def arc_candidate(cells: SurfaceCells, centre: FloatArray, radius: float, cell: 
     n = max(2, math.ceil(abs(sweep) * r / cell) + 1)
     phi = start + sweep * np.linspace(0.0, 1.0, n)
     poly = np.stack((cx + r * np.cos(phi), cy + r * np.sin(phi)), axis=1)
-    rms = float(np.sqrt(np.mean(distance_to_polylines(np.stack((x, y), 1), [poly]) ** 2)))
+    dist = _arc_distances(np.stack((x, y), 1), poly, cx, cy, start, sweep)
+    rms = float(np.sqrt(np.mean(dist**2)))
     params = {"centre": [cx, cy], "radius": r, "start_rad": start, "sweep_rad": sweep}
     return Candidate("arc", poly, rms, params, closed=cells.closed)
+
+
+def _arc_distances(
+    q: FloatArray, poly: FloatArray, cx: float, cy: float, start: float, sweep: float
+) -> FloatArray:
+    """:func:`distance_to_polylines` of ``q`` to an arc's polyline, its vertices at equal angles.
+
+    The nearest vertex of a circle's polyline is the one nearest in angle, so no search
+    is needed; the distance is then taken to it and its two segments, as there.
+    """
+    n = poly.shape[0]
+    span = abs(sweep)
+    if n < 2 or span <= 0:
+        return distance_to_polylines(q, [poly])
+    ang = np.arctan2(q[:, 1] - cy, q[:, 0] - cx)
+    rel = np.mod((ang - start) if sweep >= 0 else (start - ang), 2 * math.pi)
+    # the two vertices either side of the angle, both ends beyond the arc (or at the
+    # seam of a closed one): the nearest of them, the lower index on ties, as the search
+    low = np.minimum(np.floor(np.minimum(rel, span) / span * (n - 1)), n - 2).astype(np.intp)
+    past = (rel > span) | (low == 0) | (low == n - 2)
+    cand = np.stack((low, low + 1, np.where(past, 0, low), np.where(past, n - 1, low)), axis=1)
+    cand.sort(axis=1)
+    d = q[:, None, :] - poly[cand]
+    dist = np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1])
+    pick = np.argmin(dist, axis=1)
+    rows = np.arange(q.shape[0])
+    k, best = cand[rows, pick], dist[rows, pick]
+    for side in (-1, 1):
+        j = k + side
+        ok = (j >= 0) & (j <= n - 1)
+        a, b = poly[k[ok]], poly[j[ok]]
+        ab = b - a
+        denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / denom, 0.0, 1.0)
+        foot = a + ab * t[:, None]
+        best[ok] = np.minimum(best[ok], np.hypot(*(q[ok] - foot).T))
+    return np.asarray(best, dtype=np.float64)
 
 
 def fit_arc(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:
