@@ -24,14 +24,19 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.arcs import rasterize
 from sonarproc.grid import Grid
 from sonarproc.morphology import vote
 from sonarproc.pipeline.selection import Beams
 from sonarproc.surfaces import (
     EchoGeometry,
+    SurfaceCells,
+    SurfaceFailure,
+    SurfaceFit,
     SurfaceSet,
     decide,
     find_surfaces,
+    fit_surfaces,
     refine_fits,
     ridge_nms,
     seen_truth,
@@ -39,6 +44,8 @@ from sonarproc.surfaces import (
     truth_points,
 )
 from sonarproc.surfaces.coarse import coarse_counts
+from sonarproc.surfaces.echoes import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
+from sonarproc.surfaces.tangents import tangent_lines
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -60,6 +67,21 @@ SURFACE_VOTES = 1
 #: refit through the echo points, not the map, sets their precision, and a coarser map
 #: has far fewer cells to suppress and far fewer chance ridges to fit.
 EXTRACT_CELL_M = 0.02
+#: Logs with at least this many mapped readings find their walls from the readings
+#: themselves first (:func:`_lines_first`): the arc map's chance crossings, and the ridges
+#: they make, grow with the square of the readings per area, the tangent votes linearly.
+LINES_FIRST_READINGS = 20_000
+#: A reading votes for a wall when its tangent lies within this (m) of it.
+TANGENT_TOL_M = 0.05
+#: Fewest readings a wall found from the votes needs (a long log sees a wall many times;
+#: shorter or rarer surfaces are left to the map).
+LINE_MIN_VOTES = 20
+#: The readings the walls leave go to the map only when there are at least this share of
+#: all (fewer are stray echoes: a surface the map could find needs many readings in a
+#: long log, and the map costs as much for a few arcs as for many).
+RESIDUAL_SHARE = 0.001
+#: A wall's echo points further apart than this (m) start a new wall (a doorway).
+BRIDGE_M = 0.30
 
 
 @dataclass(frozen=True)
@@ -131,6 +153,8 @@ def choose_fit(
     )
     if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
         return AutoFit("function", fast, None, spread)
+    if beams is not None and beams.path.size >= LINES_FIRST_READINGS:
+        return _lines_first(counts, grid, beams, spread)
     if beams is not None:
         ex_counts, ex_grid = coarse_counts(counts, grid, EXTRACT_CELL_M)
     else:
@@ -149,13 +173,74 @@ def choose_fit(
     return AutoFit("surfaces", str(criterion), found, detail)
 
 
-def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
-    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
+def _echo_geometry(beams: Beams) -> tuple[EchoGeometry, npt.NDArray[np.intp]]:
+    """The readings as :class:`EchoGeometry`, and the beam row of each of its rows."""
     tp = beams.poses
     echoes = EchoGeometry.from_beams(
         tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
         tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
     )  # fmt: skip
+    ok = (
+        np.isfinite(beams.path)
+        & np.isfinite(tp.tx_xy).all(axis=1)
+        & np.isfinite(tp.rx_xy).all(axis=1)
+    )
+    return echoes, np.flatnonzero(ok)
+
+
+def _lines_first(
+    counts: npt.NDArray[Any], grid: Grid, beams: Beams, spread: dict[str, float]
+) -> AutoFit:
+    """A long log's surfaces: walls from the readings' tangent votes, the rest from the map.
+
+    The walls (:func:`sonarproc.surfaces.tangents.tangent_lines`) explain most readings
+    of a building; the ridge of the arc map is then extracted from the arcs of the
+    readings they leave, and the two refitted together through the echo points.
+    """
+    echoes, rows = _echo_geometry(beams)
+    segs, claimed = tangent_lines(
+        echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
+        min_spread_m=MIN_SPREAD_M,
+    )  # fmt: skip
+    sets = [SurfaceCells(g.points[:, 0], g.points[:, 1], g.along, np.ones(g.along.size), False)
+            for g in segs]  # fmt: skip
+    fitted = fit_surfaces(sets, cell=grid.cell)
+    fits = [f for f in fitted if isinstance(f, SurfaceFit)]
+    cells = [c for c, f in zip(sets, fitted, strict=True) if isinstance(f, SurfaceFit)]
+    failures = [f for f in fitted if isinstance(f, SurfaceFailure)]
+    rest = np.ones(beams.path.size, dtype=bool)
+    rest[rows[claimed]] = False
+    left = int(rest.sum())
+    mapped = left >= max(MIN_ECHOES, RESIDUAL_SHARE * beams.path.size)
+    if mapped:
+        arcs = beams.arcs[rest[beams.arcs.arc]]  # type: ignore[index]
+        ex_counts, ex_grid = coarse_counts(rasterize(arcs, grid), grid, EXTRACT_CELL_M)
+        kept = ridge_nms(vote(ex_counts > 0, ex_counts, SURFACE_VOTES), ex_counts)
+        found = find_surfaces(kept, ex_grid, ex_counts)
+        fits += found.surfaces
+        cells += found.cells
+        failures += found.failures
+    # the walls lie on their readings' echo points already: without the map's ridges (and
+    # their chance ones, and their bias) the screen and the first, wide round are not needed
+    rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
+    refined, refined_cells = refine_fits(
+        fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped
+    )
+    reason = None if refined else "no reading echoes from any surface found"
+    found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
+    criterion = (
+        f"a log of >= {LINES_FIRST_READINGS} readings: walls from the readings' tangent "
+        "votes, the rest from the ridge of the arcs they leave, all refitted through the "
+        "echo points"
+    )
+    detail = {**spread, "surfaces": len(refined), "tangent_lines": len(segs),
+              "readings_left_to_the_map": left}  # fmt: skip
+    return AutoFit("surfaces", criterion, found, detail)
+
+
+def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
+    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
+    echoes, _ = _echo_geometry(beams)
     fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0

@@ -149,6 +149,7 @@ def refine_fits(
     cell: float,
     rounds: tuple[float, ...] = ROUNDS_M,
     min_echoes: int = MIN_ECHOES,
+    screen: bool = True,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
     """Refit surfaces through their readings' echo points (see the module notes).
 
@@ -166,6 +167,9 @@ def refine_fits(
         Range tolerance (m) of each round.
     min_echoes : int
         A surface with fewer echoing readings is dropped.
+    screen : bool
+        Drop the straight pieces no reading echoes from before the rounds (the chance
+        ridges of a map; surfaces found from the readings themselves need no screen).
 
     Returns
     -------
@@ -175,7 +179,7 @@ def refine_fits(
     # straight pieces no reading of the first round echoes from go at once (most of the
     # chance ridges); pieces of one wall cut apart on the ridge share its echoes: join them
     cur, ridge = list(fits), list(cells)
-    if rounds:
+    if rounds and screen:
         first, _ = _scored(echoes, 0, len(rounds), min_echoes)
         cur, ridge = screen_fits(cur, ridge, first, tol=rounds[0])
     cur, ridge = merge_collinear(cur, ridge, cell=cell)

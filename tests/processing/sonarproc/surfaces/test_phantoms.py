@@ -19,6 +19,7 @@ from logbuilders import ring_sensors, ring_walk_readings
 from sonarlog import LogWriter, read_log
 from sonarproc.params import RunParams
 from sonarproc.pipeline import process
+from sonarproc.pipeline import surfacefit as surfacefit_module
 from sonarproc.surfaces import EchoGeometry, count_seen_through, echo_points, refine_fits
 from sonarproc.surfaces import echoes as echoes_module
 from sonarproc.surfaces.batchfit import fit_surface
@@ -128,6 +129,8 @@ def test_a_long_log_scores_the_first_echo_round_on_a_subset(
 ) -> None:
     # 36 000 readings (another seed, not looked at before the subset was written): the
     # first round scores a fifth of them, and finds what scoring all of them finds
+    # (the map's path: a log this long would find its walls from the tangent votes first)
+    monkeypatch.setattr(surfacefit_module, "LINES_FIRST_READINGS", 10**9)
     path = tmp_path / "long.h5"
     _diffuse_room_log(path, n=36_000, seed=11)
     assert echoes_module.FIRST_ROUND_READINGS < 36_000
