@@ -44,7 +44,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines
-from sonarproc.surfaces.polylines import distance_to_polylines, resample
+from sonarproc.surfaces.polylines import distance_to_polylines, resample, to_adjacent_segments
 from sonarproc.surfaces.smoothing import smoothing_spline
 
 __all__ = [
@@ -230,16 +230,8 @@ def _arc_distances(
     pick = np.argmin(dist, axis=1)
     rows = np.arange(q.shape[0])
     k, best = cand[rows, pick], dist[rows, pick]
-    for side in (-1, 1):
-        j = k + side
-        ok = (j >= 0) & (j <= n - 1)
-        a, b = poly[k[ok]], poly[j[ok]]
-        ab = b - a
-        denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-        t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / denom, 0.0, 1.0)
-        foot = a + ab * t[:, None]
-        best[ok] = np.minimum(best[ok], np.hypot(*(q[ok] - foot).T))
-    return np.asarray(best, dtype=np.float64)
+    ends = np.zeros_like(k), np.full_like(k, n - 1)
+    return to_adjacent_segments(q, poly, k, best, *ends)
 
 
 def fit_arc(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:

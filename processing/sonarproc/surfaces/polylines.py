@@ -16,6 +16,7 @@ from sonarproc.surfaces.runs import ragged_arange
 
 __all__ = [
     "distance_to_polylines", "join_polylines", "resample", "resample_segments", "split_polylines",
+    "to_adjacent_segments",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -114,6 +115,32 @@ def resample_segments(start: npt.ArrayLike, end: npt.ArrayLike, step: float) -> 
     return np.split(pts, np.cumsum(count)[:-1])
 
 
+def to_adjacent_segments(
+    q: npt.NDArray[np.float64],
+    verts: npt.NDArray[np.float64],
+    k: npt.NDArray[np.intp],
+    best: npt.NDArray[np.float64],
+    first: npt.NDArray[np.intp],
+    last: npt.NDArray[np.intp],
+) -> npt.NDArray[np.float64]:
+    """``best`` lowered to the distance from each point to the segments either side of vertex ``k``.
+
+    ``first`` and ``last`` bound each point's polyline in ``verts`` (a segment never joins
+    two polylines).
+    """
+    best = np.array(best, dtype=np.float64)
+    for side in (-1, 1):
+        j = k + side
+        ok = (j >= first) & (j <= last)
+        a, b = verts[k[ok]], verts[j[ok]]
+        ab = b - a
+        denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
+        t = np.clip(np.einsum("ij,ij->i", q[ok] - a, ab) / denom, 0.0, 1.0)
+        foot = a + ab * t[:, None]
+        best[ok] = np.minimum(best[ok], np.hypot(*(q[ok] - foot).T))
+    return best
+
+
 def distance_to_polylines(
     points: npt.ArrayLike, polylines: list[FloatArray], *, chunk: int = 200_000
 ) -> FloatArray:
@@ -142,14 +169,5 @@ def distance_to_polylines(
     for c0 in range(0, len(q), chunk):
         qq = q[c0 : c0 + chunk]
         best, k = nearest_points(verts, qq, bounds=bounds)
-        for side in (-1, 1):
-            j = k + side
-            ok = (j >= first[k]) & (j <= last[k])
-            a, b = verts[k[ok]], verts[j[ok]]
-            ab = b - a
-            denom = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
-            t = np.clip(np.einsum("ij,ij->i", qq[ok] - a, ab) / denom, 0.0, 1.0)
-            foot = a + ab * t[:, None]
-            best[ok] = np.minimum(best[ok], np.hypot(*(qq[ok] - foot).T))
-        out[c0 : c0 + chunk] = best
+        out[c0 : c0 + chunk] = to_adjacent_segments(qq, verts, k, best, first[k], last[k])
     return out
