@@ -173,19 +173,13 @@ def choose_fit(
     return AutoFit("surfaces", str(criterion), found, detail)
 
 
-def _echo_geometry(beams: Beams) -> tuple[EchoGeometry, npt.NDArray[np.intp]]:
-    """The readings as :class:`EchoGeometry`, and the beam row of each of its rows."""
+def _echo_geometry(beams: Beams) -> EchoGeometry:
+    """The readings as :class:`EchoGeometry` (its ``rows`` are rows of ``beams``)."""
     tp = beams.poses
-    echoes = EchoGeometry.from_beams(
+    return EchoGeometry.from_beams(
         tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
         tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
     )  # fmt: skip
-    ok = (
-        np.isfinite(beams.path)
-        & np.isfinite(tp.tx_xy).all(axis=1)
-        & np.isfinite(tp.rx_xy).all(axis=1)
-    )
-    return echoes, np.flatnonzero(ok)
 
 
 def _lines_first(
@@ -197,7 +191,8 @@ def _lines_first(
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """
-    echoes, rows = _echo_geometry(beams)
+    echoes = _echo_geometry(beams)
+    assert echoes.rows is not None  # made by from_beams
     segs, claimed = tangent_lines(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
         min_spread_m=MIN_SPREAD_M,
@@ -209,7 +204,7 @@ def _lines_first(
     cells = [c for c, f in zip(sets, fitted, strict=True) if isinstance(f, SurfaceFit)]
     failures = [f for f in fitted if isinstance(f, SurfaceFailure)]
     rest = np.ones(beams.path.size, dtype=bool)
-    rest[rows[claimed]] = False
+    rest[echoes.rows[claimed]] = False
     left = int(rest.sum())
     mapped = left >= max(MIN_ECHOES, RESIDUAL_SHARE * beams.path.size)
     if mapped:
@@ -240,7 +235,7 @@ def _lines_first(
 
 def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
     """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
-    echoes, _ = _echo_geometry(beams)
+    echoes = _echo_geometry(beams)
     fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0

@@ -60,6 +60,9 @@ class EchoGeometry:
     heading: FloatArray
     half_beam: FloatArray
     range_m: FloatArray
+    #: row of each reading in the arrays it was made from (:meth:`from_beams` drops the
+    #: readings without a finite geometry); None when made directly
+    rows: IntArray | None = None
 
     @classmethod
     def from_beams(
@@ -94,7 +97,8 @@ class EchoGeometry:
         tb = np.broadcast_to(np.asarray(tx_half_beamwidth, dtype=np.float64), (n,))
         rb = np.broadcast_to(np.asarray(rx_half_beamwidth, dtype=np.float64), (n,))
         ok = np.isfinite(rng) & np.all(np.isfinite(t), axis=1) & np.all(np.isfinite(r), axis=1)
-        return cls(0.5 * (t + r)[ok], heading[ok], np.minimum(tb, rb)[ok], rng[ok])
+        return cls(0.5 * (t + r)[ok], heading[ok], np.minimum(tb, rb)[ok], rng[ok],
+                   np.flatnonzero(ok))  # fmt: skip
 
     @property
     def size(self) -> int:
@@ -103,8 +107,9 @@ class EchoGeometry:
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> EchoGeometry:
         """The readings where ``keep`` is true."""
+        rows = None if self.rows is None else self.rows[keep]
         return EchoGeometry(self.xy[keep], self.heading[keep], self.half_beam[keep],
-                            self.range_m[keep])  # fmt: skip
+                            self.range_m[keep], rows)  # fmt: skip
 
 
 class SurfaceEchoes(NamedTuple):
