@@ -107,11 +107,15 @@ def write_room_log(path: Path, hours: float, seed: int = 0, *, truth: bool = Tru
     return n
 
 
-def _child(args: list[str], tmp: Path) -> tuple[float, int, str, str]:
+def _child(
+    args: list[str], tmp: Path, env: dict[str, str] | None = None
+) -> tuple[float, int, str, str]:
     """Run ``python args``; return wall seconds, its own peak RSS (bytes), stdout, stderr."""
     t0 = time.perf_counter()
     with (tmp / "stderr.txt").open("w+b") as err:
-        proc = subprocess.Popen([sys.executable, *args], stdout=subprocess.PIPE, stderr=err)
+        proc = subprocess.Popen(
+            [sys.executable, *args], stdout=subprocess.PIPE, stderr=err, env=env
+        )
         try:
             assert proc.stdout is not None
             out = proc.stdout.read()

@@ -157,6 +157,7 @@ def fit_and_measure(
     truth: npt.NDArray[np.float64] | None,
     robot_xy: npt.NDArray[np.float64],
     stage: Stage | None = None,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
 ) -> Evaluation:
     """Fit the cells of ``processed`` and compute the metrics against ``truth``.
 
@@ -177,6 +178,8 @@ def fit_and_measure(
         Robot positions; their mean is a polar fit's default centre.
     stage : callable, optional
         Called with ``"metrics"`` when the fit is done (progress reporting).
+    cells : tuple of ndarray, optional
+        ``np.nonzero(processed.T)``, when the caller has it already.
 
     Returns
     -------
@@ -184,7 +187,7 @@ def fit_and_measure(
     """
     stage = stage or (lambda _name: None)
     raw = evidence > 0
-    ix, iy = np.nonzero(processed.T)
+    ix, iy = np.nonzero(processed.T) if cells is None else cells
     px, py = grid.to_world(iy, ix)
     if params.fit == "polar":
         centre = params.centre or (float(robot_xy[:, 0].mean()), float(robot_xy[:, 1].mean()))

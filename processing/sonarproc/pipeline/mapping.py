@@ -118,10 +118,13 @@ def evaluate_map(
     truth = None if log_.truth is None else np.asarray(log_.truth, dtype=np.float64)
     auto = None
     fit_params = params
+    # the kept cells column by column, for the fit and auto's test of one function of x
+    ix, iy = np.nonzero(mmap.processed.T)
+    cells = (ix, iy)
     if params.fit == "auto":
         from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
-        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams)
+        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
         fit_params = replace(params, fit="poly")
     # The paper's E1 and E2 compare one curve y = f(x) with one true curve y = f(x).
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
@@ -129,7 +132,7 @@ def evaluate_map(
     profile_truth = truth if single else None
     ev = fit_and_measure(
         fit_params, grid, mmap.processed, mmap.evidence, truth=profile_truth,
-        robot_xy=robot_xy, stage=stage,
+        robot_xy=robot_xy, stage=stage, cells=cells,
     )  # fmt: skip
     if auto is not None and auto.surfaces is not None:
         n = len(auto.surfaces.surfaces)

@@ -98,15 +98,32 @@ class AutoFit:
         return {"choice": self.choice, "criterion": self.criterion, **(self.detail or {})}
 
 
-def column_spans(processed: npt.NDArray[np.bool_], cell: float) -> npt.NDArray[np.float64]:
+def column_spans(
+    processed: npt.NDArray[np.bool_],
+    cell: float,
+    *,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+) -> npt.NDArray[np.float64]:
     """For each column with kept cells, the height (m) from its lowest to its highest one.
+
+    ``cells`` may give the kept cells as ``np.nonzero(processed.T)`` (columns, then rows,
+    both ascending), when the caller has them already.
 
     Examples
     --------
     >>> m = np.zeros((6, 4), bool); m[2, :] = True; m[4, 1] = True
     >>> column_spans(m, 0.5).tolist()
     [0.5, 1.5, 0.5, 0.5]
+    >>> column_spans(m, 0.5, cells=np.nonzero(m.T)).tolist()
+    [0.5, 1.5, 0.5, 0.5]
     """
+    if cells is not None:
+        ix, iy = cells
+        if ix.size == 0:
+            return np.zeros(0)
+        first = np.flatnonzero(np.r_[True, ix[1:] != ix[:-1]])
+        last = np.r_[first[1:] - 1, ix.size - 1]
+        return (iy[last] - iy[first] + 1).astype(np.float64) * cell
     m = np.asarray(processed, dtype=bool)
     occupied = m.any(axis=0)
     # the first kept cell from the bottom row up and from the top row down (argmax of a
@@ -121,6 +138,8 @@ def choose_fit(
     counts: npt.NDArray[Any],
     grid: Grid,
     beams: Beams | None = None,
+    *,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
 ) -> AutoFit:
     """Decide between the paper's polynomial and several surfaces (see the module notes).
 
@@ -135,6 +154,8 @@ def choose_fit(
     beams : Beams, optional
         The mapped readings: surfaces are refitted through their echo points (without
         them, the fits to the ridge cells are kept).
+    cells : tuple of ndarray, optional
+        ``np.nonzero(processed.T)``, when the caller has it already.
 
     Returns
     -------
@@ -143,7 +164,7 @@ def choose_fit(
     if not np.any(processed):
         empty = find_surfaces(processed, grid, counts)
         return AutoFit("surfaces", "nothing is left to fit", empty, {"surfaces": 0})
-    spans = column_spans(processed, grid.cell)
+    spans = column_spans(processed, grid.cell, cells=cells)
     median = float(np.median(spans)) if spans.size else 0.0
     p90 = float(np.percentile(spans, 90)) if spans.size else 0.0
     spread = {"median_column_span_m": median, "p90_column_span_m": p90}

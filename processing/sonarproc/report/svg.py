@@ -40,7 +40,8 @@ def _text(
 
 def _points(px: np.ndarray) -> str:
     px = px[np.all(np.isfinite(px), axis=1)]
-    return " ".join(f"{c:.1f},{r:.1f}" for c, r in px)
+    # Python floats format several times faster than numpy scalars
+    return " ".join(f"{c:.1f},{r:.1f}" for c, r in px.tolist())
 
 
 def _line(entry: Line, pts: str, clip: bool = True) -> str:

@@ -42,6 +42,7 @@ from sonarproc.surfaces.feet import (
     feet_on_polyline,
     feet_on_polylines,
     feet_on_segments,
+    median_steps,
     straight_polylines,
 )
 from sonarproc.surfaces.neighbours import pairs_within
@@ -50,6 +51,10 @@ __all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+
+#: Straight surfaces are tested against every reading when surfaces x readings is at most
+#: this (a long log's few walls); more go through the radius search.
+DENSE_PAIRS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -89,11 +94,16 @@ class EchoGeometry:
         r = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
         n = t.shape[0]
         path_m = np.broadcast_to(np.asarray(path, dtype=np.float64), (n,))
-        half_d = 0.5 * np.hypot(*(r - t).T)
-        rng = np.sqrt(np.maximum((0.5 * path_m) ** 2 - half_d**2, 0.0))
         th = np.broadcast_to(np.asarray(tx_heading, dtype=np.float64), (n,))
         rh = np.broadcast_to(np.asarray(rx_heading, dtype=np.float64), (n,))
-        heading = np.arctan2(np.sin(th) + np.sin(rh), np.cos(th) + np.cos(rh))
+        if np.array_equal(t, r) and np.array_equal(th, rh):
+            # every sensor hears its own echo (most logs): half the path, its own heading
+            rng = 0.5 * path_m
+            heading = np.arctan2(np.sin(th), np.cos(th))
+        else:
+            half_d = 0.5 * np.hypot(*(r - t).T)
+            rng = np.sqrt(np.maximum((0.5 * path_m) ** 2 - half_d**2, 0.0))
+            heading = np.arctan2(np.sin(th) + np.sin(rh), np.cos(th) + np.cos(rh))
         tb = np.broadcast_to(np.asarray(tx_half_beamwidth, dtype=np.float64), (n,))
         rb = np.broadcast_to(np.asarray(rx_half_beamwidth, dtype=np.float64), (n,))
         ok = np.isfinite(rng) & np.all(np.isfinite(t), axis=1) & np.all(np.isfinite(r), axis=1)
@@ -169,8 +179,8 @@ def echo_points(
     usable = np.array([p.shape[0] >= 2 for p in polys], dtype=bool)
     if n == 0 or not usable.any():
         return [empty for _ in range(m)]
-    surf, read = _candidate_pairs(polys, usable, echoes, tol)
     straight = straight_polylines(polys, usable)
+    surf, read = _candidate_pairs(polys, usable, echoes, tol, straight)
     d = np.empty(surf.size)
     foot = np.empty((surf.size, 2))
     along = np.empty(surf.size)
@@ -296,7 +306,11 @@ def _feet_on(
 
 
 def _candidate_pairs(
-    polys: list[FloatArray], usable: npt.NDArray[np.bool_], echoes: EchoGeometry, tol: float
+    polys: list[FloatArray],
+    usable: npt.NDArray[np.bool_],
+    echoes: EchoGeometry,
+    tol: float,
+    straight: npt.NDArray[np.bool_],
 ) -> tuple[IntArray, IntArray]:
     """(surface, reading) pairs that may echo, grouped by surface (cheap tests only)."""
     # Every point of a reading's arc band lies within ``reach`` of the arc's midpoint, so
@@ -312,7 +326,24 @@ def _candidate_pairs(
     lo = np.array([polys[i].min(axis=0) for i in idx]).reshape(-1, 2)
     hi = np.array([polys[i].max(axis=0) for i in idx]).reshape(-1, 2)
     c, h = 0.5 * (lo + hi), 0.5 * np.hypot(*(hi - lo).T)
-    k, read = _ball_pairs(c, h, mid, reach)
+    lines = straight[idx]
+    if np.count_nonzero(lines) * echoes.size <= DENSE_PAIRS:
+        # a few straight surfaces (a long log's walls): every pair is tested exactly for a
+        # faced foot in range (far fewer pairs are left than a ball holds), then the ball
+        k_l = np.flatnonzero(lines)
+        s_l, r_l = _straight_pairs([polys[i] for i in idx[k_l]], echoes, tol)
+        k_l = k_l[s_l]
+        d2 = np.einsum("ij,ij->i", mid[r_l] - c[k_l], mid[r_l] - c[k_l])
+        ball = np.sqrt(d2) <= h[k_l] + reach[r_l]
+        k_c, r_c = (
+            _ball_pairs(c[~lines], h[~lines], mid, reach)
+            if not lines.all()
+            else (np.zeros(0, np.intp), np.zeros(0, np.intp))
+        )
+        k = np.concatenate((k_l[ball], np.flatnonzero(~lines)[k_c]))
+        read = np.concatenate((r_l[ball], r_c))
+    else:
+        k, read = _ball_pairs(c, h, mid, reach)
     # The surface lies between |s - c| - h and |s - c| + h from a sensor s and within
     # asin(h / |s - c|) of the direction of c: the foot can only be in range and in the
     # beam if those intervals meet (cheap; most readings of a big room fail it).
@@ -329,6 +360,39 @@ def _candidate_pairs(
     surf, read = idx[k[keep]], read[keep]
     o = np.argsort(surf, kind="stable")
     return surf[o], read[o]
+
+
+def _straight_pairs(
+    polys: list[FloatArray], echoes: EchoGeometry, tol: float
+) -> tuple[IntArray, IntArray]:
+    """(surface, reading) pairs of straight surfaces whose foot is inside, faced, in range.
+
+    Every pair is tested: on a straight surface the foot is the perpendicular foot, and
+    the sensor faces it when its heading is within its half beam of the normal pointing
+    away from it (a sensor on the line itself is kept: its foot has no direction). These
+    are conditions :func:`echo_points` puts on echoing and seeing-through pairs alike.
+    """
+    if not polys:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    a = np.array([p[0] for p in polys])
+    chord = np.array([p[-1] - p[0] for p in polys])
+    length = np.maximum(np.hypot(*chord.T), 1e-300)
+    tangent = chord / length[:, None]
+    half = 0.5 * median_steps(polys)[:, None]
+    rel_x = echoes.xy[None, :, 0] - a[:, None, 0]
+    rel_y = echoes.xy[None, :, 1] - a[:, None, 1]
+    along = rel_x * tangent[:, None, 0] + rel_y * tangent[:, None, 1]
+    # signed distance along the normal (-ty, tx)
+    side = rel_y * tangent[:, None, 0] - rel_x * tangent[:, None, 1]
+    keep = (along > half) & (along < length[:, None] - half)
+    keep &= echoes.range_m[None, :] >= np.abs(side) - tol - 1e-9
+    # the foot lies along -side * normal: the normal's direction, turned by pi if side > 0
+    normal_dir = np.arctan2(tangent[:, 0], -tangent[:, 1])[:, None]
+    foot_dir = normal_dir + np.where(side > 0, math.pi, 0.0)
+    off = np.abs((foot_dir - echoes.heading[None, :] + math.pi) % (2 * math.pi) - math.pi)
+    keep &= (off <= echoes.half_beam[None, :] + 1e-9) | (np.abs(side) < 1e-9)
+    surf, read = np.nonzero(keep)
+    return surf.astype(np.intp), read.astype(np.intp)
 
 
 def _ball_pairs(

@@ -79,52 +79,65 @@ def _votes(
     k = math.ceil(float(echoes.half_beam[active].max()) / STEP_RAD)
     heading = echoes.heading[active]
     half_beam = echoes.half_beam[active]
-    centre = np.rint(heading / STEP_RAD).astype(np.intp)
+    nearest = np.rint(heading / STEP_RAD)
+    centre = nearest.astype(np.intp) % n_phi
     # in polar form about the origin, the sensor's tangent at phi lies at
-    # R cos(phi - beta) + r: one cosine per vote, in single precision (a vote's distance
-    # is binned to centimetres; 2 ** -24 of 100 m is far below)
+    # R cos(phi - beta) + r = a cos(j step) - b sin(j step) + r for phi = (centre + j) step:
+    # two products per vote, no trigonometry
     s = echoes.xy[active] - origin
-    radius = np.hypot(s[:, 0], s[:, 1]).astype(np.float32)
-    start = (centre * STEP_RAD - np.arctan2(s[:, 1], s[:, 0])).astype(np.float32)
-    lead = (centre * STEP_RAD - heading).astype(np.float32)
-    rng = (echoes.range_m[active] / RHO_STEP_M + half_rho).astype(np.float32)
-    scale = np.float32(1.0 / RHO_STEP_M)
+    scale = 1.0 / RHO_STEP_M
+    start = nearest * STEP_RAD - np.arctan2(s[:, 1], s[:, 0])
+    radius = np.hypot(s[:, 0], s[:, 1]) * scale
+    a_cos, b_sin = radius * np.cos(start), radius * np.sin(start)
+    lead = nearest * STEP_RAD - heading
+    # the direction rows run from -k to n_phi + k (folded back below), so that a vote's
+    # flat bin is an integer offset plus its rounded distance: one rint per vote
     width = 2 * half_rho + 1
+    base = (centre + k) * width + echoes.range_m[active] * scale + half_rho
     flats = []
     for j in range(-k, k + 1):
-        inside = np.abs(lead + np.float32(j * STEP_RAD)) <= half_beam
-        rho = radius * np.cos(start + np.float32(j * STEP_RAD)) * scale + rng
-        flats.append(((centre + j) % n_phi * width + np.rint(rho).astype(np.intp))[inside])
-    return np.bincount(np.concatenate(flats), minlength=n_phi * width).reshape(n_phi, width)
-
-
-def _window_max(h: npt.NDArray[np.int64], wp: int, wr: int) -> npt.NDArray[np.int64]:
-    """Maximum over ``(2 wp + 1) x (2 wr + 1)`` bins: directions wrap, distances do not.
-
-    (Shifted maxima: the histogram is small, and scipy.ndimage would cost a tenth of a
-    second to import in a fresh process.)
-    """
-    rows = h.copy()
-    for k in range(1, wp + 1):
-        np.maximum(rows, np.roll(h, k, axis=0), out=rows)
-        np.maximum(rows, np.roll(h, -k, axis=0), out=rows)
-    out = rows.copy()
-    for k in range(1, wr + 1):
-        np.maximum(out[:, k:], rows[:, :-k], out=out[:, k:])
-        np.maximum(out[:, :-k], rows[:, k:], out=out[:, :-k])
+        inside = np.abs(lead + j * STEP_RAD) <= half_beam
+        rho = a_cos * math.cos(j * STEP_RAD) - b_sin * math.sin(j * STEP_RAD) + base
+        flats.append(np.rint(rho[inside]).astype(np.intp) + j * width)
+    rows = n_phi + 2 * k
+    h = np.bincount(np.concatenate(flats), minlength=rows * width).reshape(rows, width)
+    out = h[k : k + n_phi].copy()
+    out[n_phi - k :] += h[:k]
+    out[:k] += h[k + n_phi :]
     return out
 
 
 def _peaks(h: npt.NDArray[np.int64], min_votes: int) -> tuple[IntArray, IntArray]:
-    """Local maxima of ``h`` with at least ``min_votes``, strongest first (at most a round's)."""
-    top = _window_max(h, *PEAK_HALF_WINDOW)
-    pi, ri = np.nonzero((h == top) & (h >= min_votes))
-    order = np.argsort(-h[pi, ri], kind="stable")[:PEAKS_PER_ROUND]
+    """Local maxima of ``h`` with at least ``min_votes``, strongest first (at most a round's).
+
+    A bin is a maximum when no bin within :data:`PEAK_HALF_WINDOW` of it (directions wrap,
+    distances do not) holds more. Only the bins with ``min_votes`` are tested, each
+    against its neighbours: a few thousand of a histogram's hundreds of thousands of bins
+    (and scipy.ndimage would cost a tenth of a second to import in a fresh process).
+    """
+    n_phi, width = h.shape
+    pi, ri = np.nonzero(h >= min_votes)
+    votes = h[pi, ri]
+    wp, wr = PEAK_HALF_WINDOW
+    # nearest neighbours first: most bins fail against one of them, and the failed
+    # ones are dropped before the next test
+    offsets = sorted(
+        ((dp, dr) for dp in range(-wp, wp + 1) for dr in range(-wr, wr + 1) if dp or dr),
+        key=lambda o: (abs(o[0]) + abs(o[1]), o),
+    )
+    for dp, dr in offsets:
+        cols = np.clip(ri + dr, 0, width - 1)  # (beyond the edge there is no bin to beat)
+        keep = votes >= h[(pi + dp) % n_phi, cols]
+        keep |= (ri + dr < 0) | (ri + dr >= width)
+        pi, ri, votes = pi[keep], ri[keep], votes[keep]
+    order = np.argsort(-votes, kind="stable")[:PEAKS_PER_ROUND]
     return pi[order], ri[order]
 
 
 def _facing(heading_sorted: FloatArray, phi: float, reach: float) -> tuple[IntArray, IntArray]:
     """Index ranges (into the heading-sorted readings) of headings within ``reach`` of ``phi``."""
+    if reach >= math.pi:
+        return np.array([0]), np.array([heading_sorted.size])
     lo = (phi - reach) % (2 * math.pi)
     hi = (phi + reach) % (2 * math.pi)
     a = np.searchsorted(heading_sorted, lo)
@@ -215,7 +228,12 @@ def tangent_lines(
             if not segs:
                 continue
             claimed[mine] = True
-            claimed[_crossing(echoes, ~claimed, origin, u, rho, segs, tol, bridge_m)] = True
+            # only a reading looking within a right angle (and its beam) of the normal can
+            # cross the line in its beam
+            starts, stops = _facing(heading_sorted, phi, 0.5 * math.pi + max_half)
+            near = np.concatenate([by_heading[a:b] for a, b in zip(starts, stops, strict=True)])
+            near = near[~claimed[near]]
+            claimed[_crossing(echoes, near, origin, u, rho, segs, tol, bridge_m)] = True
             out.extend(segs)
             found += 1
         if found == 0:
@@ -225,7 +243,7 @@ def tangent_lines(
 
 def _crossing(
     echoes: EchoGeometry,
-    free: npt.NDArray[np.bool_],
+    idx: IntArray,
     origin: FloatArray,
     u: FloatArray,
     rho: float,
@@ -233,12 +251,11 @@ def _crossing(
     tol: float,
     bridge_m: float,
 ) -> IntArray:
-    """The free readings whose arcs cross the line inside their beams, on or next to ``segs``.
+    """The readings ``idx`` whose arcs cross the line inside their beams, on or next to ``segs``.
 
     Such a reading may be a diffuse echo off the wall (it reached the wall there), and is
     no evidence of another surface: it votes no more.
     """
-    idx = np.flatnonzero(free)
     t = np.array([-u[1], u[0]])
     s = echoes.xy[idx] - origin
     d = rho - s @ u
@@ -275,7 +292,7 @@ def _reached(
     ok = np.isfinite(where)
     pos = np.concatenate((where[ok], ends.ravel()))
     seg_mark = np.concatenate((np.zeros(int(ok.sum()), bool), np.ones(ends.size, bool)))
-    order = np.argsort(pos, kind="stable")
+    order = np.argsort(pos)  # (equal positions fall in one cluster whatever their order)
     pos, seg_mark = pos[order], seg_mark[order]
     # positions inside a segment count as joined to it, whatever the gaps
     inner = np.zeros(pos.size, dtype=bool)

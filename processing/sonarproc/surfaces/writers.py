@@ -2,9 +2,9 @@
 
 * ``surfaces.csv``: header ``surface,x,y``; one polyline per surface id, points in order
   along the surface, sampled at the cell size (a closed surface repeats its first point).
-* ``surfaces.geojson``: a FeatureCollection of LineStrings in the log's world frame (m),
-  properties ``surface``, ``model``, ``length_m``, ``rms_m``, ``support`` (and ``arcs``,
-  ``closed``).
+* ``surfaces.geojson``: a FeatureCollection of LineStrings in the log's world frame (m,
+  rounded to the micrometre), properties ``surface``, ``model``, ``length_m``,
+  ``rms_m``, ``support`` (and ``arcs``, ``closed``).
 
 Surface ids are the positions in the list given (longest first from
 :func:`~sonarproc.surfaces.find_surfaces`), the same as in :meth:`SurfaceSet.to_json`.
@@ -39,7 +39,8 @@ def write_surfaces_csv(surfaces: Sequence[SurfaceFit], path: str | Path) -> Path
     p = Path(path)
     lines = ["surface,x,y"]
     for i, s in enumerate(surfaces):
-        lines.extend(f"{i},{x:.6g},{y:.6g}" for x, y in np.asarray(s.polyline).tolist())
+        row = f"{i},%.6g,%.6g".__mod__  # (printf-style formatting of tuples is the fastest)
+        lines.extend(map(row, map(tuple, np.asarray(s.polyline).tolist())))
     p.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return p
 
@@ -62,7 +63,7 @@ def surfaces_geojson(surfaces: Sequence[SurfaceFit]) -> dict[str, Any]:
                 "type": "Feature",
                 "geometry": {
                     "type": "LineString",
-                    "coordinates": [[float(x), float(y)] for x, y in np.asarray(s.polyline)],
+                    "coordinates": np.round(np.asarray(s.polyline, dtype=np.float64), 6).tolist(),
                 },
                 "properties": {
                     "surface": i,
