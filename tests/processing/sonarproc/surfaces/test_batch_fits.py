@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sonarproc.surfaces import specular
 from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
 from sonarproc.surfaces.extract import SurfaceCells
 from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
@@ -237,3 +238,46 @@ def test_degenerate_groups_fail_with_a_reason(n: int) -> None:
     fits = (fit_line(cells, cell=CELL), fit_arc(cells, cell=CELL), fit_surface(cells, cell=CELL))
     for got in fits:
         assert isinstance(got, SurfaceFailure) and got.reason and got.support == n
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_echo_points_straight_pairs_equal_the_radius_search(seed: int) -> None:
+    """Few straight surfaces are tested pair by pair; many go through the radius search.
+
+    Both must give the same echoes and the same seen-through counts (the search's count is
+    a lower bound, and the pair test applies the search's ball and bearing tests too).
+    """
+    rng = np.random.default_rng(seed)
+    polylines: list[np.ndarray] = []
+    for _ in range(int(rng.integers(1, 7))):
+        a, (x0, y0), length = (
+            rng.uniform(-math.pi, math.pi),
+            rng.uniform(-3, 3, 2),
+            rng.uniform(0.2, 5),
+        )
+        ends = np.array([[x0, y0], [x0 + length * math.cos(a), y0 + length * math.sin(a)]])
+        polylines.append(resample(ends, CELL))
+    r = rng.uniform(0.2, 1.5)
+    phi = np.linspace(0.0, rng.uniform(1.0, 6.0), 200)
+    polylines.append(np.c_[r * np.cos(phi), r * np.sin(phi)])  # one curved surface too
+    closed = [False] * len(polylines)
+    n = 400
+    xy = rng.uniform(-5, 5, (n, 2))
+    g = EchoGeometry(xy, rng.uniform(-math.pi, math.pi, n), np.full(n, 0.22),
+                     rng.uniform(0.1, 6.0, n))  # fmt: skip
+    # half the readings at the range of a wall, within a few centimetres
+    p = polylines[0]
+    u = (p[-1] - p[0]) / np.hypot(*(p[-1] - p[0]))
+    d = np.abs((xy - p[0]) @ np.array([-u[1], u[0]]))
+    near = rng.random(n) < 0.5
+    g.range_m[near] = d[near] + rng.normal(0.0, 0.02, int(near.sum()))
+    dense = echo_points(polylines, closed, g, tol=0.05)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(specular, "DENSE_PAIRS", 0)
+        searched = echo_points(polylines, closed, g, tol=0.05)
+    for a, b in zip(dense, searched, strict=True):
+        assert a.readings.tolist() == b.readings.tolist()
+        np.testing.assert_array_equal(a.points, b.points)
+        np.testing.assert_array_equal(a.along, b.along)
+        assert a.seen_through == b.seen_through
