@@ -26,6 +26,12 @@ criterion of ``--auto`` itself (:func:`choose_refit`): each length's fit to the 
 points of the training folds predicts the held-out readings, and the lowest trimmed
 mean range residual wins. The refit replaces the chosen fit only when that residual is
 below the chosen candidate's own.
+
+Each round drops the small clusters of echo points cut off at the ends
+(:func:`main_body`): readings that find an echo point on the map-carried end of the
+profile agree with its bias. The refitted profile is then reported only between its
+outermost echo points (:attr:`RefitChoice.echo_span`; :mod:`sonarproc.auto.select`):
+beyond them the map's bias carries it, centimetres to a decimetre off at a wave's ends.
 """
 
 from __future__ import annotations
@@ -51,7 +57,7 @@ from sonarproc.methods.echo_model import first_echo
 from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["ROUNDS_M", "RefitChoice", "choose_refit", "echo_points", "refit_profile"]
+__all__ = ["ROUNDS_M", "RefitChoice", "choose_refit", "echo_points", "main_body", "refit_profile"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -66,6 +72,12 @@ MAX_PAIRS = 5_000_000
 #: A reading whose path changes by less than this per metre along the normal (grazing
 #: geometry, far off the bisector) says too little about the surface's distance.
 MIN_PATH_GAIN = 0.5
+
+#: A cluster of echo points at an end of the profile, cut from the rest by a gap wider than
+#: this (m) and holding less than :data:`END_SHARE` of them, is dropped (see
+#: :func:`main_body`).
+END_GAP_M = 0.10
+END_SHARE = 0.02
 
 Span = tuple[float, float]
 Profile = PolyFit | SplineFit
@@ -155,6 +167,41 @@ def echo_points(
     return ids[hit], foot + shift[:, None] * normal
 
 
+def main_body(x: FloatArray) -> npt.NDArray[np.bool_]:
+    """Which echo points (by their x) are not in a small cluster cut off at an end.
+
+    Beyond the outermost echo points the profile is carried by the map, with its bias;
+    a few readings (a surface's end, a spurious echo) then find echo points on that
+    biased stretch, consistent with it, a gap away from the rest. Clusters at either end
+    beyond a gap wider than :data:`END_GAP_M` holding less than :data:`END_SHARE` of the
+    points together are dropped, from the outside in.
+
+    Examples
+    --------
+    >>> x = np.r_[0.30, 0.31, np.linspace(0.5, 5.5, 200), 5.9]
+    >>> keep = main_body(x)
+    >>> int(keep.sum()), bool(keep[:2].any()), bool(keep[-1])
+    (200, False, False)
+    """
+    keep = np.ones(x.size, dtype=bool)
+    if x.size < 2:
+        return keep
+    order = np.argsort(x, kind="stable")
+    xs = x[order]
+    cuts = np.flatnonzero(np.diff(xs) > END_GAP_M) + 1
+    limit = END_SHARE * x.size
+    lo, hi = 0, x.size
+    for c in cuts:  # from the left: the points before cut c
+        if c - 0 <= limit:
+            lo = int(c)
+    for c in cuts[::-1]:  # from the right: the points from cut c on
+        if x.size - c <= limit and c > lo:
+            hi = int(c)
+    keep[order[:lo]] = False
+    keep[order[hi:]] = False
+    return keep
+
+
 def _columns(points: FloatArray, map_bins: Bins, grid: Grid) -> tuple[Bins, BoolArray, FloatArray]:
     """The echo points per column, the map's columns beyond the echo points' ends, and
     each column's abscissa (its echo points' mean x, else its centre)."""
@@ -218,6 +265,8 @@ def refit_profile(
             # earlier one's: only the readings that echoed then can echo now
             among = None if r == 0 else rows
             rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol, among=among)
+        body = main_body(points[:, 0])
+        rows, points = rows[body], points[body]
         new = _fit_points(points, map_bins, grid, length)
         if not isinstance(new, (PolyFit, SplineFit)):
             return new, rows, points
@@ -236,6 +285,8 @@ class RefitChoice:
     applied: bool = False
     reason: str = ""
     fit: Fit | None = None
+    #: x (m) of the outermost echo points of the chosen length's refit
+    echo_span: tuple[float, float] | None = None
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready mapping for the ``--auto`` record's ``echo_refit``."""
@@ -246,6 +297,7 @@ class RefitChoice:
             "smoothing_length_m": self.length,
             "applied": self.applied,
             "reason": self.reason,
+            "echo_span_m": None if self.echo_span is None else list(self.echo_span),
         }
 
 
@@ -311,6 +363,7 @@ def choose_refit(
             if test.size:
                 splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
     fits: dict[float, Fit] = {}
+    spans: dict[float, tuple[float, float]] = {}
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:
@@ -342,6 +395,7 @@ def choose_refit(
         if losses:
             out.residuals[length] = robust_residual(np.concatenate(losses))
             fits[length] = whole
+            spans[length] = (float(points[:, 0].min()), float(points[:, 0].max()))
     if not out.residuals:
         out.reason = (
             "every refit leaves its points' hull" if out.excluded
@@ -350,6 +404,7 @@ def choose_refit(
         return out
     best = min(out.residuals, key=lambda k: out.residuals[k])
     out.length = best
+    out.echo_span = spans[best]
     if out.residuals[best] < chosen_residual:
         out.applied, out.fit = True, fits[best]
         out.reason = (

@@ -284,10 +284,21 @@ def _echo_refitted(
     if not refit.applied or refit.fit is None or isinstance(refit.fit, FitFailure):
         return res
     params = replace(r.params, fit="spline", order=None, smooth=getattr(refit.fit, "lam", None))
+    bins = r.bins
+    if refit.echo_span is not None:
+        # The profile is reported where readings echo from it: beyond the outermost echo
+        # points only the map's column means carry it, with the map's bias (centimetres
+        # to a decimetre at a wave's ends), and f_c says how much of the map that leaves.
+        x0, x1 = refit.echo_span
+        half = 0.5 * r.grid.cell
+        outside = (bins.centres < x0 - half) | (bins.centres > x1 + half)
+        bins = replace(bins, count=np.where(outside, 0, bins.count),
+                       mean=np.where(outside, np.nan, bins.mean),
+                       median=np.where(outside, np.nan, bins.median))  # fmt: skip
     metrics = r.metrics
     if r.truth is not None:
         metrics = measure_profile(
-            params, r.grid, r.bins, refit.fit, truth=r.truth,
+            params, r.grid, bins, refit.fit, truth=r.truth,
             raw_columns=np.ones(r.bins.centres.size, dtype=bool),
         )  # fmt: skip
-    return replace(res, run=replace(r, params=params, fit=refit.fit, metrics=metrics))
+    return replace(res, run=replace(r, params=params, fit=refit.fit, metrics=metrics, bins=bins))

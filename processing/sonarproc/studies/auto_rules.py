@@ -57,6 +57,7 @@ HELD_ASIDE = (
     "auto2-linear-wave", "auto2-sparse-curve", "auto2-bistatic-step",
     "auto3-sparse-tilted", "auto3-ring-wavy", "auto4-pair-tilted-wave", "auto4-ring-curve",
     "auto5-linear-bump", "auto5-ring-sine", "auto5-sparse-wave",
+    "auto6-linear-crest", "auto6-bistatic-wave",
 )  # fmt: skip
 
 

@@ -126,7 +126,8 @@ def auto_row(log_: SonarLog, base: RunParams | None = None) -> dict[str, Any]:
     t0 = time.perf_counter()
     res, chosen, choice = run_auto(log_, base)
     wall = time.perf_counter() - t0
-    errors = candidate_errors(log_, base)
+    runs = candidate_runs(log_, base)
+    errors = candidate_errors(log_, base, runs)
     beams, _ = select_beams(log_, base)
     judge = Judge(log_, beams)
     best = min(errors, key=lambda k: errors[k])
@@ -140,11 +141,22 @@ def auto_row(log_: SonarLog, base: RunParams | None = None) -> dict[str, Any]:
         "residual_m": chosen.residual_m,
         "best": best.removesuffix("@0") if best.startswith("surfaces@") else best,
         "best_error_m": errors[best],
+        # the columns each profile is judged on (E1 over its own columns with points)
+        "auto_columns": _judged_columns(res.run),
+        "best_columns": _judged_columns(runs[best]),
         "ratio": auto_e / errors[best] if errors[best] > 0 else np.inf,
         "auto_s": wall,
         "errors": errors,
         "record": choice.to_json(chosen),
     }
+
+
+def _judged_columns(r: RunResult) -> int | None:
+    """The columns a profile's E1 is judged on (those with points); None for surfaces."""
+    if r.surfaces is not None and r.surfaces.surfaces:
+        return None
+    occ = np.flatnonzero(r.bins.occupied)
+    return int(occ[-1] - occ[0] + 1) if occ.size else 0
 
 
 def simulated_scenarios(scenario_dir: Path) -> Iterator[tuple[str, SonarLog]]:

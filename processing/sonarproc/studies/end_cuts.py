@@ -5,9 +5,10 @@ are often held by few cells of one method's map, seen only by oblique beams, and
 there follows them or extrapolates. These rules find, without ground truth, the x-span
 the evidence supports (:class:`EndCut`); :mod:`sonarproc.studies.auto_ends` cuts the
 winner's map to it (:func:`sonarproc.auto.select.evaluate_candidate`) and judges the
-refitted profile by the truth. ``--auto`` does not cut (the study found no rule that
-helps on scenarios it was not made on; see docs/methods.md), so these rules live with
-the study:
+refitted profile by the truth. ``--auto`` does not cut its map (the study found no rule
+that helps on scenarios it was not made on; see docs/methods.md); it reports its echo
+refit between the refit's own outermost echo points instead
+(:mod:`sonarproc.auto.echo_refit`). These rules live with the study:
 
 ``support``
     The columns from the first to the last whose map support (cells per column, a

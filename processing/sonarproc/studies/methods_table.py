@@ -112,11 +112,18 @@ def _cm(v: object) -> str:
     return f"{100 * float(v):.2f}" if np.isfinite(v) else "undefined"
 
 
+def _columns(r: dict[str, object]) -> str:
+    a, b = r.get("auto_columns"), r.get("best_columns")
+    if not isinstance(a, int) or not isinstance(b, int):
+        return "—"
+    return f"{a} / {b}"
+
+
 def render_auto_table(auto: Rows) -> str:
     """Markdown: auto's choice and error against the best candidate's, per scenario."""
     head = (
         "| scenario | readings | error | `--auto` chose | auto (cm) | best candidate | best (cm) "
-        "| ratio | auto wall (s) |"
+        "| ratio | columns judged (auto / best) | auto wall (s) |"
     )
     lines = [
         "**`--auto` against its best candidate (by the truth, which auto never sees: E1 over "
@@ -124,10 +131,11 @@ def render_auto_table(auto: Rows) -> str:
         "fitted curves to the truth, with completeness, for several surfaces). `+ echo L` "
         "says that the chosen profile was refitted through the echo points with that "
         "smoothing length; auto's error is that of the profile it returns, the candidates' "
-        "are without the refit**",
+        "are without the refit; a refitted profile is reported, and judged, between its "
+        "outermost echo points only, so the columns each error is judged on are shown**",
         "",
         head,
-        "|---" * 9 + "|",
+        "|---" * 10 + "|",
     ]
     for scen, recs in auto.items():
         r = recs[0]
@@ -144,7 +152,7 @@ def render_auto_table(auto: Rows) -> str:
         lines.append(
             f"| {scen} | {r['readings']} | {metric} | {chose} | {_cm(r['auto_error_m'])} "
             f"| {r['best']} | {_cm(r['best_error_m'])} "
-            f"| {ratio:.2f} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
+            f"| {ratio:.2f} | {_columns(r)} | {float(r['auto_s']):.1f} |"  # type: ignore[arg-type]
         )
     return "\n".join(lines) + "\n"
 

@@ -9,7 +9,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.auto import run_auto
-from sonarproc.auto.echo_refit import ROUNDS_M, choose_refit, echo_points, refit_profile
+from sonarproc.auto.echo_refit import (
+    END_GAP_M,
+    END_SHARE,
+    ROUNDS_M,
+    choose_refit,
+    echo_points,
+    main_body,
+    refit_profile,
+)
 from sonarproc.fit import PolyFit, fit_polynomial
 from sonarproc.methods.echo_model import first_echo_path
 from sonarproc.methods.testing import beams_facing
@@ -195,6 +203,47 @@ def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path)
     # E1 is that of the profile returned, on the judged columns
     x = r.bins.centres[r.bins.occupied]
     assert r.metrics.E1_m is not None and np.isfinite(r.fit(x)).all()
+    if rec["applied"]:
+        # reported only between the outermost echo points (the map carries it beyond)
+        x0, x1 = rec["echo_span_m"]
+        assert x.min() >= x0 - r.grid.cell and x.max() <= x1 + r.grid.cell
+        assert x.size < int(res.run.bins.centres.size)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    body=st.lists(st.floats(0.0, 5.0), min_size=1, max_size=300),
+    left=st.lists(st.floats(0.0, 0.3), max_size=12),
+    right=st.lists(st.floats(0.0, 0.3), max_size=12),
+    gap=st.floats(0.0, 0.5),
+)
+def test_main_body_drops_only_small_end_clusters_beyond_a_gap(
+    body: list[float], left: list[float], right: list[float], gap: float
+) -> None:
+    b = np.array(body)
+    x = np.concatenate((b.min() - gap - np.array(left), b, b.max() + gap + np.array(right)))
+    keep = main_body(x)
+    n, limit = x.size, END_SHARE * x.size
+    # what goes is at the ends: every kept point lies between the dropped ones
+    if (~keep).any() and keep.any():
+        lo, hi = x[keep].min(), x[keep].max()
+        assert np.all((x[~keep] < lo) | (x[~keep] > hi))
+        # each end's dropped points are few, and cut off by a gap
+        for side in (x[~keep] < lo, x[~keep] > hi):
+            assert side.sum() <= limit
+        dropped_left = x[~keep][x[~keep] < lo]
+        if dropped_left.size:
+            assert lo - dropped_left.max() > END_GAP_M
+        dropped_right = x[~keep][x[~keep] > hi]
+        if dropped_right.size:
+            assert dropped_right.min() - hi > END_GAP_M
+    # a body with no gap inside loses its small end clusters exactly when they are cut off
+    spread = np.diff(np.sort(b))
+    if b.size >= 2 and (spread.size == 0 or spread.max() <= END_GAP_M) and n > 0:
+        clusters = [c for c in (left, right) if c]
+        if gap > END_GAP_M + 0.3 and all(len(c) <= limit for c in clusters):
+            assert keep.sum() == b.size
+    assert keep.sum() >= 1
 
 
 def test_the_record_shows_the_refit_in_the_terminal_and_the_page() -> None:

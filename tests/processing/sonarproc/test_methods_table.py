@@ -61,19 +61,22 @@ def test_render_auto_table() -> None:
     row = {
         "choice": "dirmax/spline@0.1", "metric": "E1_m", "auto_error_m": 0.0036,
         "auto_completeness": None, "best": "dirmax/spline@0.1", "best_error_m": 0.0036,
-        "ratio": 1.0, "auto_s": 1.84, "readings": 10794,
+        "ratio": 1.0, "auto_s": 1.84, "readings": 10794, "auto_columns": 580,
+        "best_columns": 601,
     }  # fmt: skip
     room = {
-        **row, "choice": "surfaces", "metric": "precision_m", "auto_error_m": 0.0672,
+        **row, "auto_columns": None, "best_columns": None, "choice": "surfaces",
+        "metric": "precision_m", "auto_error_m": 0.0672,
         "auto_completeness": 0.933, "best": "surfaces", "best_error_m": 0.0672, "readings": 3216,
     }  # fmt: skip
     fig13 = {**row, "auto_error_m": float("inf"), "ratio": float("inf"), "readings": 47}
     text = render_auto_table({"wavy-bistatic": [row], "room-box": [room], "fig13": [fig13]})
     want = (
         "| wavy-bistatic | 10794 | E1 | dirmax/spline@0.1 | 0.36 | dirmax/spline@0.1 | 0.36 "
-        "| 1.00 | 1.8 |"
+        "| 1.00 | 580 / 601 | 1.8 |"
     )
     assert want in text and text.count("\n|") == 5
+    assert "| 1.00 | — | 1.8 |" in text  # several surfaces: no columns
     assert "| room-box | 3216 | precision (auto complete 0.93) | surfaces | 6.72 |" in text
     assert "| fig13 | 47 | E1 | dirmax/spline@0.1 | undefined |" in text
 
