@@ -190,13 +190,11 @@ def main_body(x: FloatArray) -> npt.NDArray[np.bool_]:
     xs = x[order]
     cuts = np.flatnonzero(np.diff(xs) > END_GAP_M) + 1
     limit = END_SHARE * x.size
-    lo, hi = 0, x.size
-    for c in cuts:  # from the left: the points before cut c
-        if c - 0 <= limit:
-            lo = int(c)
-    for c in cuts[::-1]:  # from the right: the points from cut c on
-        if x.size - c <= limit and c > lo:
-            hi = int(c)
+    # the outermost cut on each side that leaves few enough points beyond it
+    left = cuts[cuts <= limit]
+    lo = int(left[-1]) if left.size else 0
+    right = cuts[(x.size - cuts <= limit) & (cuts > lo)]
+    hi = int(right[0]) if right.size else x.size
     keep[order[:lo]] = False
     keep[order[hi:]] = False
     return keep

@@ -288,7 +288,7 @@ def _echo_refitted(
     if refit.echo_span is not None:
         # The profile is reported where readings echo from it: beyond the outermost echo
         # points only the map's column means carry it, with the map's bias (centimetres
-        # to a decimetre at a wave's ends), and f_c says how much of the map that leaves.
+        # to a decimetre at a wave's ends); with a truth, f_c says how much that leaves.
         x0, x1 = refit.echo_span
         half = 0.5 * r.grid.cell
         outside = (bins.centres < x0 - half) | (bins.centres > x1 + half)

@@ -333,8 +333,8 @@ def _candidate_pairs(
         k_l = np.flatnonzero(lines)
         s_l, r_l = _straight_pairs([polys[i] for i in idx[k_l]], echoes, tol)
         k_l = k_l[s_l]
-        d2 = np.einsum("ij,ij->i", mid[r_l] - c[k_l], mid[r_l] - c[k_l])
-        ball = np.sqrt(d2) <= h[k_l] + reach[r_l]
+        gap = mid[r_l] - c[k_l]
+        ball = np.sqrt(np.einsum("ij,ij->i", gap, gap)) <= h[k_l] + reach[r_l]
         k_c, r_c = (
             _ball_pairs(c[~lines], h[~lines], mid, reach)
             if not lines.all()

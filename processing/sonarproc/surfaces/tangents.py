@@ -45,6 +45,17 @@ STEP_RAD = math.radians(1.0)
 RHO_STEP_M = 0.05
 #: A peak is a maximum over this many bins each way (direction, distance).
 PEAK_HALF_WINDOW = (2, 2)
+#: The neighbours a peak is tested against, nearest first: most bins fail against one of
+#: them, and the failed ones are dropped before the next test.
+_PEAK_OFFSETS = sorted(
+    (
+        (dp, dr)
+        for dp in range(-PEAK_HALF_WINDOW[0], PEAK_HALF_WINDOW[0] + 1)
+        for dr in range(-PEAK_HALF_WINDOW[1], PEAK_HALF_WINDOW[1] + 1)
+        if dp or dr
+    ),
+    key=lambda o: (abs(o[0]) + abs(o[1]), o),
+)
 #: Most peaks tested in one round, strongest first.
 PEAKS_PER_ROUND = 64
 #: Most rounds.
@@ -118,14 +129,7 @@ def _peaks(h: npt.NDArray[np.int64], min_votes: int) -> tuple[IntArray, IntArray
     n_phi, width = h.shape
     pi, ri = np.nonzero(h >= min_votes)
     votes = h[pi, ri]
-    wp, wr = PEAK_HALF_WINDOW
-    # nearest neighbours first: most bins fail against one of them, and the failed
-    # ones are dropped before the next test
-    offsets = sorted(
-        ((dp, dr) for dp in range(-wp, wp + 1) for dr in range(-wr, wr + 1) if dp or dr),
-        key=lambda o: (abs(o[0]) + abs(o[1]), o),
-    )
-    for dp, dr in offsets:
+    for dp, dr in _PEAK_OFFSETS:
         cols = np.clip(ri + dr, 0, width - 1)  # (beyond the edge there is no bin to beat)
         keep = votes >= h[(pi + dp) % n_phi, cols]
         keep |= (ri + dr < 0) | (ri + dr >= width)
@@ -134,17 +138,17 @@ def _peaks(h: npt.NDArray[np.int64], min_votes: int) -> tuple[IntArray, IntArray
     return pi[order], ri[order]
 
 
-def _facing(heading_sorted: FloatArray, phi: float, reach: float) -> tuple[IntArray, IntArray]:
-    """Index ranges (into the heading-sorted readings) of headings within ``reach`` of ``phi``."""
+def _facing(by_heading: IntArray, heading_sorted: FloatArray, phi: float, reach: float) -> IntArray:
+    """The readings (``by_heading`` sorts them by heading) looking within ``reach`` of ``phi``."""
     if reach >= math.pi:
-        return np.array([0]), np.array([heading_sorted.size])
+        return by_heading
     lo = (phi - reach) % (2 * math.pi)
     hi = (phi + reach) % (2 * math.pi)
-    a = np.searchsorted(heading_sorted, lo)
-    b = np.searchsorted(heading_sorted, hi, side="right")
+    a = int(np.searchsorted(heading_sorted, lo))
+    b = int(np.searchsorted(heading_sorted, hi, side="right"))
     if lo <= hi:
-        return np.array([a]), np.array([b])
-    return np.array([a, 0]), np.array([heading_sorted.size, b])
+        return by_heading[a:b]
+    return np.concatenate((by_heading[a:], by_heading[:b]))
 
 
 def tangent_lines(
@@ -213,8 +217,7 @@ def tangent_lines(
         for pi, ri in zip(*_peaks(h, min_votes), strict=True):
             phi = float(pi) * STEP_RAD
             rho = float(ri - half_rho) * RHO_STEP_M
-            starts, stops = _facing(heading_sorted, phi, max_half)
-            cand = np.concatenate([by_heading[a:b] for a, b in zip(starts, stops, strict=True)])
+            cand = _facing(by_heading, heading_sorted, phi, max_half)
             cand = cand[~claimed[cand]]
             u = np.array([math.cos(phi), math.sin(phi)])
             off = np.abs((phi - echoes.heading[cand] + math.pi) % (2 * math.pi) - math.pi)
@@ -230,8 +233,7 @@ def tangent_lines(
             claimed[mine] = True
             # only a reading looking within a right angle (and its beam) of the normal can
             # cross the line in its beam
-            starts, stops = _facing(heading_sorted, phi, 0.5 * math.pi + max_half)
-            near = np.concatenate([by_heading[a:b] for a, b in zip(starts, stops, strict=True)])
+            near = _facing(by_heading, heading_sorted, phi, 0.5 * math.pi + max_half)
             near = near[~claimed[near]]
             claimed[_crossing(echoes, near, origin, u, rho, segs, tol, bridge_m)] = True
             out.extend(segs)
