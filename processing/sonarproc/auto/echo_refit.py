@@ -24,8 +24,10 @@ that echoed in the round before: its tolerance is narrower and its profile moved
 less than that. Its smoothing length is chosen by the
 criterion of ``--auto`` itself (:func:`choose_refit`): each length's fit to the echo
 points of the training folds predicts the held-out readings, and the lowest trimmed
-mean range residual wins. The refit replaces the chosen fit only when that residual is
-below the chosen candidate's own.
+mean range residual wins; the lengths within :data:`TIE_SE` paired standard errors of
+it cannot be told apart by the readings, and their refits are averaged. The refit
+replaces the chosen fit unless its residual is above the chosen candidate's own by more
+than :data:`TIE_SE` paired standard errors.
 
 Each round drops the small clusters of echo points cut off at the ends
 (:func:`main_body`): readings that find an echo point on the map-carried end of the
@@ -50,14 +52,17 @@ from sonarproc.auto.holdout import (
     range_loss,
     subset_beams,
 )
-from sonarproc.auto.score import HULL_CELLS, robust_residual
+from sonarproc.auto.score import HULL_CELLS, paired_se, robust_residual
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo
 from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["ROUNDS_M", "RefitChoice", "choose_refit", "echo_points", "main_body", "refit_profile"]
+__all__ = [
+    "ROUNDS_M", "TIE_SE", "RefitChoice", "choose_refit", "echo_points", "main_body",
+    "refit_profile",
+]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -78,6 +83,10 @@ MIN_PATH_GAIN = 0.5
 #: :func:`main_body`).
 END_GAP_M = 0.10
 END_SHARE = 0.02
+#: Smoothing lengths whose held-out residuals are within this many paired standard errors
+#: of the lowest are tied (their refits are averaged); a refit within this many of the
+#: chosen candidate's residual, or below it, is applied.
+TIE_SE = 2.0
 
 Span = tuple[float, float]
 Profile = PolyFit | SplineFit
@@ -285,6 +294,22 @@ class RefitChoice:
     fit: Fit | None = None
     #: x (m) of the outermost echo points of the chosen length's refit
     echo_span: tuple[float, float] | None = None
+    #: every length's refit on all the readings, its echo span and its held-out losses
+    #: (for studies)
+    fits: dict[float, Fit] = field(default_factory=dict)
+    spans: dict[float, tuple[float, float]] = field(default_factory=dict)
+    losses: dict[float, FloatArray] = field(default_factory=dict)
+    #: the lengths tied with the best (their refits averaged into ``fit``)
+    averaged: tuple[float, ...] = ()
+    #: held-out residual (m) of ``fit``: the best length's, or the average's
+    residual: float | None = None
+
+    @property
+    def fit_short(self) -> str | None:
+        """The refit in a few words: ``spline L=0.2 m``, or the lengths averaged."""
+        if len(self.averaged) > 1:
+            return "mean of splines L=" + ", ".join(f"{k:g}" for k in self.averaged) + " m"
+        return None if self.length is None else f"spline L={self.length:g} m"
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready mapping for the ``--auto`` record's ``echo_refit``."""
@@ -293,6 +318,9 @@ class RefitChoice:
             "residuals_m": {f"{k:g}": _finite(v) for k, v in self.residuals.items()},
             "excluded": {f"{k:g}": v for k, v in self.excluded.items()},
             "smoothing_length_m": self.length,
+            "averaged_lengths_m": list(self.averaged),
+            "residual_m": None if self.residual is None else _finite(self.residual),
+            "fit_short": self.fit_short,
             "applied": self.applied,
             "reason": self.reason,
             "echo_span_m": None if self.echo_span is None else list(self.echo_span),
@@ -310,6 +338,7 @@ def choose_refit(
     grid: Grid,
     *,
     chosen_residual: float,
+    chosen_losses: FloatArray | None = None,
     folds: int = 4,
     repeats: int = 1,
     heldout_per_fold: int = 300,
@@ -318,6 +347,12 @@ def choose_refit(
     lengths: tuple[float, ...] = SMOOTHING_LENGTHS,
 ) -> RefitChoice:
     """Choose the echo refit's smoothing length by the held-out range residual.
+
+    The lengths whose residuals are within :data:`TIE_SE` paired standard errors of the
+    lowest cannot be told apart by the readings: their refits are averaged. The refit is
+    applied when its residual is below the chosen candidate's, or above it by less than
+    :data:`TIE_SE` paired standard errors (it removes the map's bias, which the readings
+    alone may not show).
 
     Parameters
     ----------
@@ -331,6 +366,9 @@ def choose_refit(
         The map's grid.
     chosen_residual : float
         The chosen candidate's held-out residual (m): the refit must beat it.
+    chosen_losses : ndarray, optional
+        The chosen candidate's held-out losses, in the order of the folds: with them a
+        refit within :data:`TIE_SE` paired standard errors of the candidate is applied.
     folds, repeats, heldout_per_fold, cap, seed
         As :func:`sonarproc.auto.choose`.
     lengths : tuple of float
@@ -342,8 +380,10 @@ def choose_refit(
     """
     criterion = (
         "the chosen profile refitted through the readings' echo points (a spline; its "
-        "smoothing length by the same held-out range residual); kept only when that "
-        "residual is below the chosen candidate's"
+        "smoothing length by the same held-out range residual, the lengths within "
+        f"{TIE_SE:g} paired standard errors of the best averaged); applied unless its "
+        f"residual is above the chosen candidate's by more than {TIE_SE:g} paired "
+        "standard errors"
     )
     out = RefitChoice(criterion)
     occupied = np.flatnonzero(map_bins.count > 0)
@@ -360,8 +400,8 @@ def choose_refit(
             test = np.flatnonzero(fold == f)
             if test.size:
                 splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
-    fits: dict[float, Fit] = {}
-    spans: dict[float, tuple[float, float]] = {}
+    fits, spans = out.fits, out.spans
+    fold_curves: dict[float, list[FloatArray | None]] = {}
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:
@@ -382,16 +422,15 @@ def choose_refit(
         if excess > HULL_CELLS * grid.cell:
             out.excluded[length] = f"leaves its points' hull by {100 * excess:.3g} cm"
             continue
-        losses = []
-        for train, held in splits:
+        curves: list[FloatArray | None] = []
+        for train, _ in splits:
             part = _fit_points(points[train[rows]], map_bins, grid, length)
-            if not isinstance(part, (PolyFit, SplineFit)):
-                losses.append(np.full(held.size, cap))
-                continue
-            path = curve_path(_curve(part, span, grid.cell), beams, held)
-            losses.append(range_loss(beams.path[held], path, cap))
-        if losses:
-            out.residuals[length] = robust_residual(np.concatenate(losses))
+            ok = isinstance(part, (PolyFit, SplineFit))
+            curves.append(_curve(part, span, grid.cell) if ok else None)  # type: ignore[arg-type]
+        if splits:
+            fold_curves[length] = curves
+            out.losses[length] = _heldout_losses(curves, splits, beams, cap)
+            out.residuals[length] = robust_residual(out.losses[length])
             fits[length] = whole
             spans[length] = (float(points[:, 0].min()), float(points[:, 0].max()))
     if not out.residuals:
@@ -401,17 +440,81 @@ def choose_refit(
         )  # fmt: skip
         return out
     best = min(out.residuals, key=lambda k: out.residuals[k])
-    out.length = best
-    out.echo_span = spans[best]
-    if out.residuals[best] < chosen_residual:
-        out.applied, out.fit = True, fits[best]
-        out.reason = (
-            f"held-out residual {100 * out.residuals[best]:.3g} cm below the chosen "
-            f"candidate's {100 * chosen_residual:.3g} cm"
-        )
+    tied = tuple(
+        k for k in sorted(out.residuals)
+        if k == best or out.residuals[k] - out.residuals[best]
+        <= TIE_SE * _nan_to_zero(paired_se(out.losses[best], out.losses[k]))
+    )  # fmt: skip
+    out.length, out.averaged = best, tied
+    if len(tied) == 1:
+        refit, losses, out.echo_span = fits[best], out.losses[best], spans[best]
     else:
-        out.reason = (
-            f"held-out residual {100 * out.residuals[best]:.3g} cm not below the chosen "
-            f"candidate's {100 * chosen_residual:.3g} cm"
+        refit = _mean_profile([_profile(fits[k]) for k in tied], span, grid.cell)
+        mean_curves = [_mean_curve([fold_curves[k][i] for k in tied]) for i in range(len(splits))]
+        losses = _heldout_losses(mean_curves, splits, beams, cap)
+        # where every averaged refit is carried by echo points
+        out.echo_span = (max(spans[k][0] for k in tied), min(spans[k][1] for k in tied))
+    out.residual = robust_residual(losses)
+    margin = 0.0
+    if chosen_losses is not None:
+        margin = TIE_SE * _nan_to_zero(paired_se(chosen_losses, losses))
+    verdict = f"held-out residual {100 * out.residual:.3g} cm"
+    theirs = f"the chosen candidate's {100 * chosen_residual:.3g} cm"
+    within = f"{TIE_SE:g} paired standard errors of"
+    if out.residual < chosen_residual:
+        out.applied, out.fit, out.reason = True, refit, f"{verdict} below {theirs}"
+    elif chosen_losses is not None and out.residual - chosen_residual <= margin:
+        out.applied, out.fit, out.reason = True, refit, f"{verdict} within {within} {theirs}"
+    else:
+        out.reason = f"{verdict} not below {theirs}" + (
+            "" if chosen_losses is None else f", nor within {within} it"
         )
     return out
+
+
+def _profile(fit: Fit) -> Profile:
+    assert isinstance(fit, (PolyFit, SplineFit))
+    return fit
+
+
+def _nan_to_zero(v: float) -> float:
+    return v if np.isfinite(v) else 0.0
+
+
+def _heldout_losses(
+    curves: list[FloatArray | None],
+    splits: list[tuple[BoolArray, IntArray]],
+    beams: Beams,
+    cap: float,
+) -> FloatArray:
+    """Each fold's held-out readings' losses against its curve (the cap for a failed fit)."""
+    losses = [
+        np.full(held.size, cap) if curve is None
+        else range_loss(beams.path[held], curve_path(curve, beams, held), cap)
+        for curve, (_, held) in zip(curves, splits, strict=True)
+    ]  # fmt: skip
+    return np.concatenate(losses) if losses else np.zeros(0)
+
+
+def _mean_curve(curves: list[FloatArray | None]) -> FloatArray | None:
+    """The pointwise mean of sampled curves on the same abscissae (None if one is missing)."""
+    if any(c is None for c in curves):
+        return None
+    first = curves[0]
+    assert first is not None
+    y = np.mean([c[:, 1] for c in curves if c is not None], axis=0)
+    return np.column_stack((first[:, 0], y))
+
+
+def _mean_profile(fits: list[Profile], span: Span, step: float) -> SplineFit:
+    """The pointwise mean of profiles, as a cubic spline through it every ``step``."""
+    from scipy.interpolate import make_interp_spline
+
+    xs = np.arange(span[0], span[1] + 0.5 * step, step)
+    ys = np.mean([np.asarray(f(xs), dtype=np.float64) for f in fits], axis=0)
+    degree = min(3, xs.size - 1)
+    spl = make_interp_spline(xs, ys, k=degree)
+    return SplineFit(
+        knots=np.asarray(spl.t, dtype=np.float64), coef=np.asarray(spl.c, dtype=np.float64),
+        degree=degree, domain=(float(xs[0]), float(xs[-1])), lam=None,
+    )  # fmt: skip

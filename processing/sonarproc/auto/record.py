@@ -10,13 +10,36 @@ with a last row for the chosen profile's refit through the echo points.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["record_table"]
+__all__ = ["record_table", "refit_summary"]
 
 
 def _cm(v: float | None) -> str:
     return "—" if v is None else f"{100 * v:.3g} cm"
+
+
+def refit_summary(refit: Mapping[str, Any]) -> tuple[str, float | None]:
+    """The echo refit's fit in a few words and its held-out residual (m).
+
+    Records written before the tied lengths were averaged have neither ``fit_short`` nor
+    ``residual_m``: their refit is the one length's spline.
+
+    Examples
+    --------
+    >>> refit_summary({"smoothing_length_m": 0.4, "residuals_m": {"0.4": 0.002}})
+    ('spline L=0.4 m', 0.002)
+    >>> refit_summary({"smoothing_length_m": 0.2, "fit_short": "mean of splines L=0.2, 0.4 m",
+    ...                "residual_m": 0.001, "residuals_m": {}})
+    ('mean of splines L=0.2, 0.4 m', 0.001)
+    """
+    length = refit["smoothing_length_m"]
+    fit_short = refit.get("fit_short") or f"spline L={length:g} m"
+    residual = refit.get("residual_m")
+    if residual is None:
+        residual = refit.get("residuals_m", {}).get(f"{length:g}")
+    return str(fit_short), residual
 
 
 def record_table(record: dict[str, Any]) -> Any:
@@ -38,8 +61,7 @@ def record_table(record: dict[str, Any]) -> Any:
         table.add_row(r["name"], r["fit_short"], _cm(r["residual_m"]), r["excluded"] or "")
     refit = record.get("echo_refit")
     if refit and refit.get("smoothing_length_m") is not None:
-        length = refit["smoothing_length_m"]
-        best = refit["residuals_m"].get(f"{length:g}")
+        fit_short, residual = refit_summary(refit)
         note = ("applied: " if refit["applied"] else "not applied: ") + refit["reason"]
-        table.add_row("echo refit", f"spline L={length:g} m", _cm(best), note)
+        table.add_row("echo refit", fit_short, _cm(residual), note)
     return table

@@ -276,8 +276,11 @@ def _echo_refitted(
     r = res.run
     beams, _ = select_beams(log_, base)
     beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
+    # the candidate's held-out losses, fold by fold as the refit's (same seeds and draws)
+    mine = chosen.losses.get(chosen.setting) if chosen.setting is not None else None
     refit = choose_refit(
-        r.fit, r.bins, beams, r.grid, chosen_residual=chosen.residual_m, folds=choice.folds,
+        r.fit, r.bins, beams, r.grid, chosen_residual=chosen.residual_m,
+        chosen_losses=np.concatenate(mine) if mine else None, folds=choice.folds,
         repeats=choice.repeats, cap=max(CAP_CELLS * r.grid.cell, 0.05), seed=seed,
     )  # fmt: skip
     choice.echo_refit = refit.to_json()

@@ -11,6 +11,7 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
+from sonarproc.auto.record import refit_summary
 from sonarproc.report.units import MISSING
 
 __all__ = ["auto_record_html"]
@@ -44,9 +45,9 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
     ]  # fmt: skip
     refit = record.get("echo_refit")
     if refit and refit.get("smoothing_length_m") is not None:
-        length = refit["smoothing_length_m"]
+        fit_short, residual = refit_summary(refit)
         rows.append((
-            "echo refit", f"spline L={length:g} m", refit["residuals_m"].get(f"{length:g}"),
+            "echo refit", fit_short, residual,
             ("applied: " if refit["applied"] else "not applied: ") + str(refit["reason"]),
         ))  # fmt: skip
     body = "".join(

@@ -58,6 +58,7 @@ HELD_ASIDE = (
     "auto3-sparse-tilted", "auto3-ring-wavy", "auto4-pair-tilted-wave", "auto4-ring-curve",
     "auto5-linear-bump", "auto5-ring-sine", "auto5-sparse-wave",
     "auto6-linear-crest", "auto6-bistatic-wave",
+    "auto7-lab-tilted", "auto7-ring-hump", "auto7-bistatic-ramps", "auto7-noisy-random",
 )  # fmt: skip
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -13,15 +14,18 @@ from sonarproc.auto.echo_refit import (
     END_GAP_M,
     END_SHARE,
     ROUNDS_M,
+    TIE_SE,
     choose_refit,
     echo_points,
     main_body,
     refit_profile,
 )
+from sonarproc.auto.score import paired_se, robust_residual
 from sonarproc.fit import PolyFit, fit_polynomial
+from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo_path
 from sonarproc.methods.testing import beams_facing
-from sonarproc.metrics import bin_stats
+from sonarproc.metrics import Bins, bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
 from sonarproc.pipeline.selection import Beams, TransducerPoses
@@ -39,8 +43,9 @@ def _wave_curve() -> np.ndarray:
     return np.column_stack((xs, _wave(xs)))
 
 
-def _bistatic_beams(rng: np.random.Generator, n: int) -> Beams:
-    """Random transmitter/receiver pairs below the wave, their first echoes off it."""
+def _bistatic_beams(rng: np.random.Generator, n: int, noise: float = 0.0) -> Beams:
+    """Random transmitter/receiver pairs below the wave, their first echoes off it
+    (``noise``: the paths' Gaussian noise, m)."""
     from sonarlog.schema import empty_readings
     from sonarproc.arcs import arcs_of
 
@@ -53,6 +58,7 @@ def _bistatic_beams(rng: np.random.Generator, n: int) -> Beams:
     ok = np.isfinite(path)
     t, r, ht, hr, half, path = t[ok], r[ok], ht[ok], hr[ok], half[ok], path[ok]
     m = int(ok.sum())
+    path = path + rng.normal(0.0, noise, m)
     readings = empty_readings(m)
     readings["t"] = np.arange(m)
     readings["x"], readings["y"], readings["theta"] = t[:, 0], t[:, 1], ht
@@ -188,6 +194,64 @@ def test_choose_refit_scores_lengths_and_applies_only_a_better_one() -> None:
     # a chosen candidate that already predicts better keeps its own fit
     kept = choose_refit(start, bins, beams, grid, chosen_residual=1e-9, cap=0.05)
     assert not kept.applied and kept.fit is None and "not below" in kept.reason
+
+
+def _refit_case() -> tuple[PolyFit, Bins, Beams, Grid]:
+    beams = _bistatic_beams(np.random.default_rng(21), 1200, noise=0.001)
+    grid = Grid.covering(0.0, 4.0, 0.0, 2.0, cell=0.01)
+    cx = grid.centres_x()
+    bins = bin_stats(np.arange(cx.size), _wave(cx) - 0.015, cx, presorted=True)
+    start = fit_polynomial(cx, _wave(cx) - 0.015, np.ones_like(cx), order=15)
+    assert isinstance(start, PolyFit)
+    return start, bins, beams, grid
+
+
+def test_lengths_the_readings_cannot_tell_apart_are_averaged() -> None:
+    start, bins, beams, grid = _refit_case()
+    # two all but equal lengths are tied; a far smoother one is not
+    got = choose_refit(
+        start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2, 0.2001, 1.6)
+    )
+    assert got.averaged == (0.2, 0.2001) and got.applied and got.fit is not None
+    best = min(got.residuals, key=lambda k: got.residuals[k])
+    assert got.length == best
+    for k, res in got.residuals.items():
+        tied = res - got.residuals[best] <= TIE_SE * paired_se(got.losses[best], got.losses[k])
+        assert tied == (k in got.averaged)
+    # the applied profile is the pointwise mean of the tied refits, between their echo points
+    x0, x1 = got.echo_span or (0.0, 0.0)
+    assert x0 == max(got.spans[k][0] for k in got.averaged)
+    assert x1 == min(got.spans[k][1] for k in got.averaged)
+    x = np.linspace(x0, x1, 200)
+    mean = np.mean([got.fits[k](x) for k in got.averaged], axis=0)
+    np.testing.assert_allclose(got.fit(x), mean, atol=1e-5)
+    doc = got.to_json()
+    assert doc["averaged_lengths_m"] == [0.2, 0.2001]
+    assert doc["fit_short"] == "mean of splines L=0.2, 0.2001 m"
+    assert doc["residual_m"] == pytest.approx(got.residual) and got.residual is not None
+    assert got.residual < 0.01 and got.residual < got.residuals[1.6]
+
+
+def test_a_refit_within_two_paired_errors_of_the_candidate_is_applied() -> None:
+    start, bins, beams, grid = _refit_case()
+    alone = choose_refit(start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2,))
+    assert alone.residual is not None and alone.averaged == (0.2,)
+    mine = alone.losses[0.2]
+    # a candidate a hair better, reading by reading as scattered as the refit: the
+    # readings cannot tell them apart
+    close = np.random.default_rng(3).permutation(mine) * (1.0 - 1e-3)
+    got = choose_refit(
+        start, bins, beams, grid, chosen_residual=robust_residual(close), chosen_losses=close,
+        cap=0.05, lengths=(0.2,),
+    )  # fmt: skip
+    assert got.applied and "within 2 paired standard errors" in got.reason
+    # a candidate clearly better keeps its own fit
+    far = mine * 0.2
+    kept = choose_refit(
+        start, bins, beams, grid, chosen_residual=robust_residual(far), chosen_losses=far,
+        cap=0.05, lengths=(0.2,),
+    )  # fmt: skip
+    assert not kept.applied and kept.fit is None and "nor within" in kept.reason
 
 
 def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path) -> None:
