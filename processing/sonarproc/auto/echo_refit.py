@@ -296,7 +296,7 @@ class RefitChoice:
     echo_span: tuple[float, float] | None = None
     #: every length's refit on all the readings, its echo span and its held-out losses
     #: (for studies)
-    fits: dict[float, Fit] = field(default_factory=dict)
+    fits: dict[float, Profile] = field(default_factory=dict)
     spans: dict[float, tuple[float, float]] = field(default_factory=dict)
     losses: dict[float, FloatArray] = field(default_factory=dict)
     #: the lengths tied with the best (their refits averaged into ``fit``)
@@ -449,7 +449,7 @@ def choose_refit(
     if len(tied) == 1:
         refit, losses, out.echo_span = fits[best], out.losses[best], spans[best]
     else:
-        refit = _mean_profile([_profile(fits[k]) for k in tied], span, grid.cell)
+        refit = _mean_profile([fits[k] for k in tied], span, grid.cell)
         mean_curves = [_mean_curve([fold_curves[k][i] for k in tied]) for i in range(len(splits))]
         losses = _heldout_losses(mean_curves, splits, beams, cap)
         # where every averaged refit is carried by echo points
@@ -470,11 +470,6 @@ def choose_refit(
             "" if chosen_losses is None else f", nor within {within} it"
         )
     return out
-
-
-def _profile(fit: Fit) -> Profile:
-    assert isinstance(fit, (PolyFit, SplineFit))
-    return fit
 
 
 def _nan_to_zero(v: float) -> float:
