@@ -443,7 +443,7 @@ def choose_refit(
     tied = tuple(
         k for k in sorted(out.residuals)
         if k == best or out.residuals[k] - out.residuals[best]
-        <= TIE_SE * _nan_to_zero(paired_se(out.losses[best], out.losses[k]))
+        <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
     )  # fmt: skip
     out.length, out.averaged = best, tied
     if len(tied) == 1:
@@ -455,25 +455,21 @@ def choose_refit(
         # where every averaged refit is carried by echo points
         out.echo_span = (max(spans[k][0] for k in tied), min(spans[k][1] for k in tied))
     out.residual = robust_residual(losses)
-    margin = 0.0
-    if chosen_losses is not None:
-        margin = TIE_SE * _nan_to_zero(paired_se(chosen_losses, losses))
+    close = chosen_losses is not None and out.residual - chosen_residual <= TIE_SE * np.nan_to_num(
+        paired_se(chosen_losses, losses)
+    )
     verdict = f"held-out residual {100 * out.residual:.3g} cm"
     theirs = f"the chosen candidate's {100 * chosen_residual:.3g} cm"
     within = f"{TIE_SE:g} paired standard errors of"
     if out.residual < chosen_residual:
         out.applied, out.fit, out.reason = True, refit, f"{verdict} below {theirs}"
-    elif chosen_losses is not None and out.residual - chosen_residual <= margin:
+    elif close:
         out.applied, out.fit, out.reason = True, refit, f"{verdict} within {within} {theirs}"
     else:
         out.reason = f"{verdict} not below {theirs}" + (
             "" if chosen_losses is None else f", nor within {within} it"
         )
     return out
-
-
-def _nan_to_zero(v: float) -> float:
-    return v if np.isfinite(v) else 0.0
 
 
 def _heldout_losses(
@@ -493,20 +489,19 @@ def _heldout_losses(
 
 def _mean_curve(curves: list[FloatArray | None]) -> FloatArray | None:
     """The pointwise mean of sampled curves on the same abscissae (None if one is missing)."""
-    if any(c is None for c in curves):
+    present = [c for c in curves if c is not None]
+    if not present or len(present) < len(curves):
         return None
-    first = curves[0]
-    assert first is not None
-    y = np.mean([c[:, 1] for c in curves if c is not None], axis=0)
-    return np.column_stack((first[:, 0], y))
+    return np.column_stack((present[0][:, 0], np.mean([c[:, 1] for c in present], axis=0)))
 
 
 def _mean_profile(fits: list[Profile], span: Span, step: float) -> SplineFit:
     """The pointwise mean of profiles, as a cubic spline through it every ``step``."""
     from scipy.interpolate import make_interp_spline
 
-    xs = np.arange(span[0], span[1] + 0.5 * step, step)
-    ys = np.mean([np.asarray(f(xs), dtype=np.float64) for f in fits], axis=0)
+    mean = _mean_curve([_curve(f, span, step) for f in fits])
+    assert mean is not None
+    xs, ys = mean[:, 0], mean[:, 1]
     degree = min(3, xs.size - 1)
     spl = make_interp_spline(xs, ys, k=degree)
     return SplineFit(
