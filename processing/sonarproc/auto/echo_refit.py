@@ -49,6 +49,7 @@ from sonarproc.auto.holdout import (
     curve_path,
     hull_excess,
     make_folds,
+    predicted_path,
     range_loss,
     subset_beams,
 )
@@ -60,8 +61,9 @@ from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
 __all__ = [
-    "ROUNDS_M", "TIE_SE", "RefitChoice", "choose_refit", "echo_points", "main_body",
-    "refit_profile",
+    "MIN_ECHO_POINTS", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "ROUNDS_M", "TIE_SE",
+    "RefitChoice", "choose_refit", "echo_points", "main_body", "range_noise", "refit_profile",
+    "tolerances",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -71,6 +73,20 @@ BoolArray = npt.NDArray[np.bool_]
 #: Range tolerances (m) of the two rounds: a reading further than this from the path the
 #: profile predicts echoed from something else (another surface, a spurious echo).
 ROUNDS_M = (0.08, 0.03)
+#: On a noisy log each round's tolerance is at least this many times the range noise
+#: (:func:`range_noise`): a tolerance of the order of the noise keeps only the readings
+#: whose noise happens to be small, and those on one side of a profile that is off.
+NOISE_WIDTHS = (5.0, 2.0)
+#: A range noise estimate above this (m) says that the profile misses most readings (a
+#: room's other walls), not that they are noisy: the tolerances stay :data:`ROUNDS_M`.
+#: (A Polaroid ranger's noise is about a centimetre; the paper's noisiest log, Fig. 13,
+#: has 5 cm, and the estimate includes the profile's own error.)
+NOISE_MAX = 0.10
+#: Readings the noise estimate looks at, at most (its median is then good to a few %).
+NOISE_READINGS = 1500
+#: A refit needs at least this many echo points in its first round: fewer say that the
+#: profile is not the surface the readings see (a room's log, one wall's y(x)).
+MIN_ECHO_POINTS = 10
 #: The echo points are searched for on at most this many (reading, profile sample) pairs:
 #: a longer log's readings are subsampled (seeded) so that the refit stays a few runs.
 MAX_PAIRS = 5_000_000
@@ -95,6 +111,50 @@ Profile = PolyFit | SplineFit
 def _curve(fit: Profile, span: Span, step: float) -> FloatArray:
     xs = np.arange(span[0], span[1] + 0.5 * step, step)
     return np.column_stack((xs, np.asarray(fit(xs), dtype=np.float64)))
+
+
+def range_noise(fit: Profile, beams: Beams, step: float) -> float:
+    """A robust estimate (m) of the readings' range noise about the profile ``fit``.
+
+    1.4826 times the median absolute range residual (half the path) of the readings whose
+    beams the profile crosses: the standard deviation for Gaussian noise, whatever a
+    minority of spurious echoes and echoes off other surfaces add. It includes the
+    profile's own error, so it is an upper bound on a clean log. A larger log is
+    estimated on :data:`NOISE_READINGS` of its readings (seeded).
+
+    Examples
+    --------
+    >>> from sonarproc.methods.testing import beams_facing
+    >>> from sonarproc.fit import PolyFit
+    >>> xs = np.linspace(-2, 2, 401)
+    >>> wall = np.column_stack((xs, np.ones_like(xs)))
+    >>> beams, _ = beams_facing([[x, 0.0] for x in np.linspace(-0.5, 0.5, 11)],
+    ...                         [np.pi / 2] * 11, wall)
+    >>> beams.path[:] += 2 * np.array([0.02, -0.02] * 5 + [0.0])
+    >>> flat = PolyFit(0, np.array([1.0]), (-1.0, 1.0))
+    >>> round(range_noise(flat, beams, 0.01) / 1.4826, 4)
+    0.02
+    """
+    rows = np.arange(len(beams.path))
+    if rows.size > NOISE_READINGS:
+        rows = np.sort(np.random.default_rng(0).choice(rows, NOISE_READINGS, replace=False))
+    residual = np.abs(beams.path[rows] - predicted_path(fit, beams, rows, step)) / 2
+    residual = residual[np.isfinite(residual)]
+    return float(1.4826 * np.median(residual)) if residual.size else 0.0
+
+
+def tolerances(noise: float) -> tuple[float, ...]:
+    """The rounds' range tolerances (m) for a log with range noise ``noise`` (m).
+
+    At most :data:`NOISE_MAX` of noise widens them; beyond it they are :data:`ROUNDS_M`.
+
+    Examples
+    --------
+    >>> tolerances(0.005), tolerances(0.04), tolerances(2.0)
+    ((0.08, 0.03), (0.2, 0.08), (0.08, 0.03))
+    """
+    noise = noise if noise <= NOISE_MAX else 0.0
+    return tuple(max(t, k * noise) for t, k in zip(ROUNDS_M, NOISE_WIDTHS, strict=True))
 
 
 def echo_points(
@@ -255,16 +315,17 @@ def refit_profile(
     length: float,
     *,
     first: tuple[IntArray, FloatArray] | None = None,
+    tols: tuple[float, ...] = ROUNDS_M,
 ) -> tuple[Fit, IntArray, FloatArray]:
-    """The profile refitted through the readings' echo points, :data:`ROUNDS_M` rounds.
+    """The profile refitted through the readings' echo points, one round per tolerance.
 
     ``first``: the first round's echo points on ``fit``, if already found (they do not
-    depend on ``length``). Returns the new fit and the last round's echoing readings and
-    echo points.
+    depend on ``length``). ``tols``: the rounds' range tolerances (m; :func:`tolerances`).
+    Returns the new fit and the last round's echoing readings and echo points.
     """
     rows = np.zeros(0, np.intp)
     points = np.zeros((0, 2))
-    for r, tol in enumerate(ROUNDS_M):
+    for r, tol in enumerate(tols):
         if r == 0 and first is not None:
             rows, points = first
         else:
@@ -303,6 +364,12 @@ class RefitChoice:
     averaged: tuple[float, ...] = ()
     #: held-out residual (m) of ``fit``: the best length's, or the average's
     residual: float | None = None
+    #: the readings' range noise about the starting profile (m; :func:`range_noise`) and
+    #: the rounds' range tolerances (m) it set
+    noise: float | None = None
+    tolerances: tuple[float, ...] = ()
+    #: held-out losses of ``fit``, in the order of the folds (for comparing refits)
+    heldout: FloatArray | None = None
 
     @property
     def fit_short(self) -> str | None:
@@ -324,6 +391,8 @@ class RefitChoice:
             "applied": self.applied,
             "reason": self.reason,
             "echo_span_m": None if self.echo_span is None else list(self.echo_span),
+            "range_noise_m": None if self.noise is None else _finite(self.noise),
+            "tolerances_m": list(self.tolerances),
         }
 
 
@@ -345,6 +414,7 @@ def choose_refit(
     cap: float,
     seed: int = 0,
     lengths: tuple[float, ...] = SMOOTHING_LENGTHS,
+    noise: float | None = None,
 ) -> RefitChoice:
     """Choose the echo refit's smoothing length by the held-out range residual.
 
@@ -373,6 +443,9 @@ def choose_refit(
         As :func:`sonarproc.auto.choose`.
     lengths : tuple of float
         Smoothing lengths (m) tried.
+    noise : float, optional
+        The readings' range noise (m) that sets the rounds' tolerances
+        (:func:`tolerances`); by default :func:`range_noise` about ``fit``.
 
     Returns
     -------
@@ -411,10 +484,20 @@ def choose_refit(
         echoing = subset_beams(beams, keep)
         # the folds are the readings' own: carry them over to the subset
         splits = [(train[keep], held) for train, held in splits]
+    out.noise = range_noise(fit, echoing, grid.cell) if noise is None else noise
+    out.tolerances = tols = tolerances(out.noise)
     # the first round starts from the chosen fit whatever the length: search it once
-    first = echo_points(fit, echoing, span, step=grid.cell, tol=ROUNDS_M[0])
+    first = echo_points(fit, echoing, span, step=grid.cell, tol=tols[0])
+    if first[0].size < MIN_ECHO_POINTS:
+        out.reason = (
+            f"{first[0].size} readings echo from the chosen profile "
+            f"(at least {MIN_ECHO_POINTS} needed)"
+        )
+        return out
     for length in lengths:
-        whole, rows, points = refit_profile(fit, map_bins, echoing, grid, span, length, first=first)
+        whole, rows, points = refit_profile(
+            fit, map_bins, echoing, grid, span, length, first=first, tols=tols
+        )
         if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
             continue
         hull = _fitted_points(points, map_bins, grid)
@@ -454,7 +537,7 @@ def choose_refit(
         losses = _heldout_losses(mean_curves, splits, beams, cap)
         # where every averaged refit is carried by echo points
         out.echo_span = (max(spans[k][0] for k in tied), min(spans[k][1] for k in tied))
-    out.residual = robust_residual(losses)
+    out.residual, out.heldout = robust_residual(losses), losses
     close = chosen_losses is not None and out.residual - chosen_residual <= TIE_SE * np.nan_to_num(
         paired_se(chosen_losses, losses)
     )

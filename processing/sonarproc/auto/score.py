@@ -17,6 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import Candidate
+from sonarproc.fit import Fit
+from sonarproc.metrics import Bins
 
 __all__ = [
     "CAP_CELLS",
@@ -138,6 +140,10 @@ class Score:
     losses: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
     #: each setting's hull excess (m), its fit to the map of all the scored readings
     hull: dict[float, float] = field(default_factory=dict)
+    #: each setting's fit to that map, and the map's points per column (the echo refit
+    #: starts from a runner-up's without building its map again)
+    whole_fits: dict[float, Fit] = field(default_factory=dict)
+    whole_bins: Bins | None = None
     coverage: dict[float, float] = field(default_factory=dict)
     base_losses: list[npt.NDArray[np.float64]] = field(default_factory=list)
     mean_counts: list[float] = field(default_factory=list)

@@ -239,9 +239,11 @@ def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) 
         if entry is None:
             continue
         _, bins, px, py = entry
+        s.whole_bins = bins
         mc = mean_count(bins)
         for setting in c.settings:
             fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
+            s.whole_fits[setting] = fit
             if not isinstance(fit, FitFailure):
                 sampled = fit.sample(grid.cell)
                 s.hull[setting] = hull_excess(sampled, px, py, window=10 * grid.cell)

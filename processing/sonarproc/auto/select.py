@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
-from sonarproc.auto.echo_refit import choose_refit
+from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
 from sonarproc.auto.holdout import (
     hull_excess,
     make_folds,
@@ -39,13 +39,14 @@ from sonarproc.auto.score import (
     TRIM,
     AutoChoice,
     Score,
+    paired_se,
 )
 from sonarproc.auto.scoring import fold_scores, implied_span, mean_count, whole_hulls
 from sonarproc.errors import NothingToMapError
-from sonarproc.fit import FitFailure
+from sonarproc.fit import FitFailure, PolyFit, SplineFit
 from sonarproc.grid import Grid
 from sonarproc.methods import MethodResult
-from sonarproc.metrics import bin_stats
+from sonarproc.metrics import Bins, bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import measure_profile
 from sonarproc.pipeline.mapping import MethodMap, evaluate_map
@@ -63,6 +64,9 @@ FloatArray = npt.NDArray[np.float64]
 #: to :data:`MAX_REPEATS` times) so that about this many held-out predictions are scored.
 REPEAT_READINGS = 1_200
 MAX_REPEATS = 3
+#: The echo refit starts from the winner's profile and from the next runners-up's, this
+#: many profiles in all.
+REFIT_STARTS = 3
 
 
 def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[np.bool_]:
@@ -259,33 +263,105 @@ def run_auto(
     return last[0], last[1], choice
 
 
+@dataclass
+class RefitStart:
+    """A profile the echo refit starts from: a candidate's fit, its map's columns, its grid."""
+
+    score: Score
+    fit: PolyFit | SplineFit
+    bins: Bins
+    grid: Grid
+
+
+def _refit_starts(ranked: list[Score], winner: Score, grid: Grid) -> list[RefitStart]:
+    """The runners-up the echo refit also starts from (:data:`REFIT_STARTS` in all), each
+    at its chosen setting's fit to its map of the scored readings (no map is built again)."""
+    starts = []
+    for s in ranked[ranked.index(winner) + 1 :]:
+        fit = s.whole_fits.get(s.setting) if s.setting is not None else None
+        if s.excluded is None and isinstance(fit, PolyFit | SplineFit) and s.whole_bins:
+            starts.append(RefitStart(s, fit, s.whole_bins, grid))
+    return starts[: REFIT_STARTS - 1]
+
+
+def _setting_losses(s: Score) -> FloatArray | None:
+    """A score's held-out losses at its chosen setting, in the order of the folds."""
+    losses = s.losses.get(s.setting) if s.setting is not None else None
+    return np.concatenate(losses) if losses else None
+
+
+def _pick_start(refits: list[RefitChoice]) -> int:
+    """Which start's refit to keep: the winner's (index 0) unless another predicts the
+    held-out readings better by more than :data:`TIE_SE` paired standard errors."""
+    scored = [i for i, r in enumerate(refits) if r.residual is not None]
+    if not scored:
+        return 0
+    best = min(scored, key=lambda i: refits[i].residual or 0.0)
+    mine, theirs = refits[0], refits[best]
+    if mine.residual is None or mine.heldout is None or theirs.heldout is None:
+        return best
+    gap = mine.residual - (theirs.residual or 0.0)
+    return best if gap > TIE_SE * np.nan_to_num(paired_se(mine.heldout, theirs.heldout)) else 0
+
+
 def _echo_refitted(
     log_: SonarLog,
     base: RunParams,
     res: MethodResult,
-    chosen: Score,
+    winner: Score,
     choice: AutoChoice,
     max_readings: int,
     seed: int,
 ) -> MethodResult:
-    """The winner's run with its profile refitted through the echo points, if that wins.
+    """The winner's run with a profile refitted through the echo points, if that wins.
 
-    The refit is scored on the readings and folds the candidates were scored on
-    (:func:`sonarproc.auto.echo_refit.choose_refit`); the record says what it found.
+    The refit starts from the winner's profile and from the next runners-up's
+    (:func:`_refit_starts`): it finds its echo points near the profile it starts from,
+    and a rough start on a noisy log finds the wrong ones. Each start's refit is scored
+    on the readings and folds the candidates were scored on
+    (:func:`sonarproc.auto.echo_refit.choose_refit`) and judged against the winner's
+    held-out losses; the winner's start is kept unless another's refit predicts the
+    held-out readings better by more than :data:`TIE_SE` paired standard errors (then
+    that runner-up is run on every reading for its map). The record says what it found.
     """
-    r = res.run
     beams, _ = select_beams(log_, base)
     beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
-    # the candidate's held-out losses, fold by fold as the refit's (same seeds and draws)
-    mine = chosen.losses.get(chosen.setting) if chosen.setting is not None else None
-    refit = choose_refit(
-        r.fit, r.bins, beams, r.grid, chosen_residual=chosen.residual_m,
-        chosen_losses=np.concatenate(mine) if mine else None, folds=choice.folds,
-        repeats=choice.repeats, cap=max(CAP_CELLS * r.grid.cell, 0.05), seed=seed,
-    )  # fmt: skip
-    choice.echo_refit = refit.to_json()
+    r = res.run
+    assert isinstance(r.fit, PolyFit | SplineFit)  # run_auto checked it
+    starts = [RefitStart(winner, r.fit, r.bins, r.grid)]
+    starts += _refit_starts(choice.ranked, winner, r.grid)
+    # the winner's held-out losses, fold by fold as the refit's (same seeds and draws)
+    mine = _setting_losses(winner)
+    # one noise estimate for every start, so that their refits differ only by the start:
+    # the lowest, from the profile that explains the readings best
+    noise = min(range_noise(st.fit, beams, st.grid.cell) for st in starts)
+    refits = [
+        choose_refit(
+            st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
+            chosen_losses=mine, folds=choice.folds,
+            repeats=choice.repeats, cap=max(CAP_CELLS * st.grid.cell, 0.05), seed=seed,
+            noise=noise,
+        )
+        for st in starts
+    ]  # fmt: skip
+    pick = _pick_start(refits)
+    refit, start = refits[pick], starts[pick].score
+    choice.echo_refit = record = refit.to_json()
+    record["start"] = _start_label(start)
+    record["starts"] = [
+        {"start": _start_label(st.score), "residual_m": rf.residual, "fit_short": rf.fit_short}
+        for rf, st in zip(refits, starts, strict=True)
+    ]
+    if pick:
+        record["reason"] = (
+            f"started from {_start_label(start)}, whose refit beats the winner's by more "
+            f"than {TIE_SE:g} paired standard errors; " + refit.reason
+        )
     if not refit.applied or refit.fit is None or isinstance(refit.fit, FitFailure):
         return res
+    if pick:
+        res = run_candidate(log_, base, start)
+        r = res.run
     params = replace(r.params, fit="spline", order=None, smooth=getattr(refit.fit, "lam", None))
     bins = r.bins
     if refit.echo_span is not None:
@@ -305,3 +381,8 @@ def _echo_refitted(
             raw_columns=np.ones(r.bins.centres.size, dtype=bool),
         )  # fmt: skip
     return replace(res, run=replace(r, params=params, fit=refit.fit, metrics=metrics, bins=bins))
+
+
+def _start_label(s: Score) -> str:
+    """A candidate and its setting, as the record names a refit's start."""
+    return f"{s.candidate.name} ({s.candidate.describe(s.setting)['fit_short']})"

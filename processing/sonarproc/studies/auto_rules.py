@@ -59,6 +59,7 @@ HELD_ASIDE = (
     "auto5-linear-bump", "auto5-ring-sine", "auto5-sparse-wave",
     "auto6-linear-crest", "auto6-bistatic-wave",
     "auto7-lab-tilted", "auto7-ring-hump", "auto7-bistatic-ramps", "auto7-noisy-random",
+    "auto8-noisy-ring", "auto8-noisy-linear", "auto8-noisy-bistatic",
 )  # fmt: skip
 
 

@@ -13,15 +13,20 @@ from sonarproc.auto import run_auto
 from sonarproc.auto.echo_refit import (
     END_GAP_M,
     END_SHARE,
+    MIN_ECHO_POINTS,
+    NOISE_WIDTHS,
     ROUNDS_M,
     TIE_SE,
+    RefitChoice,
     choose_refit,
     echo_points,
     main_body,
+    range_noise,
     refit_profile,
+    tolerances,
 )
 from sonarproc.auto.score import paired_se, robust_residual
-from sonarproc.fit import PolyFit, fit_polynomial
+from sonarproc.fit import PolyFit, SplineFit, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo_path
 from sonarproc.methods.testing import beams_facing
@@ -209,9 +214,11 @@ def _refit_case() -> tuple[PolyFit, Bins, Beams, Grid]:
 def test_lengths_the_readings_cannot_tell_apart_are_averaged() -> None:
     start, bins, beams, grid = _refit_case()
     # two all but equal lengths are tied; a far smoother one is not
+    # (the default tolerances: the start's own error would widen them, see below)
     got = choose_refit(
-        start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2, 0.2001, 1.6)
-    )
+        start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2, 0.2001, 1.6),
+        noise=0.0,
+    )  # fmt: skip
     assert got.averaged == (0.2, 0.2001) and got.applied and got.fit is not None
     best = min(got.residuals, key=lambda k: got.residuals[k])
     assert got.length == best
@@ -254,12 +261,83 @@ def test_a_refit_within_two_paired_errors_of_the_candidate_is_applied() -> None:
     assert not kept.applied and kept.fit is None and "nor within" in kept.reason
 
 
+def test_noisy_ranges_widen_the_tolerances_and_keep_the_noisy_echoes() -> None:
+    # range noise 2.5 cm (5 cm on the path), close to the default second round's 3 cm
+    beams = _bistatic_beams(np.random.default_rng(30), 600, noise=0.05)
+    start, bins, _, grid = _refit_case()
+    noise = range_noise(start, beams, grid.cell)
+    # the estimate includes the start's 1.5 cm offset: between the noise and their sum
+    assert 0.025 * 0.9 < noise < np.hypot(0.025, 0.015) * 1.1
+    tols = tolerances(noise)
+    assert tols == pytest.approx(tuple(k * noise for k in NOISE_WIDTHS))
+    x = np.linspace(0.5, 3.5, 301)
+    kept, rms = [], []
+    for t in (ROUNDS_M, tols):
+        fit, rows, _ = refit_profile(start, bins, beams, grid, (0.2, 3.8), 0.4, tols=t)
+        kept.append(rows.size)
+        rms.append(np.sqrt(np.mean((fit(x) - _wave(x)) ** 2)))
+    # the default rounds drop the readings whose noise is above 3 cm, a fifth of them
+    assert kept[1] > 1.1 * kept[0] and kept[1] > 0.75 * len(beams.path)
+    assert rms[1] < rms[0]
+    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=(0.4,))
+    doc = got.to_json()
+    assert doc["range_noise_m"] == pytest.approx(noise, rel=0.05)
+    assert doc["tolerances_m"] == pytest.approx(list(tolerances(doc["range_noise_m"])))
+    # a clean log about a close profile keeps the default rounds; so does an estimate no
+    # sensor's noise explains
+    _, _, clean, _ = _refit_case()
+    cx = grid.centres_x()
+    exact = fit_spline(cx, _wave(cx), np.ones_like(cx), lam=1e-9)
+    assert isinstance(exact, SplineFit)
+    assert range_noise(exact, clean, grid.cell) < 0.002
+    assert tolerances(range_noise(exact, clean, grid.cell)) == ROUNDS_M
+    assert tolerances(1.0) == ROUNDS_M
+
+
+def test_a_profile_few_readings_echo_from_is_not_refitted() -> None:
+    _, bins, beams, grid = _refit_case()
+    # a profile a metre above the wave: no reading's path comes near it
+    far = PolyFit(0, np.array([float(np.mean(_wave(grid.centres_x()))) + 1.0]), (0.0, 4.0))
+    got = choose_refit(far, bins, beams, grid, chosen_residual=0.01, cap=0.05)
+    assert not got.applied and got.fit is None and not got.residuals
+    assert f"(at least {MIN_ECHO_POINTS} needed)" in got.reason
+
+
+def _refit_with(residual: float | None, losses: np.ndarray | None) -> RefitChoice:
+    out = RefitChoice("echo")
+    out.residual, out.heldout = residual, losses
+    return out
+
+
+def test_the_winners_start_is_kept_unless_another_refit_is_clearly_better() -> None:
+    from sonarproc.auto.select import _pick_start
+
+    rng = np.random.default_rng(8)
+    mine = np.abs(rng.normal(0.0, 0.01, 400))
+    # a hair better, as scattered: tied, the winner's start is kept
+    close = rng.permutation(mine) * 0.999
+    tied = [_refit_with(robust_residual(mine), mine), _refit_with(robust_residual(close), close)]
+    assert _pick_start(tied) == 0
+    # half the loss on every reading: many paired errors better, that start is taken
+    better = mine * 0.5
+    refits = [*tied, _refit_with(robust_residual(better), better)]
+    assert _pick_start(refits) == 2
+    # the winner's own start found no refit: the best other one is taken
+    assert _pick_start([_refit_with(None, None), refits[1], refits[2]]) == 2
+    assert _pick_start([_refit_with(None, None), _refit_with(None, None)]) == 0
+
+
 def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path) -> None:
     path = tmp_path / "fig02.h5"
     simulate_to_log(ROOT / "configs/scenarios/fig02.yaml", path)
     res, chosen, choice = run_auto(load_log(path), RunParams())
     rec = choice.to_json(chosen)["echo_refit"]
     assert rec is not None and set(rec) >= {"criterion", "residuals_m", "applied", "reason"}
+    # the refit starts from the winner and from at most two runners-up, and says which won
+    starts = [s["start"] for s in rec["starts"]]
+    assert 1 <= len(starts) <= 3 and starts[0].startswith(chosen.candidate.name + " (")
+    assert rec["start"] in starts
+    assert ("started from" in rec["reason"]) == (rec["start"] != starts[0])
     r = res.run
     if rec["applied"]:
         assert r.params.fit == "spline" and r.fit.kind == "spline"
