@@ -44,7 +44,9 @@ CAP_CELLS = 10.0
 #: candidate's fit reaches and another's does not.
 TRIM = 0.75
 #: A fit must reach this fraction of the columns the readings imply (the span of their
-#: line-of-sight points, 5th to 95th percentile) in every fold.
+#: line-of-sight points, 5th to 95th percentile): the fit to the map of all the scored
+#: readings, as for the hull (a fold's map may be too sparse to fit at all, and a failed
+#: fold already costs its held-out readings the cap).
 COVERAGE_MIN = 0.5
 #: The ``surfaces`` candidate is scored on grids of at most this many cells: its fit
 #: (one surface model per group of cells) grows with the map, and a whole room at 1 cm
@@ -144,6 +146,7 @@ class Score:
     #: starts from a runner-up's without building its map again)
     whole_fits: dict[float, Fit] = field(default_factory=dict)
     whole_bins: Bins | None = None
+    #: each setting's share of the implied columns, that fit's too
     coverage: dict[float, float] = field(default_factory=dict)
     base_losses: list[npt.NDArray[np.float64]] = field(default_factory=list)
     mean_counts: list[float] = field(default_factory=list)
@@ -195,7 +198,7 @@ class Score:
 
     def allowed(self, cell: float) -> set[float]:
         """Settings the guard rails allow: inside the hull (the fit to all the scored
-        readings' map) and covering the columns in every fold."""
+        readings' map) and covering the columns (that fit too)."""
         return {
             k for k, v in self.losses.items()
             if v and self.hull.get(k, 0.0) <= HULL_CELLS * cell

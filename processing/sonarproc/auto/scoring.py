@@ -2,11 +2,12 @@
 
 :func:`fold_scores` scores every candidate on one fold: each method's map is built once
 on the fold's training readings (candidates share methods), every setting's fit
-predicts the held-out readings' paths, and the losses, coverage and baseline (a
-constant or a line on the same map) go into the candidate's
-:class:`~sonarproc.auto.score.Score`. :func:`whole_hulls` fits every profile setting to
-its method's map of all the scored readings and records how far it leaves the map
-points' local hull (the guard rail judges that fit: the one that would be chosen).
+predicts the held-out readings' paths, and the losses and baseline (a constant or a
+line on the same map) go into the candidate's :class:`~sonarproc.auto.score.Score`.
+:func:`whole_hulls` fits every profile setting to its method's map of all the scored
+readings and records how far it leaves the map points' local hull and how much of the
+columns the readings imply it reaches (the guard rails judge that fit: the one that
+would be chosen).
 Scoring fits merge adjacent columns down to :data:`FIT_COLUMNS` (:func:`fit_columns`).
 """
 
@@ -118,7 +119,6 @@ def fold_scores(
     train: npt.NDArray[np.bool_],
     held: npt.NDArray[np.intp],
     cap: float,
-    implied: tuple[float, float],
 ) -> None:
     """Score every candidate on one fold (see the module notes): ``train`` marks the
     training readings of ``beams``, ``held`` indexes the held-out ones predicted."""
@@ -132,11 +132,11 @@ def fold_scores(
         key, entry = maps.get(c)
         if entry is None:
             continue
-        mmap, bins, px, py = entry
+        mmap, bins, _, _ = entry
         if c.family == "surfaces":
             _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step)
         else:
-            _score_profiles(s, bins, px, py, grid, beams, held, measured, cap, implied)
+            _score_profiles(s, bins, grid, beams, held, measured, cap)
         if key not in baselines:
             best = np.full(held.size, cap)
             for order in (0, 1):
@@ -185,22 +185,18 @@ def _build(c: Candidate, beams: Beams, grid: Grid, base: RunParams) -> _MapEntry
 def _score_profiles(
     s: Score,
     bins: Bins,
-    px: FloatArray,
-    py: FloatArray,
     grid: Grid,
     beams: Beams,
     held: npt.NDArray[np.intp],
     measured: FloatArray,
     cap: float,
-    implied: tuple[float, float],
 ) -> None:
-    """One fold of a profile y(x) candidate: every setting's fit, hull, coverage, losses."""
+    """One fold of a profile y(x) candidate: every setting's fit and held-out losses."""
     c = s.candidate
     mc = mean_count(bins)
     s.mean_counts.append(mc)
     for setting in c.settings:
         fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-        s.coverage[setting] = min(s.coverage.get(setting, 1.0), _coverage(fit, implied))
         loss = range_loss(measured, predicted_path(fit, beams, held, 2 * grid.cell), cap)
         s.losses.setdefault(setting, []).append(loss)
 
@@ -231,8 +227,10 @@ def _score_surfaces(
 
 
 def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
-    """Each profile setting's hull excess, fitted to its method's map of all ``beams``."""
+    """Each profile setting's hull excess and coverage of the implied columns
+    (:func:`implied_span`), fitted to its method's map of all ``beams``."""
     maps = _Maps(beams, grid, base)
+    implied = implied_span(beams)
     for s in scores:
         c = s.candidate
         entry = None if c.family == "surfaces" else maps.get(c)[1]
@@ -244,6 +242,7 @@ def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) 
         for setting in c.settings:
             fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
             s.whole_fits[setting] = fit
+            s.coverage[setting] = _coverage(fit, implied)
             if not isinstance(fit, FitFailure):
                 sampled = fit.sample(grid.cell)
                 s.hull[setting] = hull_excess(sampled, px, py, window=10 * grid.cell)

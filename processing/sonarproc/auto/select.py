@@ -41,7 +41,7 @@ from sonarproc.auto.score import (
     Score,
     paired_se,
 )
-from sonarproc.auto.scoring import fold_scores, implied_span, mean_count, whole_hulls
+from sonarproc.auto.scoring import fold_scores, mean_count, whole_hulls
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure, PolyFit, SplineFit
 from sonarproc.grid import Grid
@@ -139,7 +139,6 @@ def choose(
     if repeats is None:
         repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
-    implied = implied_span(beams)
     rng = np.random.default_rng(seed + 2)
     scores = [Score(c) for c in candidates]
     for rep in range(repeats):
@@ -149,7 +148,7 @@ def choose(
             if test.size == 0:
                 continue
             held = np.sort(rng.permutation(test)[:heldout_per_fold])
-            fold_scores(scores, beams, grid, base, fold != f, held, cap, implied)
+            fold_scores(scores, beams, grid, base, fold != f, held, cap)
     whole_hulls(scores, beams, grid, base)
     for s in scores:
         s.finish(grid.cell)

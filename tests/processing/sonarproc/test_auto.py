@@ -14,10 +14,13 @@ from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose, run_auto
 from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
 from sonarproc.auto.score import COVERAGE_MIN, TRIM, robust_residual
+from sonarproc.auto.scoring import implied_span
+from sonarproc.auto.select import _sample_firings
 from sonarproc.cli import main
 from sonarproc.methods.testing import flat_wall_beams
 from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
+from sonarproc.pipeline.selection import select_beams
 from sonarproc.simulate import simulate_to_log
 from sonarproc.studies.auto_study import auto_row
 
@@ -112,11 +115,20 @@ def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) 
     assert chosen.excluded is None and chosen in choice.ranked
     excess = hull_excess(r.fit.sample(r.grid.cell), r.points_x, r.points_y, window=10 * r.grid.cell)
     assert excess <= HULL_CELLS * r.grid.cell
-    # every profile setting's hull is judged on its fit to all the scored readings
+    # every profile setting's hull and coverage are judged on its fit to all the scored
+    # readings (a fold's map may be too sparse to fit; that fold costs the cap instead)
+    beams, _ = select_beams(lg, RunParams())
+    beams = subset_beams(beams, _sample_firings(beams.readings, 6_000, 0))
+    implied = implied_span(beams)
     for s in choice.scores:
         if s.candidate.family != "surfaces":
             assert set(s.hull) <= set(s.candidate.settings) and s.hull
             assert all(np.isfinite(v) and v >= 0 for v in s.hull.values())
+            assert set(s.coverage) == set(s.whole_fits) == set(s.candidate.settings)
+            for k, fit in s.whole_fits.items():
+                lo, hi = fit.domain
+                want = (min(hi, implied[1]) - max(lo, implied[0])) / (implied[1] - implied[0])
+                assert s.coverage[k] == pytest.approx(float(np.clip(want, 0.0, 1.0)))
 
 
 # Where auto stands on small scenarios (E1 by the truth, which auto never sees): within
