@@ -130,7 +130,8 @@ def render_auto_table(auto: Rows) -> str:
         "the columns with points for a profile; `precision_m`, the mean distance of the "
         "fitted curves to the truth, with completeness, for several surfaces). `+ echo L` "
         "says that the chosen profile was refitted through the echo points with that "
-        "smoothing length (`L=a/b`: the mean of the refits tied at those lengths); auto's "
+        "smoothing length (`L=a/b`: the mean of the refits tied at those lengths; `from X`: "
+        "the refit started from runner-up X's profile); auto's "
         "error is that of the profile it returns, the candidates' "
         "are without the refit; a refitted profile is reported, and judged, between its "
         "outermost echo points only, so the columns each error is judged on are shown**",
@@ -151,6 +152,9 @@ def render_auto_table(auto: Rows) -> str:
         if refit and refit.get("applied"):
             lengths = refit.get("averaged_lengths_m") or [refit["smoothing_length_m"]]
             chose += " + echo L=" + "/".join(f"{float(k):g}" for k in lengths)
+            starts = refit.get("starts") or []
+            if starts and refit.get("start") != starts[0].get("start"):
+                chose += f" from {refit['start']}"
         lines.append(
             f"| {scen} | {r['readings']} | {metric} | {chose} | {_cm(r['auto_error_m'])} "
             f"| {r['best']} | {_cm(r['best_error_m'])} "
