@@ -326,11 +326,16 @@ def _echo_refitted(
     beams, _ = select_beams(log_, base)
     beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
     r = res.run
-    assert isinstance(r.fit, PolyFit | SplineFit)  # run_auto checked it
-    starts = [RefitStart(winner, r.fit, r.bins, r.grid)]
-    starts += _refit_starts(choice.ranked, winner, r.grid)
     # the winner's held-out losses, fold by fold as the refit's (same seeds and draws)
     mine = _setting_losses(winner)
+    cap = max(CAP_CELLS * r.grid.cell, 0.05)
+    if not isinstance(r.fit, PolyFit | SplineFit):
+        choice.echo_refit = choose_refit(
+            r.fit, r.bins, beams, r.grid, chosen_residual=winner.residual_m, cap=cap
+        ).to_json()  # says that there is no profile y(x) to refit
+        return res
+    starts = [RefitStart(winner, r.fit, r.bins, r.grid)]
+    starts += _refit_starts(choice.ranked, winner, r.grid)
     # one noise estimate for every start, so that their refits differ only by the start:
     # the lowest, from the profile that explains the readings best
     noise = min(range_noise(st.fit, beams, st.grid.cell) for st in starts)
@@ -338,8 +343,7 @@ def _echo_refitted(
         choose_refit(
             st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
             chosen_losses=mine, folds=choice.folds,
-            repeats=choice.repeats, cap=max(CAP_CELLS * st.grid.cell, 0.05), seed=seed,
-            noise=noise,
+            repeats=choice.repeats, cap=cap, seed=seed, noise=noise,
         )
         for st in starts
     ]  # fmt: skip
