@@ -275,8 +275,10 @@ class RefitStart:
 def _refit_starts(ranked: list[Score], winner: Score, grid: Grid) -> list[RefitStart]:
     """The runners-up the echo refit also starts from (:data:`REFIT_STARTS` in all), each
     at its chosen setting's fit to its map of the scored readings (no map is built again)."""
+    # by identity: Score is a dataclass whose equality would compare its arrays
+    after = next(i for i, s in enumerate(ranked) if s is winner) + 1
     starts = []
-    for s in ranked[ranked.index(winner) + 1 :]:
+    for s in ranked[after:]:
         fit = s.whole_fits.get(s.setting) if s.setting is not None else None
         if s.excluded is None and isinstance(fit, PolyFit | SplineFit) and s.whole_bins:
             starts.append(RefitStart(s, fit, s.whole_bins, grid))
@@ -292,14 +294,14 @@ def _setting_losses(s: Score) -> FloatArray | None:
 def _pick_start(refits: list[RefitChoice]) -> int:
     """Which start's refit to keep: the winner's (index 0) unless another predicts the
     held-out readings better by more than :data:`TIE_SE` paired standard errors."""
-    scored = [i for i, r in enumerate(refits) if r.residual is not None]
+    scored = {i: r.residual for i, r in enumerate(refits) if r.residual is not None}
     if not scored:
         return 0
-    best = min(scored, key=lambda i: refits[i].residual or 0.0)
+    best = min(scored, key=lambda i: scored[i])
     mine, theirs = refits[0], refits[best]
     if mine.residual is None or mine.heldout is None or theirs.heldout is None:
         return best
-    gap = mine.residual - (theirs.residual or 0.0)
+    gap = mine.residual - scored[best]
     return best if gap > TIE_SE * np.nan_to_num(paired_se(mine.heldout, theirs.heldout)) else 0
 
 
