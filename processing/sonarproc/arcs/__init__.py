@@ -26,13 +26,14 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import TransducerPoses
-from sonarproc.arcs._cells import RASTER_METHODS, arc_cells, rasterize
+from sonarproc.arcs._cells import RASTER_METHODS, arc_cell_keys, arc_cells, rasterize
 from sonarproc.arcs._geometry import ArcGeometry, arc_geometry, point_at, tangent_at
 from sonarproc.arcs._sampled import arc_samples, sample_anomalies
 
 __all__ = [
     "RASTER_METHODS",
     "ArcGeometry",
+    "arc_cell_keys",
     "arc_cells",
     "arc_geometry",
     "arc_samples",

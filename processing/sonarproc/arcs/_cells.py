@@ -20,7 +20,7 @@ from sonarproc.arcs._raster import accumulate, batch_keys, batches, ranges
 from sonarproc.arcs._sampled import arc_samples
 from sonarproc.grid import Grid
 
-__all__ = ["RASTER_METHODS", "arc_cells", "rasterize"]
+__all__ = ["RASTER_METHODS", "arc_cell_keys", "arc_cells", "rasterize"]
 
 #: How arcs become cells: a gap-free chain (default) or samples at a fixed angular step.
 RASTER_METHODS = ("connected", "sampled")
@@ -115,6 +115,24 @@ def arc_cells(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray, IntArr
     >>> len(arc), sorted(set(arc.tolist()))
     (56, [0])
     """
+    arc, keys = arc_cell_keys(arcs, grid)
+    iy, ix = np.divmod(keys, grid.nx)
+    return arc, iy, ix
+
+
+def arc_cell_keys(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray]:
+    """:func:`arc_cells` with each cell as its flat index ``iy * grid.nx + ix``.
+
+    Examples
+    --------
+    >>> from sonarproc.arcs import arc_geometry
+    >>> g = Grid.covering(-0.1, 0.1, -0.1, 0.1, cell=0.01)
+    >>> arcs = arc_geometry([[0, 0]], [0.0], [[0, 0]], [0.0], [0.2],
+    ...                     tx_half_beamwidth=np.pi, rx_half_beamwidth=np.pi)
+    >>> arc, iy, ix = arc_cells(arcs, g)
+    >>> bool(np.array_equal(arc_cell_keys(arcs, g)[1], iy * g.nx + ix))
+    True
+    """
     plan = plan_pieces(arcs, grid)
     size = grid.ny * grid.nx
     out_arc: list[IntArray] = []
@@ -137,8 +155,5 @@ def arc_cells(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray, IntArr
         out_arc.append(owner[ok])
         out_key.append(keys[ok])
     if not out_key:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty.copy(), empty.copy()
-    keys = np.concatenate(out_key)
-    iy, ix = np.divmod(keys, grid.nx)
-    return np.concatenate(out_arc).astype(np.intp), iy, ix
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
+    return np.concatenate(out_arc).astype(np.intp), np.concatenate(out_key).astype(np.intp)

@@ -159,6 +159,15 @@ class Score:
     too_large: int = 0
     excluded: str | None = None
 
+    def absorb(self, fold: Score) -> None:
+        """Append one fold's losses, scored on a fresh Score of the same candidate."""
+        for setting, losses in fold.losses.items():
+            self.losses.setdefault(setting, []).extend(losses)
+        self.base_losses.extend(fold.base_losses)
+        self.mean_counts.extend(fold.mean_counts)
+        self.function_folds += fold.function_folds
+        self.too_large = max(self.too_large, fold.too_large)
+
     def finish(self, cell: float) -> None:
         """Best setting within the hull and coverage; exclusion by the guard rails."""
         self.excluded = None

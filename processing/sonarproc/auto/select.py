@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -42,6 +44,7 @@ from sonarproc.auto.score import (
     paired_se,
 )
 from sonarproc.auto.scoring import fold_scores, mean_count, whole_hulls
+from sonarproc.auto.threads import in_threads
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure, PolyFit, SplineFit
 from sonarproc.grid import Grid
@@ -93,6 +96,7 @@ def choose(
     heldout_per_fold: int = 300,
     seed: int = 0,
     folds_by: str = "firings",
+    workers: int | None = None,
 ) -> AutoChoice:
     """Score every candidate by its held-out range residual (no ground truth).
 
@@ -120,6 +124,9 @@ def choose(
         ``--auto`` uses), ``"time"`` (contiguous time blocks) or ``"passes"`` (contiguous
         runs of each transmitter's firings); :mod:`sonarproc.studies.auto_rules`
         compares them.
+    workers : int, optional
+        Threads the folds are scored on (:func:`sonarproc.auto.threads.in_threads`;
+        default: the CPUs, at most 4). The outcome is the same for any number.
 
     Returns
     -------
@@ -140,16 +147,27 @@ def choose(
         repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
     rng = np.random.default_rng(seed + 2)
-    scores = [Score(c) for c in candidates]
+    splits: list[tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp]]] = []
     for rep in range(repeats):
         fold = make_folds(beams.readings, folds, by=folds_by, seed=seed + 1000 * rep)
         for f in range(folds):
             test = np.flatnonzero(fold == f)
-            if test.size == 0:
-                continue
-            held = np.sort(rng.permutation(test)[:heldout_per_fold])
-            fold_scores(scores, beams, grid, base, fold != f, held, cap)
-    whole_hulls(scores, beams, grid, base)
+            if test.size:
+                splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
+    scores = [Score(c) for c in candidates]
+
+    def one_fold(split: tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp]]) -> list[Score]:
+        mine = [Score(c) for c in candidates]
+        fold_scores(mine, beams, grid, base, split[0], split[1], cap)
+        return mine
+
+    # the whole fit writes the hulls into `scores`, each fold its losses into its own
+    # Scores, gathered in the folds' order
+    jobs: list[Callable[[], list[Score] | None]] = [partial(whole_hulls, scores, beams, grid, base)]
+    jobs += [partial(one_fold, split) for split in splits]
+    for per_fold in in_threads(lambda job: job(), jobs, workers)[1:]:
+        for s, part in zip(scores, per_fold or (), strict=True):
+            s.absorb(part)
     for s in scores:
         s.finish(grid.cell)
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
@@ -235,6 +253,7 @@ def run_auto(
     ranked = [s for s in choice.ranked if np.isfinite(s.residual_m)]
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
+    workers = kwargs.get("workers")
     last: tuple[MethodResult, Score] | None = None
     for s in ranked:
         try:
@@ -256,7 +275,8 @@ def run_auto(
             if excess > HULL_CELLS * r.grid.cell:
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
-            return _echo_refitted(log_, base, res, s, choice, max_readings, seed), s, choice
+            refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
+            return refitted, s, choice
     if last is None:
         raise NothingToMapError(f"{log_.path}: no automatic candidate left anything on the map")
     return last[0], last[1], choice
@@ -313,6 +333,7 @@ def _echo_refitted(
     choice: AutoChoice,
     max_readings: int,
     seed: int,
+    workers: int | None,
 ) -> MethodResult:
     """The winner's run with a profile refitted through the echo points, if that wins.
 
@@ -340,15 +361,16 @@ def _echo_refitted(
     starts += _refit_starts(choice.ranked, winner, r.grid)
     # one noise estimate for every start, so that their refits differ only by the start:
     # the lowest, from the profile that explains the readings best
-    noise = min(range_noise(st.fit, beams, st.grid.cell) for st in starts)
-    refits = [
-        choose_refit(
+    noise = min(in_threads(lambda st: range_noise(st.fit, beams, st.grid.cell), starts, workers))
+
+    def refit_from(st: RefitStart) -> RefitChoice:
+        return choose_refit(
             st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
             chosen_losses=mine, folds=choice.folds,
             repeats=choice.repeats, cap=cap, seed=seed, noise=noise,
-        )
-        for st in starts
-    ]  # fmt: skip
+        )  # fmt: skip
+
+    refits = in_threads(refit_from, starts, workers)
     pick = _pick_start(refits)
     refit, start = refits[pick], starts[pick].score
     choice.echo_refit = record = refit.to_json()

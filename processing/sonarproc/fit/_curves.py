@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.fit._models import FitFailure, FloatArray, PolarFit, PolyFit, SplineFit, as_floats
+from sonarproc.fit._smoothing import smoothing_bspline
 
 __all__ = ["check_bins", "fit_polar", "fit_polynomial", "fit_spline", "solve_normal"]
 
@@ -116,7 +117,9 @@ def fit_spline(
     x, y, counts : array_like, shape (K,)
         As for :func:`fit_polynomial`.
     lam : float, optional
-        Roughness penalty; ``None`` chooses it by generalised cross-validation.
+        Roughness penalty; ``None`` chooses it by generalised cross-validation
+        (:func:`scipy.interpolate.make_smoothing_spline`). A given one is fitted by
+        :func:`~sonarproc.fit._smoothing.smoothing_bspline`, the same spline.
 
     Returns
     -------
@@ -132,13 +135,17 @@ def fit_spline(
     order = np.argsort(xa[keep], kind="stable")
     xk, yk, wk = xa[keep][order], ya[keep][order], wa[keep][order]
     try:
-        spl = make_smoothing_spline(xk, yk, w=wk, lam=lam)
+        if lam is None:
+            spl = make_smoothing_spline(xk, yk, w=wk, lam=lam)
+            knots, coef = as_floats(spl.t), as_floats(spl.c)
+        else:
+            knots, coef = smoothing_bspline(xk, yk, wk, lam)
     except (ValueError, np.linalg.LinAlgError) as err:
         return FitFailure("spline", f"smoothing spline failed: {err}", 3)
     return SplineFit(
-        knots=as_floats(spl.t),
-        coef=as_floats(spl.c),
-        degree=int(spl.k),
+        knots=knots,
+        coef=coef,
+        degree=3,
         domain=(float(xk[0]), float(xk[-1])),
         lam=lam,
     )

@@ -1,7 +1,7 @@
 """Methods that keep one cell per arc: directional maximum and the arc-transversal median.
 
 Both start from the arc count map of :func:`sonarproc.arcs.rasterize` (distinct arcs per
-cell) and walk every arc's cells in order along the arc (:func:`sonarproc.arcs.arc_cells`);
+cell) and walk every arc's cells in order along the arc (:func:`sonarproc.arcs.arc_cell_keys`);
 each arc then votes for one cell, and the processed map is the set of voted cells (the
 evidence: how many arcs voted for a cell). Everything is numpy group operations over the
 concatenated cells of all arcs, with no loop per arc.
@@ -20,13 +20,14 @@ concatenated cells of all arcs, with no loop per arc.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.arcs import arc_cells
+from sonarproc.arcs import arc_cell_keys
 from sonarproc.errors import ParameterError
 from sonarproc.grid import Grid
 from sonarproc.methods.base import Beams, MapMethod, MethodMap, OptionValue
@@ -36,9 +37,16 @@ __all__ = ["ArcMedian", "DirectionalMaximum", "ordered_arc_cells", "vote_map"]
 
 IntArray = npt.NDArray[np.intp]
 
-# One entry: both methods of a comparison (or of an --auto fold) share one walk of the
-# arcs. Keyed on the Beams object itself (kept alive here, so its id cannot be reused).
-_LAST: list[Any] = []
+
+class _LastWalk(threading.local):
+    """One entry per thread: both methods of a comparison (or of an --auto fold) share one
+    walk of the arcs. Keyed on the Beams object itself (kept alive here, so its id cannot
+    be reused); per thread, as --auto builds its folds' maps on several."""
+
+    entry: tuple[Any, ...] = ()
+
+
+_LAST = _LastWalk()
 
 
 def ordered_arc_cells(beams: Beams, grid: Grid) -> tuple[IntArray, IntArray, IntArray, IntArray]:
@@ -54,17 +62,17 @@ def ordered_arc_cells(beams: Beams, grid: Grid) -> tuple[IntArray, IntArray, Int
     start : ndarray of intp
         Index into ``arc`` where each arc's run starts (one entry per arc with a cell).
     """
-    if _LAST and _LAST[0] is beams and _LAST[1] == grid:
-        return _LAST[2]
-    arc, iy, ix = arc_cells(beams.arcs, grid)
-    flat = iy * grid.nx + ix
+    last = _LAST.entry
+    if last and last[0] is beams and last[1] == grid:
+        return last[2]
+    arc, flat = arc_cell_keys(beams.arcs, grid)
     # keep each arc's own order (stable), only group arcs together
     order = np.argsort(arc, kind="stable")
     arc, flat = arc[order], flat[order]
     counts = np.bincount(flat, minlength=grid.ny * grid.nx)
     start = np.flatnonzero(np.r_[True, arc[1:] != arc[:-1]]) if arc.size else arc
-    out = (arc, flat, counts[flat].astype(np.intp), start)
-    _LAST[:] = [beams, grid, out]
+    out = (arc, flat, counts[flat], start)
+    _LAST.entry = (beams, grid, out)
     return out
 
 

@@ -108,6 +108,19 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     assert doc["repeats"] == 3 and "smallest 75%" in doc["criterion"]
 
 
+def test_the_choice_is_the_same_on_one_thread_or_several(sparse: Path) -> None:
+    """The folds are scored on threads and gathered in order: the same losses, bit for bit."""
+    lg = load_log(sparse)
+    one, two = (choose(lg, RunParams(), workers=w) for w in (1, 3))
+    for a, b in zip(one.scores, two.scores, strict=True):
+        assert a.candidate.name == b.candidate.name and a.excluded == b.excluded
+        assert a.setting == b.setting and a.residual_m == b.residual_m
+        assert a.losses.keys() == b.losses.keys() and a.hull == b.hull
+        for k in a.losses:
+            np.testing.assert_array_equal(np.concatenate(a.losses[k]), np.concatenate(b.losses[k]))
+        np.testing.assert_array_equal(np.concatenate(a.base_losses), np.concatenate(b.base_losses))
+
+
 def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) -> None:
     lg = load_log(sparse)
     res, chosen, choice = run_auto(lg, RunParams())

@@ -137,3 +137,43 @@ def test_polynomial_reproduces_any_polynomial_of_its_order(
     f = fit_polynomial(x, y, np.ones_like(x), order=len(coef) - 1)
     assert isinstance(f, PolyFit)
     np.testing.assert_allclose(f(x), y, atol=1e-7 * (1 + np.max(np.abs(y))))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(5, 60),
+    seed=st.integers(0, 2**31 - 1),
+    lam=st.floats(0.0, 50.0),
+)
+def test_smoothing_bspline_is_scipys_spline(n: int, seed: int, lam: float) -> None:
+    """The vectorised smoothing spline gives scipy's knots and coefficients."""
+    from scipy.interpolate import make_smoothing_spline
+
+    from sonarproc.fit._smoothing import smoothing_bspline
+
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.uniform(0.01, 1.0, n))
+    y = np.sin(x) + rng.normal(0.0, 0.2, n)
+    w = rng.uniform(0.5, 20.0, n)
+    want = make_smoothing_spline(x, y, w=w, lam=lam)
+    knots, coef = smoothing_bspline(x, y, w, lam)
+    np.testing.assert_array_equal(knots, want.t)
+    np.testing.assert_allclose(coef, want.c, rtol=1e-9, atol=1e-9 * np.abs(want.c).max())
+
+
+@pytest.mark.parametrize(
+    ("x", "w", "lam", "message"),
+    [
+        (np.arange(4.0), np.ones(4), 1.0, "at least 5"),
+        (np.array([0.0, 1.0, 1.0, 2.0, 3.0]), np.ones(5), 1.0, "strictly increasing"),
+        (np.arange(5.0), np.r_[1.0, 0.0, 1.0, 1.0, 1.0], 1.0, "positive"),
+        (np.arange(5.0), np.ones(5), -1.0, "non-negative"),
+    ],
+)
+def test_smoothing_bspline_refuses_bad_input(
+    x: np.ndarray, w: np.ndarray, lam: float, message: str
+) -> None:
+    from sonarproc.fit._smoothing import smoothing_bspline
+
+    with pytest.raises(ValueError, match=message):
+        smoothing_bspline(x, np.zeros_like(x), w, lam)
