@@ -9,6 +9,7 @@ import typer
 
 from sonarproc.cli import compare, export, import_log, recover, run, simulate, sweep, watch
 from sonarproc.cli.app import app
+from sonarproc.runtime import retain_freed_memory
 
 __all__ = ["main", "run_console"]
 
@@ -24,6 +25,7 @@ def main(argv: list[str] | None = None) -> int:
     usage box the parser would draw.
     """
     args = argv if argv is not None else sys.argv[1:]
+    retain_freed_memory()
     try:
         code = app(args=args, prog_name="sonarproc", standalone_mode=False)
     except SystemExit as exc:
