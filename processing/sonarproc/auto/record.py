@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["record_table", "refit_summary"]
+__all__ = ["record_table", "refit_row", "refit_summary"]
 
 
 def _cm(v: float | None) -> str:
@@ -42,6 +42,26 @@ def refit_summary(refit: Mapping[str, Any]) -> tuple[str, float | None]:
     return str(fit_short), residual
 
 
+def refit_row(record: Mapping[str, Any]) -> tuple[str, float | None, str] | None:
+    """The echo refit's row of the record's tables: its fit, residual (m) and a note that
+    says whether it was applied and why; None when no refit was tried.
+
+    Examples
+    --------
+    >>> refit_row({"echo_refit": {"smoothing_length_m": 0.4, "residuals_m": {"0.4": 0.002},
+    ...                           "applied": True, "reason": "it beats the candidate"}})
+    ('spline L=0.4 m', 0.002, 'applied: it beats the candidate')
+    >>> refit_row({"echo_refit": {"smoothing_length_m": None}}) is None
+    True
+    """
+    refit = record.get("echo_refit")
+    if not refit or refit.get("smoothing_length_m") is None:
+        return None
+    fit_short, residual = refit_summary(refit)
+    note = ("applied: " if refit["applied"] else "not applied: ") + str(refit["reason"])
+    return fit_short, residual, note
+
+
 def record_table(record: dict[str, Any]) -> Any:
     """A rich Table: the choice and each runner-up, with held-out residuals."""
     from rich.table import Table
@@ -59,9 +79,8 @@ def record_table(record: dict[str, Any]) -> Any:
     )  # fmt: skip
     for r in record["runners_up"]:
         table.add_row(r["name"], r["fit_short"], _cm(r["residual_m"]), r["excluded"] or "")
-    refit = record.get("echo_refit")
-    if refit and refit.get("smoothing_length_m") is not None:
-        fit_short, residual = refit_summary(refit)
-        note = ("applied: " if refit["applied"] else "not applied: ") + refit["reason"]
+    row = refit_row(record)
+    if row is not None:
+        fit_short, residual, note = row
         table.add_row("echo refit", fit_short, _cm(residual), note)
     return table

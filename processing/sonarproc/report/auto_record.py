@@ -11,7 +11,7 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from sonarproc.auto.record import refit_summary
+from sonarproc.auto.record import refit_row
 from sonarproc.report.units import MISSING
 
 __all__ = ["auto_record_html"]
@@ -43,13 +43,9 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
          r.get("excluded") or "")
         for r in record.get("runners_up", [])
     ]  # fmt: skip
-    refit = record.get("echo_refit")
-    if refit and refit.get("smoothing_length_m") is not None:
-        fit_short, residual = refit_summary(refit)
-        rows.append((
-            "echo refit", fit_short, residual,
-            ("applied: " if refit["applied"] else "not applied: ") + str(refit["reason"]),
-        ))  # fmt: skip
+    refit = refit_row(record)
+    if refit is not None:
+        rows.append(("echo refit", *refit))
     body = "".join(
         f"<tr><td>{name}</td><td>{html.escape(str(fit or ''))}</td>"
         f"<td>{html.escape(_cm(res))}</td><td>{html.escape(str(note))}</td></tr>"

@@ -24,6 +24,7 @@ from sonarproc.methods import DEFAULT_METHODS, make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline.selection import select_beams
+from sonarproc.runtime import retain_freed_memory
 from sonarproc.studies.reproduce import PAPER, PaperRow
 from sonarsim.shipped import shipped_dir
 
@@ -238,6 +239,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--stdout", action="store_true", help="print the tables, leave the doc")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    retain_freed_memory()  # as the sonarproc command does: the wall times are the command's
     rows, auto = run_all(args.scenarios)
     surf = render_surface_table(rows)
     tables = render_tables(rows) + "\n" + (surf + "\n" if surf else "") + render_auto_table(auto)
