@@ -241,6 +241,8 @@ class AutoChoice:
     repeats: int = 1
     #: The chosen profile's refit through the echo points (:mod:`sonarproc.auto.echo_refit`)
     echo_refit: dict[str, Any] | None = None
+    #: The chosen profile's map cells left out of its fit (:mod:`sonarproc.auto.separation`)
+    left_out: dict[str, Any] | None = None
 
     @property
     def ranked(self) -> list[Score]:
@@ -260,4 +262,5 @@ class AutoChoice:
             "readings_scored": self.readings_scored,
             "runners_up": others,
             "echo_refit": self.echo_refit,
+            "profile_columns": self.left_out,
         }

@@ -144,6 +144,19 @@ def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) 
                 assert s.coverage[k] == pytest.approx(float(np.clip(want, 0.0, 1.0)))
 
 
+def test_auto_leaves_stray_echo_clusters_out_of_the_profile(tmp_path: Path) -> None:
+    """The lab procedure past a cardboard, second-order echoes off the room's corners: the
+    clusters they leave metres behind the cardboard are not bridged by the profile."""
+    path = tmp_path / "lab.h5"
+    simulate_to_log(ROOT / "configs/scenarios/auto7-lab-tilted.yaml", path)
+    res, chosen, choice = run_auto(load_log(path), RunParams())
+    record = choice.to_json(chosen)["profile_columns"]
+    assert record["cells_left_out"] > 0 and record["cells"] > record["cells_left_out"]
+    assert res.run.counts["profile_cells_left_out"] == record["cells_left_out"]
+    assert float(np.max(res.run.points_y)) < 2.0  # the cardboard is at y = 1.5 m
+    assert res.run.metrics.E1_m < 0.02  # 34 cm when the profile ran through the clusters
+
+
 # Where auto stands on small scenarios (E1 by the truth, which auto never sees): within
 # 1.2x of the best candidate (measured 0.64x and 0.37x; not met on every scenario, see
 # docs/methods.md).
