@@ -71,8 +71,12 @@ def record_table(record: dict[str, Any]) -> Any:
         f" x {reps}" if reps > 1 else ""
     )
     table = Table(title=title, title_justify="left")
-    for col in ("candidate", "fit", "residual", "note"):
-        table.add_column(col, justify="right" if col == "residual" else "left", no_wrap=True)
+    # the names, fits and residuals keep their width; the notes (why a candidate was
+    # excluded, what the refit did) wrap, so the table fits a terminal of 80 columns
+    table.add_column("candidate", no_wrap=True)
+    table.add_column("fit", no_wrap=True)
+    table.add_column("residual", justify="right", no_wrap=True)
+    table.add_column("note", overflow="fold")
     table.add_row(
         f"[bold]{record['choice']}[/bold]", record["fit_short"], _cm(record["residual_m"]),
         "chosen",

@@ -108,6 +108,18 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     assert doc["repeats"] == 3 and "smallest 75%" in doc["criterion"]
 
 
+def test_surfaces_stand_aside_on_a_grid_too_large(
+    sparse: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import sonarproc.auto.scoring as scoring
+
+    monkeypatch.setattr(scoring, "SURFACES_MAX_CELLS", 1000)
+    choice = choose(load_log(sparse), RunParams())
+    (surf,) = [s for s in choice.scores if s.candidate.family == "surfaces"]
+    assert surf.too_large > 1000 and not surf.losses
+    assert surf.excluded is not None and surf.excluded.startswith("not scored: the grid has")
+
+
 def test_the_choice_is_the_same_on_one_thread_or_several(sparse: Path) -> None:
     """The folds are scored on threads and gathered in order: the same losses, bit for bit."""
     lg = load_log(sparse)
