@@ -14,7 +14,6 @@ Scoring fits merge adjacent columns down to :data:`FIT_COLUMNS` (:func:`fit_colu
 from __future__ import annotations
 
 import logging
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -24,7 +23,7 @@ from sonarproc.auto.candidates import Candidate, spline_lambda
 from sonarproc.auto.holdout import hull_excess, predicted_path, range_loss, subset_beams
 from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
 from sonarproc.auto.score import SURFACES_MAX_CELLS, Score, robust_residual
-from sonarproc.auto.separation import profile_columns
+from sonarproc.auto.separation import profile_map
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import Fit, FitFailure, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
@@ -180,8 +179,7 @@ def _build(c: Candidate, beams: Beams, grid: Grid, base: RunParams) -> _MapEntry
     if not mmap.processed.any():
         return None
     if c.family != "surfaces":
-        keep = profile_columns(mmap.processed, grid)
-        mmap = replace(mmap, processed=mmap.processed & keep[None, :])
+        mmap, _ = profile_map(mmap, grid)  # one chain of columns, stray clusters left out
     ix, iy = np.nonzero(mmap.processed.T)
     px, py = grid.to_world(iy, ix)
     return mmap, bin_stats(ix, py, grid.centres_x(), presorted=True), px, py

@@ -44,7 +44,7 @@ from sonarproc.auto.score import (
     paired_se,
 )
 from sonarproc.auto.scoring import fold_scores, mean_count, whole_hulls
-from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_columns
+from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_map
 from sonarproc.auto.threads import in_threads
 from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure, PolyFit, SplineFit
@@ -197,10 +197,8 @@ def candidate_map(log_: SonarLog, base: RunParams, score: Score) -> CandidateMap
     mmap = method.build(beams, grid, method.params_for(base))
     if c.family != "surfaces":
         # a profile y(x) is fitted to one chain of columns, stray clusters left out
-        keep = profile_columns(mmap.processed, grid)
-        kept = mmap.processed & keep[None, :]
-        counts = {**counts, LEFT_OUT: int(mmap.processed.sum() - kept.sum())}
-        mmap = replace(mmap, processed=kept)
+        mmap, left_out = profile_map(mmap, grid)
+        counts = {**counts, LEFT_OUT: left_out}
     setting = score.setting if score.setting is not None else c.settings[0]
     lam = None
     if c.family == "spline":
@@ -283,10 +281,11 @@ def run_auto(
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
             refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
+            left_out = refitted.run.counts.get(LEFT_OUT, 0)
             choice.left_out = {
                 "rule": SEPARATION_RULE,
-                "cells_left_out": refitted.run.counts.get(LEFT_OUT, 0),
-                "cells": refitted.run.counts.get(LEFT_OUT, 0) + len(refitted.run.points_x),
+                "cells_left_out": left_out,
+                "cells": left_out + refitted.run.counts["processed_cells"],
             }
             return refitted, s, choice
     if last is None:

@@ -14,12 +14,17 @@ the chain holding the most cells; the others are left out of it.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import numpy.typing as npt
 
 from sonarproc.grid import Grid
+from sonarproc.methods.base import MethodMap
 
-__all__ = ["LEFT_OUT", "SEPARATION_RULE", "SPLIT_GAP_M", "STEP_M", "profile_columns"]
+__all__ = [
+    "LEFT_OUT", "SEPARATION_RULE", "SPLIT_GAP_M", "STEP_M", "profile_columns", "profile_map",
+]  # fmt: skip
 
 #: Gaps between occupied columns at least this wide (m) may separate two surfaces.
 SPLIT_GAP_M = 0.3
@@ -91,3 +96,10 @@ def profile_columns(processed: npt.NDArray[np.bool_], grid: Grid) -> npt.NDArray
     keep[:] = False
     keep[cols[chain_of[run_of_col] == main]] = True
     return keep
+
+
+def profile_map(mmap: MethodMap, grid: Grid) -> tuple[MethodMap, int]:
+    """``mmap`` with only the cells of :func:`profile_columns`, and how many it left out."""
+    kept = mmap.processed & profile_columns(mmap.processed, grid)[None, :]
+    left_out = int(np.count_nonzero(mmap.processed)) - int(np.count_nonzero(kept))
+    return (replace(mmap, processed=kept) if left_out else mmap), left_out

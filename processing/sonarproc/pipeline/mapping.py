@@ -155,6 +155,18 @@ def evaluate_map(
     if auto is not None:
         result.auto = auto.to_json()
         result.surfaces = auto.surfaces
+    found = result.surfaces
+    if found is not None and found.surfaces and truth is not None and beams is not None:
+        # precision and completeness against a truth of several surfaces (every caller:
+        # a plain run, a comparison's method, --auto's winner)
+        from sonarproc.pipeline.surfacefit import measure_surfaces
+
+        tp = beams.poses
+        result.surface_metrics = measure_surfaces(
+            found, truth, (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,
+            beams.path), tx_half_beamwidth=tp.tx_half_beamwidth,
+            rx_half_beamwidth=tp.rx_half_beamwidth,
+        )  # fmt: skip
     result.log_state = log_.log_state
     result.log_warning = log_.integrity_warning()
     return result
@@ -215,15 +227,6 @@ def map_log(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,
     )  # fmt: skip
-    if result.surfaces is not None and result.surfaces.surfaces and result.truth is not None:
-        from sonarproc.pipeline.surfacefit import measure_surfaces
-
-        tp = beams.poses
-        result.surface_metrics = measure_surfaces(
-            result.surfaces, result.truth, (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,
-            beams.path), tx_half_beamwidth=tp.tx_half_beamwidth,
-            rx_half_beamwidth=tp.rx_half_beamwidth,
-        )  # fmt: skip
     stage("done")
     timings.pop("done")
     result.timings_s = timings

@@ -190,6 +190,11 @@ def test_auto_on_a_room_chooses_surfaces_refitted_through_the_echoes(tmp_path: P
     assert row["choice"] == "surfaces" and row["metric"] == "precision_m"
     # the ridge alone gave 6.7 cm here; the echo-point refits bring it under a centimetre
     assert row["auto_error_m"] < 0.01
+    # the run's own record measures the surfaces against the truth, as a plain run does
+    res, _, _ = run_auto(load_log(path), RunParams())
+    sm = res.run.surface_metrics
+    assert sm is not None and sm["precision_m"] == pytest.approx(row["auto_error_m"], rel=1e-9)
+    assert 0.8 < sm["completeness"] <= 1.0
 
 
 def test_cli_run_and_compare_auto(
