@@ -114,6 +114,8 @@ def arc_cells(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray, IntArr
     >>> arc, iy, ix = arc_cells(arcs, g)
     >>> len(arc), sorted(set(arc.tolist()))
     (56, [0])
+    >>> bool(np.array_equal(arc_cell_keys(arcs, g)[1], iy * g.nx + ix))
+    True
     """
     arc, keys = arc_cell_keys(arcs, grid)
     iy, ix = np.divmod(keys, grid.nx)
@@ -121,18 +123,8 @@ def arc_cells(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray, IntArr
 
 
 def arc_cell_keys(arcs: ArcGeometry, grid: Grid) -> tuple[IntArray, IntArray]:
-    """:func:`arc_cells` with each cell as its flat index ``iy * grid.nx + ix``.
-
-    Examples
-    --------
-    >>> from sonarproc.arcs import arc_geometry
-    >>> g = Grid.covering(-0.1, 0.1, -0.1, 0.1, cell=0.01)
-    >>> arcs = arc_geometry([[0, 0]], [0.0], [[0, 0]], [0.0], [0.2],
-    ...                     tx_half_beamwidth=np.pi, rx_half_beamwidth=np.pi)
-    >>> arc, iy, ix = arc_cells(arcs, g)
-    >>> bool(np.array_equal(arc_cell_keys(arcs, g)[1], iy * g.nx + ix))
-    True
-    """
+    """:func:`arc_cells` with each cell as its flat index ``iy * grid.nx + ix`` (what a
+    walk along the arcs over a flat count map wants; the example is :func:`arc_cells`')."""
     plan = plan_pieces(arcs, grid)
     size = grid.ny * grid.nx
     out_arc: list[IntArray] = []
