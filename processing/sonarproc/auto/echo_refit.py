@@ -61,9 +61,9 @@ from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
 __all__ = [
-    "MIN_ECHO_POINTS", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "ROUNDS_M", "TIE_SE",
-    "RefitChoice", "choose_refit", "echo_points", "main_body", "range_noise", "refit_profile",
-    "tolerances",
+    "HULL_NOISE_WIDTH", "MIN_ECHO_POINTS", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS",
+    "ROUNDS_M", "TIE_SE", "RefitChoice", "choose_refit", "echo_points", "hull_tolerance",
+    "main_body", "range_noise", "refit_profile", "tolerances",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -82,6 +82,11 @@ NOISE_WIDTHS = (5.0, 2.0)
 #: (A Polaroid ranger's noise is about a centimetre; the paper's noisiest log, Fig. 13,
 #: has 5 cm, and the estimate includes the profile's own error.)
 NOISE_MAX = 0.10
+#: On a noisy log a refit may leave its points' local hull by this many times the range
+#: noise (at least :data:`~sonarproc.auto.score.HULL_CELLS` cells): echo points scatter
+#: by the noise about the surface, so a smooth refit passes outside a few of them by
+#: about that much (the second round keeps points within 2 sigma).
+HULL_NOISE_WIDTH = 2.0
 #: Readings the noise estimate looks at, at most (its median is then good to a few %).
 NOISE_READINGS = 1500
 #: A refit needs at least this many echo points in its first round: fewer say that the
@@ -155,6 +160,18 @@ def tolerances(noise: float) -> tuple[float, ...]:
     """
     noise = noise if noise <= NOISE_MAX else 0.0
     return tuple(max(t, k * noise) for t, k in zip(ROUNDS_M, NOISE_WIDTHS, strict=True))
+
+
+def hull_tolerance(noise: float, cell: float) -> float:
+    """How far (m) a refit may leave its points' local hull, for range noise ``noise``.
+
+    Examples
+    --------
+    >>> hull_tolerance(0.005, 0.01), hull_tolerance(0.04, 0.01), hull_tolerance(2.0, 0.01)
+    (0.03, 0.08, 0.03)
+    """
+    noise = noise if noise <= NOISE_MAX else 0.0
+    return max(HULL_CELLS * cell, HULL_NOISE_WIDTH * noise)
 
 
 def echo_points(
@@ -502,7 +519,7 @@ def choose_refit(
             continue
         hull = _fitted_points(points, map_bins, grid)
         excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
-        if excess > HULL_CELLS * grid.cell:
+        if excess > hull_tolerance(out.noise, grid.cell):
             out.excluded[length] = f"leaves its points' hull by {100 * excess:.3g} cm"
             continue
         curves: list[FloatArray | None] = []

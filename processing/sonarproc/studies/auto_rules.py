@@ -60,7 +60,7 @@ HELD_ASIDE = (
     "auto6-linear-crest", "auto6-bistatic-wave",
     "auto7-lab-tilted", "auto7-ring-hump", "auto7-bistatic-ramps", "auto7-noisy-random",
     "auto8-noisy-ring", "auto8-noisy-linear", "auto8-noisy-bistatic",
-    "auto9-lab-arch", "auto9-lab-slant",
+    "auto9-lab-arch", "auto9-lab-slant", "auto10-noisy-walk", "auto10-noisy-pairs",
 )  # fmt: skip
 
 

@@ -20,6 +20,7 @@ from sonarproc.auto.echo_refit import (
     RefitChoice,
     choose_refit,
     echo_points,
+    hull_tolerance,
     main_body,
     range_noise,
     refit_profile,
@@ -292,6 +293,27 @@ def test_noisy_ranges_widen_the_tolerances_and_keep_the_noisy_echoes() -> None:
     assert range_noise(exact, clean, grid.cell) < 0.002
     assert tolerances(range_noise(exact, clean, grid.cell)) == ROUNDS_M
     assert tolerances(1.0) == ROUNDS_M
+
+
+@pytest.mark.parametrize("seed", [0, 2, 3])
+def test_noisy_echo_points_widen_the_refits_hull_tolerance(
+    seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """150 readings with 4 cm of range noise: a smooth refit passes outside a few scattered
+    echo points by more than 3 cells; the hull tolerance follows the noise (2 sigma)."""
+    import sonarproc.auto.echo_refit as echo_refit
+
+    beams = _bistatic_beams(np.random.default_rng(seed), 150, noise=0.08)
+    start, bins, _, grid = _refit_case()
+    lengths = (0.2, 0.4, 0.8, 1.6)
+    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=lengths)
+    assert got.noise is not None and 0.03 < got.noise < 0.06
+    assert hull_tolerance(got.noise, grid.cell) == pytest.approx(2 * got.noise)
+    assert not got.excluded and set(got.residuals) == set(lengths)
+    # with the fixed 3-cell tolerance some of those lengths would have been excluded
+    monkeypatch.setattr(echo_refit, "HULL_NOISE_WIDTH", 0.0)
+    fixed = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=lengths)
+    assert fixed.excluded and set(fixed.residuals) < set(lengths)
 
 
 def test_a_profile_few_readings_echo_from_is_not_refitted() -> None:
