@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ["record_table", "refit_row", "refit_summary"]
+__all__ = ["chosen_note", "record_table", "refit_row", "refit_summary"]
 
 
 def _cm(v: float | None) -> str:
@@ -62,6 +62,25 @@ def refit_row(record: Mapping[str, Any]) -> tuple[str, float | None, str] | None
     return fit_short, residual, note
 
 
+def chosen_note(record: Mapping[str, Any]) -> str:
+    """The chosen row's note: ``chosen``, and the map cells its profile left out, if any.
+
+    Examples
+    --------
+    >>> chosen_note({"profile_columns": {"cells_left_out": 406, "cells": 849}})
+    'chosen; 406 of its 849 map cells left out of the profile (stray clusters)'
+    >>> chosen_note({"profile_columns": None})
+    'chosen'
+    """
+    sep = record.get("profile_columns")
+    if not sep or not sep.get("cells_left_out"):
+        return "chosen"
+    return (
+        f"chosen; {sep['cells_left_out']} of its {sep['cells']} map cells left out of the "
+        "profile (stray clusters)"
+    )
+
+
 def record_table(record: dict[str, Any]) -> Any:
     """A rich Table: the choice and each runner-up, with held-out residuals."""
     from rich.table import Table
@@ -79,7 +98,7 @@ def record_table(record: dict[str, Any]) -> Any:
     table.add_column("note", overflow="fold")
     table.add_row(
         f"[bold]{record['choice']}[/bold]", record["fit_short"], _cm(record["residual_m"]),
-        "chosen",
+        chosen_note(record),
     )  # fmt: skip
     for r in record["runners_up"]:
         table.add_row(r["name"], r["fit_short"], _cm(r["residual_m"]), r["excluded"] or "")

@@ -11,7 +11,7 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from sonarproc.auto.record import refit_row
+from sonarproc.auto.record import chosen_note, refit_row
 from sonarproc.report.units import MISSING
 
 __all__ = ["auto_record_html"]
@@ -37,7 +37,7 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
     """
     rows = [
         (f"<b>{html.escape(str(record['choice']))}</b>", record.get("fit_short"),
-         record.get("residual_m"), "chosen"),
+         record.get("residual_m"), chosen_note(record)),
     ] + [
         (html.escape(str(r["name"])), r.get("fit_short"), r.get("residual_m"),
          r.get("excluded") or "")

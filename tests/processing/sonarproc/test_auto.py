@@ -167,6 +167,13 @@ def test_auto_leaves_stray_echo_clusters_out_of_the_profile(tmp_path: Path) -> N
     assert res.run.counts["profile_cells_left_out"] == record["cells_left_out"]
     assert float(np.max(res.run.points_y)) < 2.0  # the cardboard is at y = 1.5 m
     assert res.run.metrics.E1_m < 0.02  # 34 cm when the profile ran through the clusters
+    # the terminal and the page say so on the chosen row
+    from sonarproc.auto.record import chosen_note
+    from sonarproc.report.auto_record import auto_record_html
+
+    note = chosen_note(choice.to_json(chosen))
+    assert note.startswith(f"chosen; {record['cells_left_out']} of its {record['cells']}")
+    assert note in auto_record_html(choice.to_json(chosen))
 
 
 # Where auto stands on small scenarios (E1 by the truth, which auto never sees): within
