@@ -158,8 +158,13 @@ def tolerances(noise: float) -> tuple[float, ...]:
     >>> tolerances(0.005), tolerances(0.04), tolerances(2.0)
     ((0.08, 0.03), (0.2, 0.08), (0.08, 0.03))
     """
-    noise = noise if noise <= NOISE_MAX else 0.0
+    noise = _believable(noise)
     return tuple(max(t, k * noise) for t, k in zip(ROUNDS_M, NOISE_WIDTHS, strict=True))
+
+
+def _believable(noise: float) -> float:
+    """The noise estimate, or 0 above :data:`NOISE_MAX` (a profile missing the readings)."""
+    return noise if noise <= NOISE_MAX else 0.0
 
 
 def hull_tolerance(noise: float, cell: float) -> float:
@@ -170,8 +175,7 @@ def hull_tolerance(noise: float, cell: float) -> float:
     >>> hull_tolerance(0.005, 0.01), hull_tolerance(0.04, 0.01), hull_tolerance(2.0, 0.01)
     (0.03, 0.08, 0.03)
     """
-    noise = noise if noise <= NOISE_MAX else 0.0
-    return max(HULL_CELLS * cell, HULL_NOISE_WIDTH * noise)
+    return max(HULL_CELLS * cell, HULL_NOISE_WIDTH * _believable(noise))
 
 
 def echo_points(
