@@ -46,9 +46,10 @@ import numpy.typing as npt
 
 from sonarproc.auto.candidates import SMOOTHING_LENGTHS, spline_lambda
 from sonarproc.auto.holdout import (
+    Split,
     curve_path,
+    heldout_splits,
     hull_excess,
-    make_folds,
     predicted_path,
     range_loss,
     subset_beams,
@@ -486,14 +487,7 @@ def choose_refit(
         return out
     span = (float(map_bins.centres[occupied[0]]), float(map_bins.centres[occupied[-1]]))
     # the held-out readings of the candidates' folds (same seeds, same order of draws)
-    rng = np.random.default_rng(seed + 2)
-    splits: list[tuple[npt.NDArray[np.bool_], IntArray]] = []
-    for rep in range(repeats):
-        fold = make_folds(beams.readings, folds, by="firings", seed=seed + 1000 * rep)
-        for f in range(folds):
-            test = np.flatnonzero(fold == f)
-            if test.size:
-                splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
+    splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     fits, spans = out.fits, out.spans
     fold_curves: dict[float, list[FloatArray | None]] = {}
     samples = int((span[1] - span[0]) / grid.cell) + 1
@@ -578,7 +572,7 @@ def choose_refit(
 
 def _heldout_losses(
     curves: list[FloatArray | None],
-    splits: list[tuple[BoolArray, IntArray]],
+    splits: list[Split],
     beams: Beams,
     cap: float,
 ) -> FloatArray:

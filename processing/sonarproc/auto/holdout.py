@@ -30,8 +30,10 @@ MAX_SAMPLES = 500
 __all__ = [
     "FOLD_SCHEMES",
     "MAX_SAMPLES",
+    "Split",
     "curve_path",
     "firing_folds",
+    "heldout_splits",
     "hull_excess",
     "make_folds",
     "pass_folds",
@@ -134,6 +136,47 @@ def make_folds(
     except KeyError as err:
         raise ParameterError("folds_by", f"{by!r} is not one of {', '.join(FOLD_SCHEMES)}") from err
     return scheme(readings, k, seed=seed)
+
+
+#: One fold's split: the training readings (a mask) and the held-out ones predicted.
+Split = tuple[BoolArray, npt.NDArray[np.intp]]
+
+
+def heldout_splits(
+    readings: np.ndarray,
+    folds: int,
+    repeats: int,
+    heldout_per_fold: int,
+    *,
+    by: str = "firings",
+    seed: int = 0,
+) -> list[Split]:
+    """Every fold's split, the folds drawn ``repeats`` times (seeds ``seed + 1000 * rep``),
+    each fold's held-out readings a random subset of at most ``heldout_per_fold``.
+
+    The candidates and the echo refit draw the same splits from the same ``seed``, so
+    their held-out losses pair up reading by reading.
+
+    Examples
+    --------
+    >>> from sonarlog.schema import empty_readings
+    >>> r = empty_readings(40)
+    >>> r["t"] = np.arange(40)
+    >>> splits = heldout_splits(r, 4, 2, 5)
+    >>> len(splits), {int(held.size) for _, held in splits}
+    (8, {5})
+    >>> all(not train[held].any() for train, held in splits)
+    True
+    """
+    rng = np.random.default_rng(seed + 2)
+    splits: list[Split] = []
+    for rep in range(repeats):
+        fold = make_folds(readings, folds, by=by, seed=seed + 1000 * rep)
+        for f in range(folds):
+            test = np.flatnonzero(fold == f)
+            if test.size:
+                splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
+    return splits
 
 
 def subset_beams(beams: Beams, keep: BoolArray) -> Beams:

@@ -29,11 +29,7 @@ import numpy.typing as npt
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
-from sonarproc.auto.holdout import (
-    hull_excess,
-    make_folds,
-    subset_beams,
-)
+from sonarproc.auto.holdout import Split, heldout_splits, hull_excess, subset_beams
 from sonarproc.auto.score import (
     CAP_CELLS,
     CRITERION,
@@ -147,17 +143,12 @@ def choose(
     if repeats is None:
         repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
-    rng = np.random.default_rng(seed + 2)
-    splits: list[tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp]]] = []
-    for rep in range(repeats):
-        fold = make_folds(beams.readings, folds, by=folds_by, seed=seed + 1000 * rep)
-        for f in range(folds):
-            test = np.flatnonzero(fold == f)
-            if test.size:
-                splits.append((fold != f, np.sort(rng.permutation(test)[:heldout_per_fold])))
+    splits = heldout_splits(
+        beams.readings, folds, repeats, heldout_per_fold, by=folds_by, seed=seed
+    )
     scores = [Score(c) for c in candidates]
 
-    def one_fold(split: tuple[npt.NDArray[np.bool_], npt.NDArray[np.intp]]) -> list[Score]:
+    def one_fold(split: Split) -> list[Score]:
         mine = [Score(c) for c in candidates]
         fold_scores(mine, beams, grid, base, split[0], split[1], cap)
         return mine
