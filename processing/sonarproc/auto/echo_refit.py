@@ -29,6 +29,16 @@ it cannot be told apart by the readings, and their refits are averaged. The refi
 replaces the chosen fit unless its residual is above the chosen candidate's own by more
 than :data:`TIE_SE` paired standard errors.
 
+Least-squares polynomials of the candidates' orders are refitted and scored the same way
+(:class:`RefitSetting`). When a polynomial is tied with the best refit, it is preferred
+over the splines if it agrees with the most flexible tied refit within
+:func:`agreement_tolerance` (the map's cell, or the range noise) on every column where
+readings echo (:func:`simplest_agreeing`). Where the readings see the surface the two
+are then the same curve; across a stretch that echoes nothing (a flank facing away
+from the sensors) the spline draws the straightest curve and the polynomial carries the
+curvature on either side through it. A polynomial that misses a local feature the
+readings do see (a dent, a hump) disagrees there and is not taken.
+
 Each round drops the small clusters of echo points cut off at the ends
 (:func:`main_body`): readings that find an echo point on the map-carried end of the
 profile agree with its bias. The refitted profile is then reported only between its
@@ -39,12 +49,12 @@ beyond them the map's bias carries it, centimetres to a decimetre off at a wave'
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.auto.candidates import SMOOTHING_LENGTHS, spline_lambda
+from sonarproc.auto.candidates import ORDERS, SMOOTHING_LENGTHS, spline_lambda
 from sonarproc.auto.holdout import (
     Split,
     curve_path,
@@ -55,7 +65,7 @@ from sonarproc.auto.holdout import (
     subset_beams,
 )
 from sonarproc.auto.score import HULL_CELLS, paired_se, robust_residual
-from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_spline
+from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import first_echo
 from sonarproc.metrics import Bins, bin_stats
@@ -63,8 +73,10 @@ from sonarproc.pipeline.selection import Beams
 
 __all__ = [
     "HULL_NOISE_WIDTH", "MIN_ECHO_POINTS", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS",
-    "ROUNDS_M", "TIE_SE", "RefitChoice", "choose_refit", "echo_points", "hull_tolerance",
-    "main_body", "range_noise", "refit_profile", "tolerances",
+    "REFIT_SETTINGS", "ROUNDS_M", "TIE_SE", "RefitChoice", "RefitSetting",
+    "agreement_tolerance", "choose_refit", "echo_points", "flexible_reference",
+    "hull_tolerance", "main_body", "range_noise", "refit_profile", "simplest_agreeing",
+    "tolerances",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -112,6 +124,37 @@ TIE_SE = 2.0
 
 Span = tuple[float, float]
 Profile = PolyFit | SplineFit
+
+
+@dataclass(frozen=True, order=True)
+class RefitSetting:
+    """A refit's curve: a smoothing spline of length ``value`` (m), or a least-squares
+    polynomial of order ``value``.
+
+    Examples
+    --------
+    >>> RefitSetting("spline", 0.4).short, RefitSetting("poly", 6).short
+    ('spline L=0.4 m', 'poly m=6')
+    >>> sorted([RefitSetting("spline", 0.1), RefitSetting("poly", 9), RefitSetting("poly", 2)])[0]
+    RefitSetting(family='poly', value=2)
+    """
+
+    family: Literal["poly", "spline"]
+    value: float
+
+    @property
+    def short(self) -> str:
+        """The setting in a few words, as the record names it."""
+        if self.family == "poly":
+            return f"poly m={int(self.value)}"
+        return f"spline L={self.value:g} m"
+
+
+#: The refits tried: splines of the candidates' smoothing lengths, then polynomials of the
+#: candidates' orders.
+REFIT_SETTINGS = tuple(RefitSetting("spline", k) for k in SMOOTHING_LENGTHS) + tuple(
+    RefitSetting("poly", m) for m in ORDERS
+)
 
 
 def _curve(fit: Profile, span: Span, step: float) -> FloatArray:
@@ -166,6 +209,19 @@ def tolerances(noise: float) -> tuple[float, ...]:
 def _believable(noise: float) -> float:
     """The noise estimate, or 0 above :data:`NOISE_MAX` (a profile missing the readings)."""
     return noise if noise <= NOISE_MAX else 0.0
+
+
+def agreement_tolerance(noise: float, cell: float) -> float:
+    """How far (m) two refits may differ and still be the same curve to the readings.
+
+    The map's cell, or the range noise if larger (and believable, :data:`NOISE_MAX`).
+
+    Examples
+    --------
+    >>> agreement_tolerance(0.004, 0.01), agreement_tolerance(0.03, 0.01)
+    (0.01, 0.03)
+    """
+    return max(cell, _believable(noise))
 
 
 def hull_tolerance(noise: float, cell: float) -> float:
@@ -317,14 +373,16 @@ def _fitted_points(points: FloatArray, map_bins: Bins, grid: Grid) -> FloatArray
     )
 
 
-def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, length: float) -> Fit:
-    """Spline of smoothing ``length`` through the echo points' column means (module notes)."""
+def _fit_points(points: FloatArray, map_bins: Bins, grid: Grid, setting: RefitSetting) -> Fit:
+    """The ``setting``'s curve through the echo points' column means (module notes)."""
     echo, from_map, xs = _columns(points, map_bins, grid)
     mean = np.where(from_map, np.nan_to_num(map_bins.mean), np.nan_to_num(echo.mean))
     count = np.where(from_map, map_bins.count, echo.count).astype(np.float64)
     if not np.any(count > 0):
-        return FitFailure("spline", "no echo point and no map point to fit")
-    lam = spline_lambda(length, float(count[count > 0].mean()), grid.cell)
+        return FitFailure(setting.family, "no echo point and no map point to fit")
+    if setting.family == "poly":
+        return fit_polynomial(xs, mean, count, order=int(setting.value))
+    lam = spline_lambda(setting.value, float(count[count > 0].mean()), grid.cell)
     return fit_spline(xs, mean, count, lam=lam)
 
 
@@ -334,15 +392,16 @@ def refit_profile(
     beams: Beams,
     grid: Grid,
     span: Span,
-    length: float,
+    setting: RefitSetting,
     *,
     first: tuple[IntArray, FloatArray] | None = None,
     tols: tuple[float, ...] = ROUNDS_M,
 ) -> tuple[Fit, IntArray, FloatArray]:
     """The profile refitted through the readings' echo points, one round per tolerance.
 
-    ``first``: the first round's echo points on ``fit``, if already found (they do not
-    depend on ``length``). ``tols``: the rounds' range tolerances (m; :func:`tolerances`).
+    ``setting``: the refit's curve. ``first``: the first round's echo points on ``fit``,
+    if already found (they do not depend on ``setting``). ``tols``: the rounds' range
+    tolerances (m; :func:`tolerances`).
     Returns the new fit and the last round's echoing readings and echo points.
     """
     rows = np.zeros(0, np.intp)
@@ -357,7 +416,7 @@ def refit_profile(
             rows, points = echo_points(fit, beams, span, step=grid.cell, tol=tol, among=among)
         body = main_body(points[:, 0])
         rows, points = rows[body], points[body]
-        new = _fit_points(points, map_bins, grid, length)
+        new = _fit_points(points, map_bins, grid, setting)
         if not isinstance(new, (PolyFit, SplineFit)):
             return new, rows, points
         fit = new
@@ -366,25 +425,31 @@ def refit_profile(
 
 @dataclass
 class RefitChoice:
-    """The echo refit's smoothing lengths, their held-out residuals, and the verdict."""
+    """The echo refit's settings, their held-out residuals, and the verdict."""
 
     criterion: str
-    residuals: dict[float, float] = field(default_factory=dict)
-    excluded: dict[float, str] = field(default_factory=dict)
-    length: float | None = None
+    residuals: dict[RefitSetting, float] = field(default_factory=dict)
+    excluded: dict[RefitSetting, str] = field(default_factory=dict)
+    #: the setting with the lowest held-out residual
+    best: RefitSetting | None = None
     applied: bool = False
     reason: str = ""
     fit: Fit | None = None
-    #: x (m) of the outermost echo points of the chosen length's refit
+    #: x (m) of the outermost echo points of the chosen refit
     echo_span: tuple[float, float] | None = None
-    #: every length's refit on all the readings, its echo span and its held-out losses
-    #: (for studies)
-    fits: dict[float, Profile] = field(default_factory=dict)
-    spans: dict[float, tuple[float, float]] = field(default_factory=dict)
-    losses: dict[float, FloatArray] = field(default_factory=dict)
-    #: the lengths tied with the best (their refits averaged into ``fit``)
-    averaged: tuple[float, ...] = ()
-    #: held-out residual (m) of ``fit``: the best length's, or the average's
+    #: every setting's refit on all the readings, its echo span, the x (m) of its echo
+    #: columns and its held-out losses (for studies)
+    fits: dict[RefitSetting, Profile] = field(default_factory=dict)
+    spans: dict[RefitSetting, tuple[float, float]] = field(default_factory=dict)
+    echo_x: dict[RefitSetting, FloatArray] = field(default_factory=dict)
+    losses: dict[RefitSetting, FloatArray] = field(default_factory=dict)
+    #: the settings tied with the best
+    tied: tuple[RefitSetting, ...] = ()
+    #: the tied splines averaged into ``fit`` (one setting: that refit alone)
+    averaged: tuple[RefitSetting, ...] = ()
+    #: why a polynomial was taken over the tied splines (:func:`simplest_agreeing`)
+    simpler: str = ""
+    #: held-out residual (m) of ``fit``: the setting's, or the average's
     residual: float | None = None
     #: the readings' range noise about the starting profile (m; :func:`range_noise`) and
     #: the rounds' range tolerances (m) it set
@@ -394,20 +459,38 @@ class RefitChoice:
     heldout: FloatArray | None = None
 
     @property
+    def setting(self) -> RefitSetting | None:
+        """The refit's setting (of the averaged splines, the one with the lowest held-out
+        residual); None if no refit was scored."""
+        if not self.averaged:
+            return None
+        return min(self.averaged, key=lambda k: self.residuals[k])
+
+    @property
     def fit_short(self) -> str | None:
-        """The refit in a few words: ``spline L=0.2 m``, or the lengths averaged."""
+        """The refit in a few words: ``spline L=0.2 m``, ``poly m=6``, or the splines
+        averaged."""
         if len(self.averaged) > 1:
-            return "mean of splines L=" + ", ".join(f"{k:g}" for k in self.averaged) + " m"
-        return None if self.length is None else f"spline L={self.length:g} m"
+            return "mean of splines L=" + ", ".join(f"{k.value:g}" for k in self.averaged) + " m"
+        return None if self.setting is None else self.setting.short
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready mapping for the ``--auto`` record's ``echo_refit``."""
+        """JSON-ready mapping for the ``--auto`` record's ``echo_refit``.
+
+        ``smoothing_length_m`` and ``averaged_lengths_m`` name the spline refit (None and
+        empty when a polynomial is chosen); ``polynomial_order`` names a polynomial's.
+        """
+        setting = self.setting
         return {
             "criterion": self.criterion,
-            "residuals_m": {f"{k:g}": _finite(v) for k, v in self.residuals.items()},
-            "excluded": {f"{k:g}": v for k, v in self.excluded.items()},
-            "smoothing_length_m": self.length,
-            "averaged_lengths_m": list(self.averaged),
+            "residuals_m": {k.short: _finite(v) for k, v in self.residuals.items()},
+            "excluded": {k.short: v for k, v in self.excluded.items()},
+            "setting": None if setting is None else setting.short,
+            "smoothing_length_m": _value_of(setting, "spline"),
+            "polynomial_order": _value_of(setting, "poly"),
+            "tied": [k.short for k in self.tied],
+            "averaged_lengths_m": [k.value for k in self.averaged if k.family == "spline"],
+            "simpler": self.simpler,
             "residual_m": None if self.residual is None else _finite(self.residual),
             "fit_short": self.fit_short,
             "applied": self.applied,
@@ -418,8 +501,79 @@ class RefitChoice:
         }
 
 
+def _value_of(setting: RefitSetting | None, family: str) -> float | int | None:
+    if setting is None or setting.family != family:
+        return None
+    return int(setting.value) if family == "poly" else setting.value
+
+
 def _finite(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
+
+
+def flexible_reference(tied: tuple[RefitSetting, ...], best: RefitSetting) -> RefitSetting:
+    """The tied refit that follows the echo points most closely: the spline of the
+    shortest smoothing length, or ``best`` if no spline is tied.
+
+    Examples
+    --------
+    >>> s1, s4 = RefitSetting("spline", 0.1), RefitSetting("spline", 0.4)
+    >>> p6 = RefitSetting("poly", 6)
+    >>> flexible_reference((p6, s1, s4), s4).short, flexible_reference((p6,), p6).short
+    ('spline L=0.1 m', 'poly m=6')
+    """
+    splines = [k for k in tied if k.family == "spline"]
+    return min(splines) if splines else best
+
+
+def simplest_agreeing(
+    tied: tuple[RefitSetting, ...],
+    reference: RefitSetting,
+    fits: dict[RefitSetting, Profile],
+    echo_x: dict[RefitSetting, FloatArray],
+    spans: dict[RefitSetting, Span],
+    tolerance: float,
+) -> tuple[RefitSetting, float] | None:
+    """The lowest-order tied polynomial that agrees with the ``reference`` refit.
+
+    A polynomial agrees if it is within ``tolerance`` (m) of the reference at every
+    column where the reference's readings echo (``echo_x``), between the polynomial's
+    own outermost echo points (``spans``; beyond them it is not reported). A polynomial
+    that misses a feature the readings see loses that feature's echo points, but not
+    the reference's.
+
+    Returns
+    -------
+    (RefitSetting, float) or None
+        The polynomial and its largest difference (m) from the reference; None if no
+        tied polynomial agrees.
+
+    Examples
+    --------
+    A quadratic's samples: the spline through them and the quadratic agree, a line does
+    not.
+
+    >>> from sonarproc.fit import fit_polynomial, fit_spline
+    >>> x = np.linspace(0.0, 4.0, 41)
+    >>> y = 2.0 + 0.05 * (x - 2.0) ** 2
+    >>> s, p2, p1 = RefitSetting("spline", 0.1), RefitSetting("poly", 2), RefitSetting("poly", 1)
+    >>> fits = {s: fit_spline(x, y, np.ones(41), lam=1e-6),
+    ...         p2: fit_polynomial(x, y, np.ones(41), order=2),
+    ...         p1: fit_polynomial(x, y, np.ones(41), order=1)}
+    >>> spans = dict.fromkeys(fits, (0.0, 4.0))
+    >>> simplest_agreeing((p1, p2, s), s, fits, {s: x}, spans, 0.01)[0].short
+    'poly m=2'
+    >>> simplest_agreeing((p1, s), s, fits, {s: x}, spans, 0.01) is None
+    True
+    """
+    xs = echo_x[reference]
+    for k in sorted(k for k in tied if k.family == "poly"):
+        lo, hi = spans[k]
+        at = xs[(xs >= lo) & (xs <= hi)]
+        gap = float(np.max(np.abs(fits[k](at) - fits[reference](at)))) if at.size else 0.0
+        if gap <= tolerance:
+            return k, gap
+    return None
 
 
 def choose_refit(
@@ -435,16 +589,18 @@ def choose_refit(
     heldout_per_fold: int = 300,
     cap: float,
     seed: int = 0,
-    lengths: tuple[float, ...] = SMOOTHING_LENGTHS,
+    settings: tuple[RefitSetting, ...] = REFIT_SETTINGS,
     noise: float | None = None,
 ) -> RefitChoice:
-    """Choose the echo refit's smoothing length by the held-out range residual.
+    """Choose the echo refit's curve by the held-out range residual.
 
-    The lengths whose residuals are within :data:`TIE_SE` paired standard errors of the
-    lowest cannot be told apart by the readings: their refits are averaged. The refit is
-    applied when its residual is below the chosen candidate's, or above it by less than
-    :data:`TIE_SE` paired standard errors (it removes the map's bias, which the readings
-    alone may not show).
+    The settings whose residuals are within :data:`TIE_SE` paired standard errors of the
+    lowest cannot be told apart by the readings. Among them the lowest-order polynomial
+    that agrees with the most flexible tied refit wherever readings echo is taken
+    (:func:`simplest_agreeing`); failing one, the tied splines' refits are averaged. The
+    refit is applied when its residual is below the chosen candidate's, or above it by
+    less than :data:`TIE_SE` paired standard errors (it removes the map's bias, which the
+    readings alone may not show).
 
     Parameters
     ----------
@@ -463,8 +619,8 @@ def choose_refit(
         refit within :data:`TIE_SE` paired standard errors of the candidate is applied.
     folds, repeats, heldout_per_fold, cap, seed
         As :func:`sonarproc.auto.choose`.
-    lengths : tuple of float
-        Smoothing lengths (m) tried.
+    settings : tuple of RefitSetting
+        The refits tried (:data:`REFIT_SETTINGS`).
     noise : float, optional
         The readings' range noise (m) that sets the rounds' tolerances
         (:func:`tolerances`); by default :func:`range_noise` about ``fit``.
@@ -474,11 +630,12 @@ def choose_refit(
     RefitChoice
     """
     criterion = (
-        "the chosen profile refitted through the readings' echo points (a spline; its "
-        "smoothing length by the same held-out range residual, the lengths within "
-        f"{TIE_SE:g} paired standard errors of the best averaged); applied unless its "
-        f"residual is above the chosen candidate's by more than {TIE_SE:g} paired "
-        "standard errors"
+        "the chosen profile refitted through the readings' echo points (smoothing splines "
+        "and polynomials, scored by the same held-out range residual; among those within "
+        f"{TIE_SE:g} paired standard errors of the best, the lowest-order polynomial that "
+        "agrees with the most flexible of them wherever readings echo, else the tied "
+        f"splines averaged); applied unless its residual is above the chosen candidate's "
+        f"by more than {TIE_SE:g} paired standard errors"
     )
     out = RefitChoice(criterion)
     occupied = np.flatnonzero(map_bins.count > 0)
@@ -489,7 +646,7 @@ def choose_refit(
     # the held-out readings of the candidates' folds (same seeds, same order of draws)
     splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     fits, spans = out.fits, out.spans
-    fold_curves: dict[float, list[FloatArray | None]] = {}
+    fold_curves: dict[RefitSetting, list[FloatArray | None]] = {}
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:
@@ -501,7 +658,7 @@ def choose_refit(
         splits = [(train[keep], held) for train, held in splits]
     out.noise = range_noise(fit, echoing, grid.cell) if noise is None else noise
     out.tolerances = tols = tolerances(out.noise)
-    # the first round starts from the chosen fit whatever the length: search it once
+    # the first round starts from the chosen fit whatever the setting: search it once
     first = echo_points(fit, echoing, span, step=grid.cell, tol=tols[0])
     if first[0].size < MIN_ECHO_POINTS:
         out.reason = (
@@ -509,28 +666,29 @@ def choose_refit(
             f"(at least {MIN_ECHO_POINTS} needed)"
         )
         return out
-    for length in lengths:
+    for setting in settings:
         whole, rows, points = refit_profile(
-            fit, map_bins, echoing, grid, span, length, first=first, tols=tols
+            fit, map_bins, echoing, grid, span, setting, first=first, tols=tols
         )
         if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
             continue
         hull = _fitted_points(points, map_bins, grid)
         excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
         if excess > hull_tolerance(out.noise, grid.cell):
-            out.excluded[length] = f"leaves its points' hull by {100 * excess:.3g} cm"
+            out.excluded[setting] = f"leaves its points' hull by {100 * excess:.3g} cm"
             continue
         curves: list[FloatArray | None] = []
         for train, _ in splits:
-            part = _fit_points(points[train[rows]], map_bins, grid, length)
+            part = _fit_points(points[train[rows]], map_bins, grid, setting)
             ok = isinstance(part, (PolyFit, SplineFit))
             curves.append(_curve(part, span, grid.cell) if ok else None)  # type: ignore[arg-type]
         if splits:
-            fold_curves[length] = curves
-            out.losses[length] = _heldout_losses(curves, splits, beams, cap)
-            out.residuals[length] = robust_residual(out.losses[length])
-            fits[length] = whole
-            spans[length] = (float(points[:, 0].min()), float(points[:, 0].max()))
+            fold_curves[setting] = curves
+            out.losses[setting] = _heldout_losses(curves, splits, beams, cap)
+            out.residuals[setting] = robust_residual(out.losses[setting])
+            fits[setting] = whole
+            spans[setting] = (float(points[:, 0].min()), float(points[:, 0].max()))
+            out.echo_x[setting] = grid.centres_x()[np.unique(_column_of(points[:, 0], grid))]
     if not out.residuals:
         out.reason = (
             "every refit leaves its points' hull" if out.excluded
@@ -538,20 +696,42 @@ def choose_refit(
         )  # fmt: skip
         return out
     best = min(out.residuals, key=lambda k: out.residuals[k])
-    tied = tuple(
+    out.best = best
+    out.tied = tuple(
         k for k in sorted(out.residuals)
         if k == best or out.residuals[k] - out.residuals[best]
         <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
     )  # fmt: skip
-    out.length, out.averaged = best, tied
-    if len(tied) == 1:
-        refit, losses, out.echo_span = fits[best], out.losses[best], spans[best]
+    reference = flexible_reference(out.tied, best)
+    # the noise about the refit, not about the start: a start's bias is no noise
+    noise = range_noise(fits[reference], echoing, grid.cell)
+    tolerance = agreement_tolerance(noise, grid.cell)
+    simplest = simplest_agreeing(out.tied, reference, fits, out.echo_x, spans, tolerance)
+    if simplest is not None:
+        poly, gap = simplest
+        out.averaged = (poly,)
+        if poly != best or len(out.tied) > 1:
+            out.simpler = (
+                f"{poly.short}: the lowest-order polynomial among the {len(out.tied)} tied "
+                f"refits, within {100 * gap:.2g} cm (at most {100 * tolerance:.2g}) of "
+                f"{reference.short} wherever readings echo"
+            )
     else:
-        refit = _mean_profile([fits[k] for k in tied], span, grid.cell)
-        mean_curves = [_mean_curve([fold_curves[k][i] for k in tied]) for i in range(len(splits))]
+        out.averaged = tuple(k for k in out.tied if k.family == "spline")
+    if len(out.averaged) == 1:
+        one = out.averaged[0]
+        refit, losses, out.echo_span = fits[one], out.losses[one], spans[one]
+    else:
+        refit = _mean_profile([fits[k] for k in out.averaged], span, grid.cell)
+        mean_curves = [
+            _mean_curve([fold_curves[k][i] for k in out.averaged]) for i in range(len(splits))
+        ]
         losses = _heldout_losses(mean_curves, splits, beams, cap)
         # where every averaged refit is carried by echo points
-        out.echo_span = (max(spans[k][0] for k in tied), min(spans[k][1] for k in tied))
+        out.echo_span = (
+            max(spans[k][0] for k in out.averaged),
+            min(spans[k][1] for k in out.averaged),
+        )
     out.residual, out.heldout = robust_residual(losses), losses
     close = chosen_losses is not None and out.residual - chosen_residual <= TIE_SE * np.nan_to_num(
         paired_se(chosen_losses, losses)
@@ -567,7 +747,14 @@ def choose_refit(
         out.reason = f"{verdict} not below {theirs}" + (
             "" if chosen_losses is None else f", nor within {within} it"
         )
+    if out.simpler:
+        out.reason += "; " + out.simpler
     return out
+
+
+def _column_of(x: FloatArray, grid: Grid) -> IntArray:
+    """The grid column of each abscissa, clipped to the grid."""
+    return np.clip(np.floor((x - grid.x0) / grid.cell).astype(np.intp), 0, grid.nx - 1)
 
 
 def _heldout_losses(

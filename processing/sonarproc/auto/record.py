@@ -34,10 +34,10 @@ def refit_summary(refit: Mapping[str, Any]) -> tuple[str, float | None]:
     ...                "residual_m": 0.001, "residuals_m": {}})
     ('mean of splines L=0.2, 0.4 m', 0.001)
     """
-    length = refit["smoothing_length_m"]
+    length = refit.get("smoothing_length_m")
     fit_short = refit.get("fit_short") or f"spline L={length:g} m"
     residual = refit.get("residual_m")
-    if residual is None:
+    if residual is None and length is not None:
         residual = refit.get("residuals_m", {}).get(f"{length:g}")
     return str(fit_short), residual
 
@@ -53,9 +53,12 @@ def refit_row(record: Mapping[str, Any]) -> tuple[str, float | None, str] | None
     ('spline L=0.4 m', 0.002, 'applied: it beats the candidate')
     >>> refit_row({"echo_refit": {"smoothing_length_m": None}}) is None
     True
+    >>> refit_row({"echo_refit": {"smoothing_length_m": None, "fit_short": "poly m=6",
+    ...                           "residual_m": 0.003, "applied": False, "reason": "worse"}})
+    ('poly m=6', 0.003, 'not applied: worse')
     """
     refit = record.get("echo_refit")
-    if not refit or refit.get("smoothing_length_m") is None:
+    if not refit or refit.get("fit_short", refit.get("smoothing_length_m")) is None:
         return None
     fit_short, residual = refit_summary(refit)
     note = ("applied: " if refit["applied"] else "not applied: ") + str(refit["reason"])

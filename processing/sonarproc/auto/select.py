@@ -391,7 +391,10 @@ def _echo_refitted(
     if pick:
         res = run_candidate(log_, base, start)
         r = res.run
-    params = replace(r.params, fit="spline", order=None, smooth=getattr(refit.fit, "lam", None))
+    if isinstance(refit.fit, PolyFit):
+        params = replace(r.params, fit="poly", order=refit.fit.order, smooth=None)
+    else:
+        params = replace(r.params, fit="spline", order=None, smooth=getattr(refit.fit, "lam", None))
     bins = r.bins
     if refit.echo_span is not None:
         # The profile is reported where readings echo from it: beyond the outermost echo

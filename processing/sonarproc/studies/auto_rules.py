@@ -61,6 +61,7 @@ HELD_ASIDE = (
     "auto7-lab-tilted", "auto7-ring-hump", "auto7-bistatic-ramps", "auto7-noisy-random",
     "auto8-noisy-ring", "auto8-noisy-linear", "auto8-noisy-bistatic",
     "auto9-lab-arch", "auto9-lab-slant", "auto10-noisy-walk", "auto10-noisy-pairs",
+    "auto11-slant-gap", "auto11-ring-dent", "auto11-linear-knee",
 )  # fmt: skip
 
 

@@ -151,8 +151,11 @@ def render_auto_table(auto: Rows) -> str:
         refit = record.get("echo_refit") if isinstance(record, dict) else None
         chose = str(r["choice"])
         if refit and refit.get("applied"):
-            lengths = refit.get("averaged_lengths_m") or [refit["smoothing_length_m"]]
-            chose += " + echo L=" + "/".join(f"{float(k):g}" for k in lengths)
+            if refit.get("polynomial_order") is not None:
+                chose += f" + echo m={int(refit['polynomial_order'])}"
+            else:
+                lengths = refit.get("averaged_lengths_m") or [refit["smoothing_length_m"]]
+                chose += " + echo L=" + "/".join(f"{float(k):g}" for k in lengths)
             starts = refit.get("starts") or []
             if starts and refit.get("start") != starts[0].get("start"):
                 chose += f" from {refit['start']}"

@@ -18,12 +18,15 @@ from sonarproc.auto.echo_refit import (
     ROUNDS_M,
     TIE_SE,
     RefitChoice,
+    RefitSetting,
     choose_refit,
     echo_points,
+    flexible_reference,
     hull_tolerance,
     main_body,
     range_noise,
     refit_profile,
+    simplest_agreeing,
     tolerances,
 )
 from sonarproc.auto.score import paired_se, robust_residual
@@ -38,6 +41,11 @@ from sonarproc.pipeline.selection import Beams, TransducerPoses
 from sonarproc.simulate import simulate_to_log
 
 ROOT = Path(__file__).resolve().parents[3]
+LENGTHS = (0.1, 0.2, 0.4, 0.8, 1.6)
+
+
+def _splines(*lengths: float) -> tuple[RefitSetting, ...]:
+    return tuple(RefitSetting("spline", k) for k in lengths)
 
 
 def _wave(x: np.ndarray) -> np.ndarray:
@@ -122,7 +130,9 @@ def test_refit_recovers_a_wave_a_biased_profile_missed() -> None:
     bins = bin_stats(ix, _wave(cx) - 0.015, cx, presorted=True)
     start = fit_polynomial(cx, _wave(cx) - 0.015, np.ones_like(cx), order=15)
     assert isinstance(start, PolyFit)
-    fit, rows, pts = refit_profile(start, bins, beams, grid, (0.2, 3.8), 0.2)
+    fit, rows, pts = refit_profile(
+        start, bins, beams, grid, (0.2, 3.8), RefitSetting("spline", 0.2)
+    )
     x = np.linspace(0.5, 3.5, 301)
     before = np.sqrt(np.mean((start(x) - _wave(x)) ** 2))
     after = np.sqrt(np.mean((fit(x) - _wave(x)) ** 2))
@@ -148,7 +158,9 @@ def test_the_map_fills_only_beyond_the_echo_points() -> None:
     among = (cx > 1.0) & (cx < 3.0)
     bins = bin_stats(np.arange(cx.size), np.where(among, 1.15, 1.23), cx, presorted=True)
     start = PolyFit(0, np.array([1.18]), (0.0, 4.0))
-    fit, rows, pts = refit_profile(start, bins, beams, grid, (0.0, 4.0), 0.2)
+    fit, rows, pts = refit_profile(
+        start, bins, beams, grid, (0.0, 4.0), RefitSetting("spline", 0.2)
+    )
     assert rows.size > 150 and np.percentile(np.abs(pts[:, 1] - 1.2), 95) < 1e-3
     lo, hi = pts[:, 0].min(), pts[:, 0].max()
     # between the echo points the map is not used; beyond them it carries the profile
@@ -175,7 +187,7 @@ def test_a_column_mean_sits_at_its_points_mean_x() -> None:
     cx = grid.centres_x()
     bins = bin_stats(np.arange(cx.size), 1.0 + cx, cx, presorted=True)
     start = PolyFit(1, np.array([0.99 + 1.0 * 2.0, 2.0]), (0.0, 4.0))  # 1 cm off, same slope
-    fit, rows, _ = refit_profile(start, bins, beams, grid, (0.0, 4.0), 0.2)
+    fit, rows, _ = refit_profile(start, bins, beams, grid, (0.0, 4.0), RefitSetting("spline", 0.2))
     assert rows.size > 250
     x = np.linspace(1.2, 2.8, 161)
     np.testing.assert_allclose(fit(x), 1.0 + x, atol=1e-3)
@@ -190,15 +202,20 @@ def test_choose_refit_scores_lengths_and_applies_only_a_better_one() -> None:
     bins = bin_stats(np.arange(cx.size), _wave(cx) - 0.015, cx, presorted=True)
     start = fit_polynomial(cx, _wave(cx) - 0.015, np.ones_like(cx), order=15)
     assert isinstance(start, PolyFit)
-    got = choose_refit(start, bins, beams, grid, chosen_residual=0.01, cap=0.05)
-    assert set(got.residuals) | set(got.excluded) == {0.1, 0.2, 0.4, 0.8, 1.6}
-    assert got.applied and got.length is not None and got.fit is not None
-    assert got.residuals[got.length] == min(got.residuals.values()) < 0.01
+    got = choose_refit(
+        start, bins, beams, grid, chosen_residual=0.01, cap=0.05, settings=_splines(*LENGTHS)
+    )
+    assert set(got.residuals) | set(got.excluded) == set(_splines(*LENGTHS))
+    assert got.applied and got.setting is not None and got.fit is not None
+    assert got.residuals[got.setting] == min(got.residuals.values()) < 0.01
     doc = got.to_json()
-    assert doc["applied"] is True and doc["smoothing_length_m"] == got.length
+    assert doc["applied"] is True and doc["smoothing_length_m"] == got.setting.value
+    assert doc["polynomial_order"] is None and doc["setting"] == got.setting.short
     assert "held-out" in doc["criterion"] and "below the chosen" in doc["reason"]
     # a chosen candidate that already predicts better keeps its own fit
-    kept = choose_refit(start, bins, beams, grid, chosen_residual=1e-9, cap=0.05)
+    kept = choose_refit(
+        start, bins, beams, grid, chosen_residual=1e-9, cap=0.05, settings=_splines(*LENGTHS)
+    )
     assert not kept.applied and kept.fit is None and "not below" in kept.reason
 
 
@@ -217,12 +234,12 @@ def test_lengths_the_readings_cannot_tell_apart_are_averaged() -> None:
     # two all but equal lengths are tied; a far smoother one is not
     # (the default tolerances: the start's own error would widen them, see below)
     got = choose_refit(
-        start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2, 0.2001, 1.6),
-        noise=0.0,
+        start, bins, beams, grid, chosen_residual=0.01, cap=0.05,
+        settings=_splines(0.2, 0.2001, 1.6), noise=0.0,
     )  # fmt: skip
-    assert got.averaged == (0.2, 0.2001) and got.applied and got.fit is not None
+    assert got.averaged == _splines(0.2, 0.2001) and got.applied and got.fit is not None
     best = min(got.residuals, key=lambda k: got.residuals[k])
-    assert got.length == best
+    assert got.setting == got.best == best and got.tied == got.averaged
     for k, res in got.residuals.items():
         tied = res - got.residuals[best] <= TIE_SE * paired_se(got.losses[best], got.losses[k])
         assert tied == (k in got.averaged)
@@ -237,27 +254,28 @@ def test_lengths_the_readings_cannot_tell_apart_are_averaged() -> None:
     assert doc["averaged_lengths_m"] == [0.2, 0.2001]
     assert doc["fit_short"] == "mean of splines L=0.2, 0.2001 m"
     assert doc["residual_m"] == pytest.approx(got.residual) and got.residual is not None
-    assert got.residual < 0.01 and got.residual < got.residuals[1.6]
+    assert got.residual < 0.01 and got.residual < got.residuals[RefitSetting("spline", 1.6)]
 
 
 def test_a_refit_within_two_paired_errors_of_the_candidate_is_applied() -> None:
     start, bins, beams, grid = _refit_case()
-    alone = choose_refit(start, bins, beams, grid, chosen_residual=0.01, cap=0.05, lengths=(0.2,))
-    assert alone.residual is not None and alone.averaged == (0.2,)
-    mine = alone.losses[0.2]
+    one = _splines(0.2)
+    alone = choose_refit(start, bins, beams, grid, chosen_residual=0.01, cap=0.05, settings=one)
+    assert alone.residual is not None and alone.averaged == one
+    mine = alone.losses[one[0]]
     # a candidate a hair better, reading by reading as scattered as the refit: the
     # readings cannot tell them apart
     close = np.random.default_rng(3).permutation(mine) * (1.0 - 1e-3)
     got = choose_refit(
         start, bins, beams, grid, chosen_residual=robust_residual(close), chosen_losses=close,
-        cap=0.05, lengths=(0.2,),
+        cap=0.05, settings=one,
     )  # fmt: skip
     assert got.applied and "within 2 paired standard errors" in got.reason
     # a candidate clearly better keeps its own fit
     far = mine * 0.2
     kept = choose_refit(
         start, bins, beams, grid, chosen_residual=robust_residual(far), chosen_losses=far,
-        cap=0.05, lengths=(0.2,),
+        cap=0.05, settings=one,
     )  # fmt: skip
     assert not kept.applied and kept.fit is None and "nor within" in kept.reason
 
@@ -274,13 +292,17 @@ def test_noisy_ranges_widen_the_tolerances_and_keep_the_noisy_echoes() -> None:
     x = np.linspace(0.5, 3.5, 301)
     kept, rms = [], []
     for t in (ROUNDS_M, tols):
-        fit, rows, _ = refit_profile(start, bins, beams, grid, (0.2, 3.8), 0.4, tols=t)
+        fit, rows, _ = refit_profile(
+            start, bins, beams, grid, (0.2, 3.8), RefitSetting("spline", 0.4), tols=t
+        )
         kept.append(rows.size)
         rms.append(np.sqrt(np.mean((fit(x) - _wave(x)) ** 2)))
     # the default rounds drop the readings whose noise is above 3 cm, a fifth of them
     assert kept[1] > 1.1 * kept[0] and kept[1] > 0.75 * len(beams.path)
     assert rms[1] < rms[0]
-    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=(0.4,))
+    got = choose_refit(
+        start, bins, beams, grid, chosen_residual=0.05, cap=0.1, settings=_splines(0.4)
+    )
     doc = got.to_json()
     assert doc["range_noise_m"] == pytest.approx(noise, rel=0.05)
     assert doc["tolerances_m"] == pytest.approx(list(tolerances(doc["range_noise_m"])))
@@ -305,15 +327,79 @@ def test_noisy_echo_points_widen_the_refits_hull_tolerance(
 
     beams = _bistatic_beams(np.random.default_rng(seed), 150, noise=0.08)
     start, bins, _, grid = _refit_case()
-    lengths = (0.2, 0.4, 0.8, 1.6)
-    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=lengths)
+    lengths = _splines(0.2, 0.4, 0.8, 1.6)
+    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, settings=lengths)
     assert got.noise is not None and 0.03 < got.noise < 0.06
     assert hull_tolerance(got.noise, grid.cell) == pytest.approx(2 * got.noise)
     assert not got.excluded and set(got.residuals) == set(lengths)
     # with the fixed 3-cell tolerance some of those lengths would have been excluded
     monkeypatch.setattr(echo_refit, "HULL_NOISE_WIDTH", 0.0)
-    fixed = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, lengths=lengths)
+    fixed = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, settings=lengths)
     assert fixed.excluded and set(fixed.residuals) < set(lengths)
+
+
+def _quartic(x: np.ndarray) -> np.ndarray:
+    u = x - 2.0
+    return 2.0 + 0.06 * u**2 + 0.01 * u**3 - 0.012 * u**4
+
+
+def test_a_tied_polynomial_carries_the_curvature_across_a_stretch_that_echoes_nothing() -> None:
+    """Sensors below a quartic wall except under x = 1.3-2.8 m: the splines and the
+    polynomials predict the held-out readings alike; the lowest-order polynomial that
+    agrees with the most flexible spline where readings echo is taken, and it is the
+    closer one across the stretch no reading sees."""
+    xs = np.linspace(-1.0, 5.0, 6001)
+    rng = np.random.default_rng(5)
+    sx = np.repeat(np.r_[np.linspace(0.3, 1.3, 50), np.linspace(2.8, 4.0, 60)], 3)
+    heading = np.pi / 2 + rng.uniform(-0.25, 0.25, sx.size)
+    beams, _ = beams_facing(
+        np.column_stack((sx, np.zeros_like(sx))), heading, np.column_stack((xs, _quartic(xs)))
+    )
+    beams.path[:] += rng.normal(0.0, 0.002, beams.path.size)
+    beams.readings["t"] = np.arange(beams.path.size)  # one firing per reading
+    grid = Grid.covering(0.0, 4.3, 0.0, 3.0, cell=0.01)
+    cx = grid.centres_x()
+    seen = (cx > 0.3) & (cx < 4.0)
+    bins = bin_stats(np.flatnonzero(seen), _quartic(cx[seen]) - 0.02, cx, presorted=True)
+    start = fit_polynomial(cx[seen], _quartic(cx[seen]) - 0.02, np.ones(seen.sum()), order=6)
+    got = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.05)
+    assert got.applied and isinstance(got.fit, PolyFit) and got.setting is not None
+    assert got.setting.family == "poly" and got.fit.order == got.setting.value
+    assert len(got.tied) > 1 and got.setting in got.tied and got.averaged == (got.setting,)
+    # no tied polynomial of a lower order agrees with the reference
+    reference = flexible_reference(got.tied, got.best or got.setting)
+    assert reference.family == "spline"
+    lower = tuple(k for k in got.tied if k.family == "spline" or k < got.setting)
+    assert simplest_agreeing(lower, reference, got.fits, got.echo_x, got.spans, 0.01) is None
+    gap = np.linspace(1.3, 2.8, 151)
+    err = {k: np.abs(got.fits[k](gap) - _quartic(gap)).max() for k in got.tied}
+    assert err[got.setting] < 0.002 and err[got.setting] < err[reference]
+    doc = got.to_json()
+    assert doc["polynomial_order"] == int(got.setting.value) and doc["smoothing_length_m"] is None
+    assert doc["fit_short"] == doc["setting"] == got.setting.short
+    assert doc["averaged_lengths_m"] == [] and got.setting.short in doc["tied"]
+    assert f"lowest-order polynomial among the {len(got.tied)} tied refits" in doc["reason"]
+
+
+def test_a_polynomial_that_misses_a_dent_the_readings_see_does_not_agree() -> None:
+    x = np.linspace(0.0, 4.0, 401)
+    y = 2.0 - 0.08 * np.exp(-(((x - 2.0) / 0.15) ** 2))
+    one = np.ones_like(x)
+    spline, p2, p4 = RefitSetting("spline", 0.1), RefitSetting("poly", 2), RefitSetting("poly", 4)
+    fits = {spline: fit_spline(x, y, one, lam=1e-8)}
+    fits |= {k: fit_polynomial(x, y, one, order=int(k.value)) for k in (p2, p4)}
+    spans = dict.fromkeys(fits, (0.0, 4.0))
+    tied = (p2, p4, spline)
+    assert simplest_agreeing(tied, spline, fits, {spline: x}, spans, 0.01) is None
+    # the same polynomials agree where the readings see no dent (echoes only beyond it)...
+    far = x[np.abs(x - 2.0) > 0.6]
+    got = simplest_agreeing(tied, spline, fits, {spline: far}, spans, 0.03)
+    assert got is not None and got[0] == p2 and got[1] <= 0.03
+    # ... and the reference's echoes beyond a polynomial's own echo span do not count
+    fits[p2] = fit_polynomial(x[x > 2.5], y[x > 2.5], one[x > 2.5], order=2)
+    spans[p2] = (2.5, 4.0)
+    got = simplest_agreeing((p2, spline), spline, fits, {spline: x}, spans, 0.01)
+    assert got is not None and got[0] == p2
 
 
 def test_a_profile_few_readings_echo_from_is_not_refitted() -> None:
@@ -362,7 +448,8 @@ def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path)
     assert ("started from" in rec["reason"]) == (rec["start"] != starts[0])
     r = res.run
     if rec["applied"]:
-        assert r.params.fit == "spline" and r.fit.kind == "spline"
+        assert r.params.fit == r.fit.kind in ("spline", "poly")
+        assert (r.fit.kind == "poly") == (rec["polynomial_order"] is not None)
         assert min(v for v in rec["residuals_m"].values() if v is not None) < chosen.residual_m
     # E1 is that of the profile returned, on the judged columns
     x = r.bins.centres[r.bins.occupied]
