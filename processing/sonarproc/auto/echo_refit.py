@@ -710,11 +710,16 @@ def choose_refit(
     if simplest is not None:
         poly, gap = simplest
         out.averaged = (poly,)
-        if poly != best or len(out.tied) > 1:
+        if poly != reference:
             out.simpler = (
                 f"{poly.short}: the lowest-order polynomial among the {len(out.tied)} tied "
                 f"refits, within {100 * gap:.2g} cm (at most {100 * tolerance:.2g}) of "
                 f"{reference.short} wherever readings echo"
+            )
+        elif len(out.tied) > 1:
+            out.simpler = (
+                f"{poly.short}: the best of the {len(out.tied)} tied refits, none of them a "
+                "spline, and no lower-order one agrees with it wherever readings echo"
             )
     else:
         out.averaged = tuple(k for k in out.tied if k.family == "spline")

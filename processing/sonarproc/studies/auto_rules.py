@@ -62,6 +62,7 @@ HELD_ASIDE = (
     "auto8-noisy-ring", "auto8-noisy-linear", "auto8-noisy-bistatic",
     "auto9-lab-arch", "auto9-lab-slant", "auto10-noisy-walk", "auto10-noisy-pairs",
     "auto11-slant-gap", "auto11-ring-dent", "auto11-linear-knee",
+    "auto12-sparse-crests", "auto12-sparse-noisy", "auto12-pairs-bumps",
 )  # fmt: skip
 
 
