@@ -74,9 +74,8 @@ from sonarproc.pipeline.selection import Beams
 __all__ = [
     "HULL_NOISE_WIDTH", "MIN_ECHO_POINTS", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS",
     "REFIT_SETTINGS", "ROUNDS_M", "TIE_SE", "RefitChoice", "RefitSetting",
-    "agreement_tolerance", "choose_refit", "echo_points", "flexible_reference",
-    "hull_tolerance", "main_body", "range_noise", "refit_profile", "simplest_agreeing",
-    "tolerances",
+    "agreement_tolerance", "choose_refit", "echo_points", "hull_tolerance", "main_body",
+    "range_noise", "references", "refit_profile", "simplest_agreeing", "tolerances",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -511,19 +510,26 @@ def _finite(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
-def flexible_reference(tied: tuple[RefitSetting, ...], best: RefitSetting) -> RefitSetting:
-    """The tied refit that follows the echo points most closely: the spline of the
-    shortest smoothing length, or ``best`` if no spline is tied.
+def references(tied: tuple[RefitSetting, ...], best: RefitSetting) -> list[RefitSetting]:
+    """The refits a tied polynomial is compared with, in turn (:func:`simplest_agreeing`).
+
+    First the tied spline of the shortest smoothing length (the one that follows the echo
+    points most closely); then, if the best refit is a polynomial, that polynomial: a
+    polynomial that predicts better than every spline is kept even if no spline agrees
+    with it (the splines' average is for when a spline is best).
 
     Examples
     --------
     >>> s1, s4 = RefitSetting("spline", 0.1), RefitSetting("spline", 0.4)
     >>> p6 = RefitSetting("poly", 6)
-    >>> flexible_reference((p6, s1, s4), s4).short, flexible_reference((p6,), p6).short
-    ('spline L=0.1 m', 'poly m=6')
+    >>> [k.short for k in references((p6, s1, s4), s4)]
+    ['spline L=0.1 m']
+    >>> [k.short for k in references((p6, s4), p6)]
+    ['spline L=0.4 m', 'poly m=6']
     """
     splines = [k for k in tied if k.family == "spline"]
-    return min(splines) if splines else best
+    out = [min(splines)] if splines else []
+    return out + ([best] if best.family == "poly" else [])
 
 
 def simplest_agreeing(
@@ -702,11 +708,13 @@ def choose_refit(
         if k == best or out.residuals[k] - out.residuals[best]
         <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
     )  # fmt: skip
-    reference = flexible_reference(out.tied, best)
-    # the noise about the refit, not about the start: a start's bias is no noise
-    noise = range_noise(fits[reference], echoing, grid.cell)
-    tolerance = agreement_tolerance(noise, grid.cell)
-    simplest = simplest_agreeing(out.tied, reference, fits, out.echo_x, spans, tolerance)
+    simplest: tuple[RefitSetting, float] | None = None
+    for reference in references(out.tied, best):
+        # the noise about the refit, not about the start: a start's bias is no noise
+        tolerance = agreement_tolerance(range_noise(fits[reference], echoing, grid.cell), grid.cell)
+        simplest = simplest_agreeing(out.tied, reference, fits, out.echo_x, spans, tolerance)
+        if simplest is not None:
+            break
     if simplest is not None:
         poly, gap = simplest
         out.averaged = (poly,)
@@ -718,8 +726,8 @@ def choose_refit(
             )
         elif len(out.tied) > 1:
             out.simpler = (
-                f"{poly.short}: the best of the {len(out.tied)} tied refits, none of them a "
-                "spline, and no lower-order one agrees with it wherever readings echo"
+                f"{poly.short}: the best of the {len(out.tied)} tied refits; no tied spline "
+                "agrees with it, nor a polynomial of a lower order, wherever readings echo"
             )
     else:
         out.averaged = tuple(k for k in out.tied if k.family == "spline")

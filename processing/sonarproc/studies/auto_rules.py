@@ -63,6 +63,7 @@ HELD_ASIDE = (
     "auto9-lab-arch", "auto9-lab-slant", "auto10-noisy-walk", "auto10-noisy-pairs",
     "auto11-slant-gap", "auto11-ring-dent", "auto11-linear-knee",
     "auto12-sparse-crests", "auto12-sparse-noisy", "auto12-pairs-bumps",
+    "auto13-pairs-ledge", "auto13-ring-bumps", "auto13-linear-dip",
 )  # fmt: skip
 
 

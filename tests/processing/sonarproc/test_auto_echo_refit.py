@@ -21,10 +21,10 @@ from sonarproc.auto.echo_refit import (
     RefitSetting,
     choose_refit,
     echo_points,
-    flexible_reference,
     hull_tolerance,
     main_body,
     range_noise,
+    references,
     refit_profile,
     simplest_agreeing,
     tolerances,
@@ -367,7 +367,7 @@ def test_a_tied_polynomial_carries_the_curvature_across_a_stretch_that_echoes_no
     assert got.setting.family == "poly" and got.fit.order == got.setting.value
     assert len(got.tied) > 1 and got.setting in got.tied and got.averaged == (got.setting,)
     # no tied polynomial of a lower order agrees with the reference
-    reference = flexible_reference(got.tied, got.best or got.setting)
+    reference = references(got.tied, got.best or got.setting)[0]
     assert reference.family == "spline"
     lower = tuple(k for k in got.tied if k.family == "spline" or k < got.setting)
     assert simplest_agreeing(lower, reference, got.fits, got.echo_x, got.spans, 0.01) is None
@@ -516,3 +516,17 @@ def test_the_record_shows_the_refit_in_the_terminal_and_the_page() -> None:
     assert "echo refit" in text and "spline L=0.2 m" in text and "0.21 cm" in text
     page = auto_record_html(rec)
     assert "<td>echo refit</td>" in page and "applied: held-out residual" in page
+
+
+def test_a_best_polynomial_no_tied_spline_agrees_with_is_kept(tmp_path: Path) -> None:
+    """A linear array under a narrow dip: the order-15 refit predicts the held-out ranges
+    best and follows the dip; the one spline tied with it (L=0.8 m) smooths the dip
+    away. The polynomial is kept, not replaced by the tied splines' average."""
+    path = tmp_path / "dip.h5"
+    simulate_to_log(ROOT / "configs/scenarios/auto13-linear-dip.yaml", path)
+    res, chosen, choice = run_auto(load_log(path), RunParams())
+    rec = choice.to_json(chosen)["echo_refit"]
+    assert rec["applied"] and rec["polynomial_order"] == 15 and rec["smoothing_length_m"] is None
+    assert res.run.params.fit == "poly" and res.run.params.order == 15
+    # by the truth, which auto never sees: the dip is followed (the 0.8 m spline is 2.7 cm off)
+    assert res.run.metrics.E1_m is not None and res.run.metrics.E1_m < 0.01
