@@ -19,6 +19,7 @@ import numpy.typing as npt
 from sonarproc.auto.candidates import Candidate
 from sonarproc.fit import Fit
 from sonarproc.metrics import Bins
+from sonarproc.pipeline.selection import Beams
 
 __all__ = [
     "CAP_CELLS",
@@ -244,6 +245,8 @@ class AutoChoice:
     echo_refit: dict[str, Any] | None = None
     #: The chosen profile's map cells left out of its fit (:mod:`sonarproc.auto.separation`)
     left_out: dict[str, Any] | None = None
+    #: The scored readings (the echo refit is scored on the same ones and folds)
+    scored: Beams | None = field(default=None, repr=False, compare=False)
 
     @property
     def ranked(self) -> list[Score]:

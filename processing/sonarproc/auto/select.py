@@ -163,7 +163,7 @@ def choose(
     for s in scores:
         s.finish(grid.cell)
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
-    return AutoChoice(scores, crit, n, folds, repeats)
+    return AutoChoice(scores, crit, n, folds, repeats, scored=beams)
 
 
 @dataclass
@@ -348,8 +348,10 @@ def _echo_refitted(
     held-out readings better by more than :data:`TIE_SE` paired standard errors (then
     that runner-up is run on every reading for its map). The record says what it found.
     """
-    beams, _ = select_beams(log_, base)
-    beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
+    beams = choice.scored
+    if beams is None:
+        beams, _ = select_beams(log_, base)
+        beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
     r = res.run
     # the winner's held-out losses, fold by fold as the refit's (same seeds and draws)
     mine = _setting_losses(winner)
