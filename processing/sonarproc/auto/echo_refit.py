@@ -454,6 +454,9 @@ class RefitChoice:
     #: the rounds' range tolerances (m) it set
     noise: float | None = None
     tolerances: tuple[float, ...] = ()
+    #: the noise estimate about the starting profile, when it was above
+    #: :data:`NOISE_MAX` and ``noise`` was estimated again about the best refit
+    noise_start: float | None = None
     #: held-out losses of ``fit``, in the order of the folds (for comparing refits)
     heldout: FloatArray | None = None
 
@@ -496,6 +499,7 @@ class RefitChoice:
             "reason": self.reason,
             "echo_span_m": None if self.echo_span is None else list(self.echo_span),
             "range_noise_m": None if self.noise is None else _finite(self.noise),
+            "range_noise_start_m": None if self.noise_start is None else _finite(self.noise_start),
             "tolerances_m": list(self.tolerances),
         }
 
@@ -651,8 +655,6 @@ def choose_refit(
     span = (float(map_bins.centres[occupied[0]]), float(map_bins.centres[occupied[-1]]))
     # the held-out readings of the candidates' folds (same seeds, same order of draws)
     splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
-    fits, spans = out.fits, out.spans
-    fold_curves: dict[RefitSetting, list[FloatArray | None]] = {}
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:
@@ -663,38 +665,25 @@ def choose_refit(
         # the folds are the readings' own: carry them over to the subset
         splits = [(train[keep], held) for train, held in splits]
     out.noise = range_noise(fit, echoing, grid.cell) if noise is None else noise
-    out.tolerances = tols = tolerances(out.noise)
-    # the first round starts from the chosen fit whatever the setting: search it once
-    first = echo_points(fit, echoing, span, step=grid.cell, tol=tols[0])
-    if first[0].size < MIN_ECHO_POINTS:
-        out.reason = (
-            f"{first[0].size} readings echo from the chosen profile "
-            f"(at least {MIN_ECHO_POINTS} needed)"
-        )
+    fold_curves = _score_settings(
+        out, fit, map_bins, beams, echoing, grid, span, splits, settings, cap
+    )
+    if fold_curves is None:
         return out
-    for setting in settings:
-        whole, rows, points = refit_profile(
-            fit, map_bins, echoing, grid, span, setting, first=first, tols=tols
-        )
-        if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
-            continue
-        hull = _fitted_points(points, map_bins, grid)
-        excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
-        if excess > hull_tolerance(out.noise, grid.cell):
-            out.excluded[setting] = f"leaves its points' hull by {100 * excess:.3g} cm"
-            continue
-        curves: list[FloatArray | None] = []
-        for train, _ in splits:
-            part = _fit_points(points[train[rows]], map_bins, grid, setting)
-            ok = isinstance(part, (PolyFit, SplineFit))
-            curves.append(_curve(part, span, grid.cell) if ok else None)  # type: ignore[arg-type]
-        if splits:
-            fold_curves[setting] = curves
-            out.losses[setting] = _heldout_losses(curves, splits, beams, cap)
-            out.residuals[setting] = robust_residual(out.losses[setting])
-            fits[setting] = whole
-            spans[setting] = (float(points[:, 0].min()), float(points[:, 0].max()))
-            out.echo_x[setting] = grid.centres_x()[np.unique(_column_of(points[:, 0], grid))]
+    if out.residuals and out.noise > NOISE_MAX:
+        # Above NOISE_MAX the estimate says that the profile misses most readings (a
+        # room's other walls), or that the start is far off on a noisy log: about the
+        # best refit the second comes down to the noise, the first does not.
+        best = min(out.residuals, key=lambda k: out.residuals[k])
+        again = range_noise(out.fits[best], echoing, grid.cell)
+        if _believable(again) and tolerances(again) != out.tolerances:
+            retry = RefitChoice(criterion, noise=again, noise_start=out.noise)
+            curves = _score_settings(
+                retry, fit, map_bins, beams, echoing, grid, span, splits, settings, cap
+            )
+            if curves is not None and retry.residuals:
+                out, fold_curves = retry, curves
+    fits, spans = out.fits, out.spans
     if not out.residuals:
         out.reason = (
             "every refit leaves its points' hull" if out.excluded
@@ -768,6 +757,57 @@ def choose_refit(
 def _column_of(x: FloatArray, grid: Grid) -> IntArray:
     """The grid column of each abscissa, clipped to the grid."""
     return np.clip(np.floor((x - grid.x0) / grid.cell).astype(np.intp), 0, grid.nx - 1)
+
+
+def _score_settings(
+    out: RefitChoice,
+    fit: Profile,
+    map_bins: Bins,
+    beams: Beams,
+    echoing: Beams,
+    grid: Grid,
+    span: Span,
+    splits: list[Split],
+    settings: tuple[RefitSetting, ...],
+    cap: float,
+) -> dict[RefitSetting, list[FloatArray | None]] | None:
+    """Refit every setting from ``fit`` with the tolerances of ``out.noise`` and score it on
+    the folds, into ``out``; returns each setting's fold curves (None, with ``out.reason``,
+    when too few readings echo from ``fit``)."""
+    out.tolerances = tols = tolerances(out.noise or 0.0)
+    # the first round starts from the chosen fit whatever the setting: search it once
+    first = echo_points(fit, echoing, span, step=grid.cell, tol=tols[0])
+    if first[0].size < MIN_ECHO_POINTS:
+        out.reason = (
+            f"{first[0].size} readings echo from the chosen profile "
+            f"(at least {MIN_ECHO_POINTS} needed)"
+        )
+        return None
+    fold_curves: dict[RefitSetting, list[FloatArray | None]] = {}
+    for setting in settings:
+        whole, rows, points = refit_profile(
+            fit, map_bins, echoing, grid, span, setting, first=first, tols=tols
+        )
+        if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
+            continue
+        hull = _fitted_points(points, map_bins, grid)
+        excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
+        if excess > hull_tolerance(out.noise or 0.0, grid.cell):
+            out.excluded[setting] = f"leaves its points' hull by {100 * excess:.3g} cm"
+            continue
+        curves: list[FloatArray | None] = []
+        for train, _ in splits:
+            part = _fit_points(points[train[rows]], map_bins, grid, setting)
+            ok = isinstance(part, (PolyFit, SplineFit))
+            curves.append(_curve(part, span, grid.cell) if ok else None)  # type: ignore[arg-type]
+        if splits:
+            fold_curves[setting] = curves
+            out.losses[setting] = _heldout_losses(curves, splits, beams, cap)
+            out.residuals[setting] = robust_residual(out.losses[setting])
+            out.fits[setting] = whole
+            out.spans[setting] = (float(points[:, 0].min()), float(points[:, 0].max()))
+            out.echo_x[setting] = grid.centres_x()[np.unique(_column_of(points[:, 0], grid))]
+    return fold_curves
 
 
 def _heldout_losses(

@@ -74,12 +74,17 @@ def chosen_note(record: Mapping[str, Any]) -> str:
     'chosen; 406 of its 849 map cells left out of the profile (stray clusters)'
     >>> chosen_note({"profile_columns": None})
     'chosen'
+    >>> chosen_note({"fallback": "every candidate was excluded (hull)"})
+    'chosen: every candidate was excluded (hull)'
     """
+    note = "chosen"
+    if record.get("fallback"):
+        note += f": {record['fallback']}"
     sep = record.get("profile_columns")
     if not sep or not sep.get("cells_left_out"):
-        return "chosen"
+        return note
     return (
-        f"chosen; {sep['cells_left_out']} of its {sep['cells']} map cells left out of the "
+        f"{note}; {sep['cells_left_out']} of its {sep['cells']} map cells left out of the "
         "profile (stray clusters)"
     )
 

@@ -245,6 +245,8 @@ class AutoChoice:
     echo_refit: dict[str, Any] | None = None
     #: The chosen profile's map cells left out of its fit (:mod:`sonarproc.auto.separation`)
     left_out: dict[str, Any] | None = None
+    #: Why the choice is a candidate the guard rails excluded (all of them were), if so
+    fallback: str | None = None
     #: The scored readings (the echo refit is scored on the same ones and folds)
     scored: Beams | None = field(default=None, repr=False, compare=False)
 
@@ -267,4 +269,5 @@ class AutoChoice:
             "runners_up": others,
             "echo_refit": self.echo_refit,
             "profile_columns": self.left_out,
+            "fallback": self.fallback,
         }

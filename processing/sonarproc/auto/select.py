@@ -271,17 +271,38 @@ def run_auto(
             if excess > HULL_CELLS * r.grid.cell:
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
-            refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
-            left_out = refitted.run.counts.get(LEFT_OUT, 0)
-            choice.left_out = {
-                "rule": SEPARATION_RULE,
-                "cells_left_out": left_out,
-                "cells": left_out + refitted.run.counts["processed_cells"],
-            }
-            return refitted, s, choice
+            return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
     if last is None:
         raise NothingToMapError(f"{log_.path}: no automatic candidate left anything on the map")
-    return last[0], last[1], choice
+    res, s = last
+    choice.fallback = (
+        f"every candidate was excluded by the guard rails; the best ranked is returned "
+        f"({s.excluded})"
+    )
+    # its refit through the echo points has guard rails of its own (the points' hull)
+    return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
+
+
+def _refitted(
+    log_: SonarLog,
+    base: RunParams,
+    res: MethodResult,
+    s: Score,
+    choice: AutoChoice,
+    max_readings: int,
+    seed: int,
+    workers: int | None,
+) -> MethodResult:
+    """The run refitted through the echo points (:func:`_echo_refitted`), and the record
+    of the map cells its profile left out."""
+    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
+    left_out = refitted.run.counts.get(LEFT_OUT, 0)
+    choice.left_out = {
+        "rule": SEPARATION_RULE,
+        "cells_left_out": left_out,
+        "cells": left_out + refitted.run.counts["processed_cells"],
+    }
+    return refitted
 
 
 @dataclass

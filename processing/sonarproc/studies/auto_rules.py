@@ -64,6 +64,7 @@ HELD_ASIDE = (
     "auto11-slant-gap", "auto11-ring-dent", "auto11-linear-knee",
     "auto12-sparse-crests", "auto12-sparse-noisy", "auto12-pairs-bumps",
     "auto13-pairs-ledge", "auto13-ring-bumps", "auto13-linear-dip",
+    "auto14-noisy-pairs-curve", "auto14-noisy-linear-wave", "auto14-noisy-ring-walk",
 )  # fmt: skip
 
 

@@ -14,6 +14,7 @@ from sonarproc.auto.echo_refit import (
     END_GAP_M,
     END_SHARE,
     MIN_ECHO_POINTS,
+    NOISE_MAX,
     NOISE_WIDTHS,
     ROUNDS_M,
     TIE_SE,
@@ -317,6 +318,42 @@ def test_noisy_ranges_widen_the_tolerances_and_keep_the_noisy_echoes() -> None:
     assert tolerances(1.0) == ROUNDS_M
 
 
+def test_a_noise_estimate_the_starts_error_inflates_is_made_again_about_the_refit() -> None:
+    """Range noise 5 cm and a start 7 cm below the wave: about the start the estimate is
+    above NOISE_MAX (as for a profile that misses most readings), and the default 8 and
+    3 cm rounds keep the readings whose noise happens to lie on the start's side. About
+    the best refit the estimate comes down to the noise; the refits are made again with
+    its tolerances."""
+    _, _, _, grid = _refit_case()
+    beams = _bistatic_beams(np.random.default_rng(40), 1200, noise=0.10)
+    cx = grid.centres_x()
+    far = fit_polynomial(cx, _wave(cx) - 0.07, np.ones_like(cx), order=15)
+    assert isinstance(far, PolyFit)
+    far_bins = bin_stats(np.arange(cx.size), _wave(cx) - 0.07, cx, presorted=True)
+    assert range_noise(far, beams, grid.cell) > NOISE_MAX
+    got = choose_refit(
+        far, far_bins, beams, grid, chosen_residual=0.2, cap=0.2, settings=_splines(0.4, 0.8)
+    )
+    assert got.noise_start == pytest.approx(range_noise(far, beams, grid.cell))
+    assert got.noise is not None and 0.05 < got.noise < NOISE_MAX
+    assert got.tolerances == pytest.approx(tolerances(got.noise))
+    doc = got.to_json()
+    assert doc["range_noise_start_m"] == pytest.approx(got.noise_start)
+    assert doc["range_noise_m"] == pytest.approx(got.noise)
+    x = np.linspace(0.5, 3.5, 301)
+    assert got.applied and got.fit is not None
+    err = np.sqrt(np.mean((got.fit(x) - _wave(x)) ** 2))
+    for setting in _splines(0.4, 0.8):
+        fixed, _, _ = refit_profile(far, far_bins, beams, grid, (0.2, 3.8), setting, tols=ROUNDS_M)
+        assert err < 0.7 * np.sqrt(np.mean((fixed(x) - _wave(x)) ** 2))
+    # a clean log's refits are not made again
+    start, bins, clean, _ = _refit_case()
+    once = choose_refit(
+        start, bins, clean, grid, chosen_residual=0.2, cap=0.2, settings=_splines(0.4)
+    )
+    assert once.noise_start is None and once.to_json()["range_noise_start_m"] is None
+
+
 @pytest.mark.parametrize("seed", [0, 2, 3])
 def test_noisy_echo_points_widen_the_refits_hull_tolerance(
     seed: int, monkeypatch: pytest.MonkeyPatch
@@ -530,3 +567,26 @@ def test_a_best_polynomial_no_tied_spline_agrees_with_is_kept(tmp_path: Path) ->
     assert res.run.params.fit == "poly" and res.run.params.order == 15
     # by the truth, which auto never sees: the dip is followed (the 0.8 m spline is 2.7 cm off)
     assert res.run.metrics.E1_m is not None and res.run.metrics.E1_m < 0.01
+
+
+def test_when_every_candidate_is_excluded_the_record_says_so_and_the_fallback_is_refitted(
+    tmp_path: Path,
+) -> None:
+    """A ring walk with 7 cm of range noise: every candidate's fit leaves its hull or
+    covers too few columns. The best ranked is returned, the record says why, and it is
+    refitted through the echo points (whose own hull guard judges the refit)."""
+    from sonarproc.auto.record import chosen_note
+
+    path = tmp_path / "noisy.h5"
+    simulate_to_log(ROOT / "configs/scenarios/auto14-noisy-ring-walk.yaml", path)
+    res, chosen, choice = run_auto(load_log(path), RunParams())
+    rec = choice.to_json(chosen)
+    assert chosen.excluded is not None and all(r["excluded"] for r in rec["runners_up"])
+    assert rec["fallback"] == (
+        "every candidate was excluded by the guard rails; the best ranked is returned "
+        f"({chosen.excluded})"
+    )
+    assert chosen_note(rec).startswith("chosen: every candidate was excluded")
+    refit = rec["echo_refit"]
+    assert refit is not None and refit["applied"] and refit["residual_m"] < chosen.residual_m
+    assert res.run.fit.kind == res.run.params.fit and rec["profile_columns"] is not None
