@@ -39,6 +39,13 @@ from the sensors) the spline draws the straightest curve and the polynomial carr
 curvature on either side through it. A polynomial that misses a local feature the
 readings do see (a dent, a hump) disagrees there and is not taken.
 
+On a noisy log the rounds' tolerances follow the readings' range noise
+(:func:`range_noise`, :func:`tolerances`), estimated about the starting profile. An
+estimate above :data:`NOISE_MAX` says that the profile misses most readings (a room's
+other walls), or that the start is far off on a very noisy log; the noise is then
+estimated again about the best refit, and if that is believable the refits are made
+again with its tolerances.
+
 Each round drops the small clusters of echo points cut off at the ends
 (:func:`main_body`): readings that find an echo point on the map-carried end of the
 profile agree with its bias. The refitted profile is then reported only between its
