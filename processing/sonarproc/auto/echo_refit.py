@@ -650,9 +650,10 @@ def choose_refit(
         "the chosen profile refitted through the readings' echo points (smoothing splines "
         "and polynomials, scored by the same held-out range residual; among those within "
         f"{TIE_SE:g} paired standard errors of the best, the lowest-order polynomial that "
-        "agrees with the most flexible of them wherever readings echo, else the tied "
-        f"splines averaged); applied unless its residual is above the chosen candidate's "
-        f"by more than {TIE_SE:g} paired standard errors"
+        "agrees wherever readings echo with the most flexible tied spline, or with the "
+        "best refit if that is a polynomial, else the tied splines averaged); applied "
+        "unless its residual is above the chosen candidate's by more than "
+        f"{TIE_SE:g} paired standard errors"
     )
     out = RefitChoice(criterion)
     occupied = np.flatnonzero(map_bins.count > 0)
@@ -697,36 +698,7 @@ def choose_refit(
             else "no reading echoes from the chosen profile"
         )  # fmt: skip
         return out
-    best = min(out.residuals, key=lambda k: out.residuals[k])
-    out.best = best
-    out.tied = tuple(
-        k for k in sorted(out.residuals)
-        if k == best or out.residuals[k] - out.residuals[best]
-        <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
-    )  # fmt: skip
-    simplest: tuple[RefitSetting, float] | None = None
-    for reference in references(out.tied, best):
-        # the noise about the refit, not about the start: a start's bias is no noise
-        tolerance = agreement_tolerance(range_noise(fits[reference], echoing, grid.cell), grid.cell)
-        simplest = simplest_agreeing(out.tied, reference, fits, out.echo_x, spans, tolerance)
-        if simplest is not None:
-            break
-    if simplest is not None:
-        poly, gap = simplest
-        out.averaged = (poly,)
-        if poly != reference:
-            out.simpler = (
-                f"{poly.short}: the lowest-order polynomial among the {len(out.tied)} tied "
-                f"refits, within {100 * gap:.2g} cm (at most {100 * tolerance:.2g}) of "
-                f"{reference.short} wherever readings echo"
-            )
-        elif len(out.tied) > 1:
-            out.simpler = (
-                f"{poly.short}: the best of the {len(out.tied)} tied refits; no tied spline "
-                "agrees with it, nor a polynomial of a lower order, wherever readings echo"
-            )
-    else:
-        out.averaged = tuple(k for k in out.tied if k.family == "spline")
+    _settle_ties(out, echoing, grid.cell)
     if len(out.averaged) == 1:
         one = out.averaged[0]
         refit, losses, out.echo_span = fits[one], out.losses[one], spans[one]
@@ -759,6 +731,42 @@ def choose_refit(
     if out.simpler:
         out.reason += "; " + out.simpler
     return out
+
+
+def _settle_ties(out: RefitChoice, beams: Beams, cell: float) -> None:
+    """Set ``out``'s best setting, the settings tied with it, and the refit taken: the
+    lowest-order tied polynomial that agrees with a reference (:func:`references`,
+    :func:`simplest_agreeing`), else the tied splines (averaged)."""
+    best = min(out.residuals, key=lambda k: out.residuals[k])
+    out.best = best
+    out.tied = tuple(
+        k for k in sorted(out.residuals)
+        if k == best or out.residuals[k] - out.residuals[best]
+        <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
+    )  # fmt: skip
+    for reference in references(out.tied, best):
+        # the noise about the refit, not about the start: a start's bias is no noise
+        tolerance = agreement_tolerance(range_noise(out.fits[reference], beams, cell), cell)
+        simplest = simplest_agreeing(
+            out.tied, reference, out.fits, out.echo_x, out.spans, tolerance
+        )
+        if simplest is None:
+            continue
+        poly, gap = simplest
+        out.averaged = (poly,)
+        if poly != reference:
+            out.simpler = (
+                f"{poly.short}: the lowest-order polynomial among the {len(out.tied)} tied "
+                f"refits, within {100 * gap:.2g} cm (at most {100 * tolerance:.2g}) of "
+                f"{reference.short} wherever readings echo"
+            )
+        elif len(out.tied) > 1:
+            out.simpler = (
+                f"{poly.short}: the best of the {len(out.tied)} tied refits; no tied spline "
+                "agrees with it, nor a polynomial of a lower order, wherever readings echo"
+            )
+        return
+    out.averaged = tuple(k for k in out.tied if k.family == "spline")
 
 
 def _column_of(x: FloatArray, grid: Grid) -> IntArray:
