@@ -252,6 +252,8 @@ def run_auto(
     workers = kwargs.get("workers")
     last: tuple[MethodResult, Score] | None = None
     for s in ranked:
+        if s.excluded is not None and last is not None:
+            continue  # excluded while scoring: only the fallback is run
         try:
             res = run_candidate(log_, base, s)
         except NothingToMapError:
