@@ -37,7 +37,9 @@ readings echo (:func:`simplest_agreeing`). Where the readings see the surface th
 are then the same curve; across a stretch that echoes nothing (a flank facing away
 from the sensors) the spline draws the straightest curve and the polynomial carries the
 curvature on either side through it. A polynomial that misses a local feature the
-readings do see (a dent, a hump) disagrees there and is not taken.
+readings do see (a dent, a hump) disagrees there and is not taken. A polynomial that
+predicts better than every spline is kept even when no tied spline agrees with it
+(:func:`references`): the splines' average is for a spline that predicts best.
 
 On a noisy log the rounds' tolerances follow the readings' range noise
 (:func:`range_noise`, :func:`tolerances`), estimated about the starting profile. An
