@@ -557,9 +557,9 @@ def simplest_agreeing(
 
     A polynomial agrees if it is within ``tolerance`` (m) of the reference at every
     column where the reference's readings echo (``echo_x``), between the polynomial's
-    own outermost echo points (``spans``; beyond them it is not reported). A polynomial
-    that misses a feature the readings see loses that feature's echo points, but not
-    the reference's.
+    own outermost echo points (``spans``; beyond them it is not reported), and there is
+    at least one such column. A polynomial that misses a feature the readings see loses
+    that feature's echo points, but not the reference's.
 
     Returns
     -------
@@ -589,7 +589,9 @@ def simplest_agreeing(
     for k in sorted(k for k in tied if k.family == "poly"):
         lo, hi = spans[k]
         at = xs[(xs >= lo) & (xs <= hi)]
-        gap = float(np.max(np.abs(fits[k](at) - fits[reference](at)))) if at.size else 0.0
+        if not at.size:
+            continue  # no column to compare on: no evidence that they agree
+        gap = float(np.max(np.abs(fits[k](at) - fits[reference](at))))
         if gap <= tolerance:
             return k, gap
     return None
