@@ -360,7 +360,7 @@ def test_noisy_echo_points_widen_the_refits_hull_tolerance(
 ) -> None:
     """150 readings with 4 cm of range noise: a smooth refit passes outside a few scattered
     echo points by more than 3 cells; the hull tolerance follows the noise (2 sigma)."""
-    import sonarproc.auto.echo_refit as echo_refit
+    import sonarproc.auto.refit_rounds as refit_rounds
 
     beams = _bistatic_beams(np.random.default_rng(seed), 150, noise=0.08)
     start, bins, _, grid = _refit_case()
@@ -370,7 +370,7 @@ def test_noisy_echo_points_widen_the_refits_hull_tolerance(
     assert hull_tolerance(got.noise, grid.cell) == pytest.approx(2 * got.noise)
     assert not got.excluded and set(got.residuals) == set(lengths)
     # with the fixed 3-cell tolerance some of those lengths would have been excluded
-    monkeypatch.setattr(echo_refit, "HULL_NOISE_WIDTH", 0.0)
+    monkeypatch.setattr(refit_rounds, "HULL_NOISE_WIDTH", 0.0)
     fixed = choose_refit(start, bins, beams, grid, chosen_residual=0.05, cap=0.1, settings=lengths)
     assert fixed.excluded and set(fixed.residuals) < set(lengths)
 
