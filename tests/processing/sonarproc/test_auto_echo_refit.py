@@ -575,7 +575,10 @@ def test_when_every_candidate_is_excluded_the_record_says_so_and_the_fallback_is
     """A ring walk with 7 cm of range noise: every candidate's fit leaves its hull or
     covers too few columns. The best ranked is returned, the record says why, and it is
     refitted through the echo points (whose own hull guard judges the refit)."""
+    import html
+
     from sonarproc.auto.record import chosen_note
+    from sonarproc.report.auto_record import auto_record_html
 
     path = tmp_path / "noisy.h5"
     simulate_to_log(ROOT / "configs/scenarios/auto14-noisy-ring-walk.yaml", path)
@@ -587,6 +590,7 @@ def test_when_every_candidate_is_excluded_the_record_says_so_and_the_fallback_is
         f"({chosen.excluded})"
     )
     assert chosen_note(rec).startswith("chosen: every candidate was excluded")
+    assert html.escape(rec["fallback"]) in auto_record_html(rec)
     refit = rec["echo_refit"]
     assert refit is not None and refit["applied"] and refit["residual_m"] < chosen.residual_m
     assert res.run.fit.kind == res.run.params.fit and rec["profile_columns"] is not None
