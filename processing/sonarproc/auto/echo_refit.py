@@ -91,7 +91,6 @@ __all__ = [
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.intp]
 
 #: A refit needs at least this many echo points in its first round: fewer say that the
 #: profile is not the surface the readings see (a room's log, one wall's y(x)).
@@ -447,11 +446,6 @@ def _settle_ties(out: RefitChoice, beams: Beams, cell: float) -> None:
     out.averaged = tuple(k for k in out.tied if k.family == "spline")
 
 
-def _column_of(x: FloatArray, grid: Grid) -> IntArray:
-    """The grid column of each abscissa, clipped to the grid."""
-    return np.clip(np.floor((x - grid.x0) / grid.cell).astype(np.intp), 0, grid.nx - 1)
-
-
 def _score_settings(
     out: RefitChoice,
     fit: Profile,
@@ -499,7 +493,8 @@ def _score_settings(
             out.residuals[setting] = robust_residual(out.losses[setting])
             out.fits[setting] = whole
             out.spans[setting] = (float(points[:, 0].min()), float(points[:, 0].max()))
-            out.echo_x[setting] = grid.centres_x()[np.unique(_column_of(points[:, 0], grid))]
+            _, ix = grid.to_index(points[:, 0], 0.0)
+            out.echo_x[setting] = grid.centres_x()[np.unique(np.clip(ix, 0, grid.nx - 1))]
     return fold_curves
 
 
