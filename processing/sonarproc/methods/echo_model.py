@@ -110,6 +110,8 @@ def _windows(
 #: Readings per chunk when the curve is a profile y(x): sorted by their window, a chunk's
 #: readings share most of it.
 _WINDOW_ROWS = 256
+#: Below this much work (readings x curve points) the windows cost more than they save.
+_WINDOW_MIN_WORK = 1 << 20
 
 
 def first_echo(
@@ -124,9 +126,9 @@ def first_echo(
 ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
     """Shortest path T -> P -> R over the curve's specular points P inside both beams.
 
-    On a profile y(x) (x increasing along the curve) each reading looks only at the
-    samples within its beams' x range (:func:`beam_x_bounds`), readings with similar
-    ranges together: the same result for a fraction of the work.
+    On a profile y(x) (x increasing along the curve) and enough work, each reading looks
+    only at the samples within its beams' x range (:func:`beam_x_bounds`), readings with
+    similar ranges together: the same result for a fraction of the work.
 
     Parameters
     ----------
@@ -168,7 +170,10 @@ def first_echo(
     if pts.shape[0] < 3 or t.shape[0] == 0:
         return out, at
     m = pts.shape[0]
-    i0, i1 = _windows(t, ht, wt, r, hr, wr, pts)
+    if t.shape[0] * m >= _WINDOW_MIN_WORK:
+        i0, i1 = _windows(t, ht, wt, r, hr, wr, pts)
+    else:
+        i0, i1 = np.zeros(t.shape[0], np.intp), np.full(t.shape[0], m, np.intp)
     order = np.argsort(i0, kind="stable")
     rows = max(1, min(_WINDOW_ROWS, _CHUNK // m)) if (i1 - i0).max() < m else max(1, _CHUNK // m)
     for start in range(0, order.size, rows):
