@@ -14,13 +14,12 @@ turns, best of 7, so that a shared machine's load falls on them alike.
 
 from __future__ import annotations
 
-import time
 import tracemalloc
-from collections.abc import Callable
 
 import numpy as np
 import pytest
 from arcs_api import arc_bounds, arc_cells, rasterize_arcs
+from benchtiming import best_of, best_of_interleaved
 from numpy.typing import NDArray
 
 from sonarproc.grid import Grid
@@ -76,26 +75,6 @@ def ring_readings(n: int, *, room: float, seed: int = 0) -> dict[str, NDArray[np
 def covering_grid(r: dict[str, NDArray[np.float64]], cell: float = 0.01) -> Grid:
     """The grid a run would use: covering all arcs."""
     return Grid.covering(*arc_bounds(**r), cell=cell)  # type: ignore[arg-type]
-
-
-def best_of(fn: Callable[[], object], repeat: int = 5) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
-def best_of_interleaved(fns: list[Callable[[], object]], repeat: int = 7) -> list[float]:
-    """Best time of each function, run in turns so that all see the same machine load."""
-    best = [float("inf")] * len(fns)
-    for _ in range(repeat):
-        for i, fn in enumerate(fns):
-            t0 = time.perf_counter()
-            fn()
-            best[i] = min(best[i], time.perf_counter() - t0)
-    return best
 
 
 def test_bench_arc_rasterisation() -> None:

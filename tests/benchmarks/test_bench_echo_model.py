@@ -11,22 +11,11 @@ sampled every 1 cm, beams 50-130 degrees, 25 degrees each side.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
 import pytest
+from benchtiming import best_of
 
 from sonarproc.methods.echo_model import first_echo
-
-
-def _best(fn: Callable[[], object], repeat: int = 5) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 @pytest.mark.benchmark
@@ -50,7 +39,7 @@ def test_bench_first_echo_windows() -> None:
     path, _ = first_echo(t, ht, half, r, hr, half, curve)
     ref, _ = first_echo(t, ht, half, r, hr, half, curve[::-1])
     assert np.array_equal(np.isnan(path), np.isnan(ref))
-    t_win, t_whole = _best(windowed), _best(whole)
+    t_win, t_whole = best_of(windowed), best_of(whole)
     print(
         f"\nfirst_echo, {n} bistatic readings x {xs.size} profile samples: windows "
         f"{t_win:.3f} s, whole curve {t_whole:.3f} s, ratio {t_win / t_whole:.2f}"

@@ -10,11 +10,9 @@ imports no scipy (0.15-0.3 s of every fresh ``sonarproc run``).
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
 import pytest
+from benchtiming import best_of
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
 from scipy.sparse.csgraph import dijkstra, minimum_spanning_tree
@@ -30,15 +28,6 @@ from sonarproc.surfaces.neighbours import close_pairs
 ROOM = 20.0
 NODE = 0.025
 BRIDGE = 0.10
-
-
-def _best(fn: Callable[[], object], repeat: int = 5) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _room_nodes(seed: int = 0) -> np.ndarray:
@@ -88,6 +77,6 @@ def test_bench_graphs_against_scipy() -> None:
     ]  # fmt: skip
     print(f"\ngraphs: {n} nodes, {i.size} edges, {int(labels.max()) + 1} trees")
     for name, ours, theirs in rows:
-        t_ours, t_scipy = _best(ours), _best(theirs)
+        t_ours, t_scipy = best_of(ours), best_of(theirs)
         print(f"  {name}: numpy {t_ours * 1e3:.1f} ms, scipy {t_scipy * 1e3:.1f} ms "
               f"(ratio {t_ours / t_scipy:.2f})")  # fmt: skip

@@ -7,26 +7,17 @@ scikit-image figures are printed for context.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import numpy as np
 import pytest
+from benchtiming import best_of
 
 from sonarproc import morphology as mo
 
 pytestmark = pytest.mark.benchmark
 
 SIZE = 4000
-
-
-def best_of(fn: Callable[[], object], repeat: int = 7) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 @pytest.fixture(scope="module")
@@ -49,10 +40,10 @@ def test_bench_thinning_vs_opencv(arc_like_map: np.ndarray) -> None:
 
     np.testing.assert_array_equal(floor(), mo.neighbour_count(img))
     threads = cv2.getNumThreads()
-    t_floor = best_of(floor)
+    t_floor = best_of(floor, 7)
     cv2.setNumThreads(1)
     try:
-        t_floor1 = best_of(floor)
+        t_floor1 = best_of(floor, 7)
     finally:
         cv2.setNumThreads(threads)
     lines = [f"\nmorphology on {SIZE}x{SIZE} ({img.mean():.1%} set):"]
@@ -69,7 +60,7 @@ def test_bench_thinning_vs_opencv(arc_like_map: np.ndarray) -> None:
         ("closing", lambda: mo.closing(img)),
     ]
     for name, fn in cases:
-        t = best_of(fn)
+        t = best_of(fn, 7)
         target = "  (target <= 2x)" if name == "thinning(n=3)" else ""
         lines.append(f"  {name:16s} {t * 1e3:7.1f} ms   ours / floor = {t / t_floor:.2f}x{target}")
     print("\n".join(lines))
@@ -81,7 +72,7 @@ def test_bench_thinning_context(arc_like_map: np.ndarray) -> None:
 
     img = arc_like_map
     kernel = np.ones((3, 3), dtype=np.uint8)
-    t_ours = best_of(lambda: mo.thinning(img, 3))
+    t_ours = best_of(lambda: mo.thinning(img, 3), 7)
     t_nd = best_of(lambda: ndimage.correlate(img.view(np.uint8), kernel, mode="constant"), 3)
     t_sk = best_of(lambda: sk_erosion(img, np.ones((3, 3), dtype=bool)), 3)
     print(

@@ -14,11 +14,9 @@ every reading within a ball round each of a thousand surface centres (against
 
 from __future__ import annotations
 
-import time
-from collections.abc import Callable
-
 import numpy as np
 import pytest
+from benchtiming import best_of
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
@@ -27,15 +25,6 @@ from sonarproc.surfaces.gridfilters import bilinear_nearest, gaussian_filters
 from sonarproc.surfaces.nearest import nearest_points
 from sonarproc.surfaces.neighbours import pairs_within
 from sonarproc.surfaces.ridge import HESSIAN_ORDERS
-
-
-def _best(fn: Callable[[], object], repeat: int = 5) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _room_counts(rng: np.random.Generator, n: int = 1000) -> np.ndarray:
@@ -89,17 +78,20 @@ def test_bench_numpy_geometry_against_scipy() -> None:
     mask = counts > 0
     print(f"\nsurface stage without scipy: {mask.mean():.0%} of a 1000 x 1000 map kept")
     assert np.array_equal(ridge_nms(mask, counts), _ridge_scipy(mask, counts))
-    _line("ridge_nms", _best(lambda: ridge_nms(mask, counts)),
-          _best(lambda: _ridge_scipy(mask, counts)))  # fmt: skip
+    _line("ridge_nms", best_of(lambda: ridge_nms(mask, counts)),
+          best_of(lambda: _ridge_scipy(mask, counts)))  # fmt: skip
     cc = counts.astype(np.float32)
     _line(
         "Hessian filters (whole map)",
-        _best(lambda: gaussian_filters(cc, 2.0, HESSIAN_ORDERS)),
-        _best(lambda: [ndimage.gaussian_filter(cc, 2.0, order=o) for o in HESSIAN_ORDERS]),
+        best_of(lambda: gaussian_filters(cc, 2.0, HESSIAN_ORDERS)),
+        best_of(lambda: [ndimage.gaussian_filter(cc, 2.0, order=o) for o in HESSIAN_ORDERS]),
     )
     y, x = rng.uniform(0, 999, (2, 150_000))
-    _line("bilinear sampling, 150 000 points", _best(lambda: bilinear_nearest(cc, y, x)),
-          _best(lambda: ndimage.map_coordinates(cc, [y, x], order=1, mode="nearest")))  # fmt: skip
+    _line(
+        "bilinear sampling, 150 000 points",
+        best_of(lambda: bilinear_nearest(cc, y, x)),
+        best_of(lambda: ndimage.map_coordinates(cc, [y, x], order=1, mode="nearest")),
+    )
     # a wall of 20 m every 1 cm: sensors 0.5-10 m away, and cells near it
     s = np.linspace(0.0, 20.0, 2001)
     wall = np.column_stack((s, 0.05 * np.sin(s)))
@@ -108,8 +100,8 @@ def test_bench_numpy_geometry_against_scipy() -> None:
     for label, q in (("sensors metres away", far), ("points near it", near)):
         assert np.array_equal(nearest_points(wall, q)[1], cKDTree(wall).query(q)[1])
         _line(f"nearest vertex of a 2001-vertex wall, 20 000 {label}",
-              _best(lambda q=q: nearest_points(wall, q)),
-              _best(lambda q=q: cKDTree(wall).query(q)))  # fmt: skip
+              best_of(lambda q=q: nearest_points(wall, q)),
+              best_of(lambda q=q: cKDTree(wall).query(q)))  # fmt: skip
     # a thousand surface centres, 20 000 readings' arc midpoints, balls of 0.5-1.5 m
     centres = rng.uniform(0, 20, (1000, 2))
     mids = rng.uniform(0, 20, (20_000, 2))
@@ -122,4 +114,4 @@ def test_bench_numpy_geometry_against_scipy() -> None:
         _ = got["v"] <= radius[got["i"]]
 
     _line("readings within a ball of each of 1000 surfaces",
-          _best(lambda: pairs_within(centres, mids, radius)), _best(kd))  # fmt: skip
+          best_of(lambda: pairs_within(centres, mids, radius)), best_of(kd))  # fmt: skip
