@@ -14,6 +14,8 @@ the tests (:mod:`sonarproc.methods.testing`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import numpy.typing as npt
 
@@ -23,6 +25,17 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Work per chunk: readings x curve points.
 _CHUNK = 1 << 22
+
+
+class _Beam(NamedTuple):
+    """One end of each reading's path: apexes (N, 2), headings and half beamwidths (rad)."""
+
+    xy: FloatArray
+    heading: FloatArray
+    half: FloatArray
+
+    def take(self, rows: npt.NDArray[np.intp]) -> _Beam:
+        return _Beam(self.xy[rows], self.heading[rows], self.half[rows])
 
 
 def _in_beam(
@@ -78,26 +91,20 @@ def beam_x_bounds(
 
 
 def _windows(
-    t: FloatArray,
-    ht: FloatArray,
-    wt: FloatArray,
-    r: FloatArray,
-    hr: FloatArray,
-    wr: FloatArray,
-    pts: FloatArray,
+    tx: _Beam, rx: _Beam, pts: FloatArray
 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     """Per reading, the curve indices ``[i0, i1)`` that can lie inside both beams.
 
     Only for a curve whose x increases along it (a profile y(x)); every index otherwise.
     """
     m = pts.shape[0]
-    n = t.shape[0]
+    n = tx.xy.shape[0]
     xs = pts[:, 0]
     if not np.all(np.diff(xs) > 0):
         return np.zeros(n, np.intp), np.full(n, m, np.intp)
     ymin, ymax = float(pts[:, 1].min()), float(pts[:, 1].max())
-    lo_t, hi_t = beam_x_bounds(t, ht, wt, ymin, ymax)
-    lo_r, hi_r = beam_x_bounds(r, hr, wr, ymin, ymax)
+    lo_t, hi_t = beam_x_bounds(*tx, ymin, ymax)
+    lo_r, hi_r = beam_x_bounds(*rx, ymin, ymax)
     lo, hi = np.maximum(lo_t, lo_r), np.minimum(hi_t, hi_r)
     # a margin of a sample each side: rounding at the wedge's edges
     i0 = np.searchsorted(xs, lo, side="left") - 1
@@ -157,23 +164,19 @@ def first_echo(
     >>> path.tolist(), wall[at].tolist()
     ([2.0], [[0.0, 1.0]])
     """
-    t = np.asarray(tx_xy, dtype=np.float64).reshape(-1, 2)
-    r = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
-    ht = np.asarray(tx_heading, dtype=np.float64).reshape(-1)
-    hr = np.asarray(rx_heading, dtype=np.float64).reshape(-1)
-    wt = np.broadcast_to(np.asarray(tx_half, dtype=np.float64), ht.shape)
-    wr = np.broadcast_to(np.asarray(rx_half, dtype=np.float64), hr.shape)
+    tx, rx = _beam(tx_xy, tx_heading, tx_half), _beam(rx_xy, rx_heading, rx_half)
     pts = np.asarray(curve, dtype=np.float64).reshape(-1, 2)
-    out = np.full(t.shape[0], np.nan)
-    at = np.full(t.shape[0], -1, dtype=np.intp)
-    k = np.zeros(t.shape[0], np.intp) if rank is None else np.asarray(rank, np.intp).reshape(-1)
-    if pts.shape[0] < 3 or t.shape[0] == 0:
+    n = tx.xy.shape[0]
+    out = np.full(n, np.nan)
+    at = np.full(n, -1, dtype=np.intp)
+    k = np.zeros(n, np.intp) if rank is None else np.asarray(rank, np.intp).reshape(-1)
+    if pts.shape[0] < 3 or n == 0:
         return out, at
     m = pts.shape[0]
-    if t.shape[0] * m >= _WINDOW_MIN_WORK:
-        i0, i1 = _windows(t, ht, wt, r, hr, wr, pts)
+    if n * m >= _WINDOW_MIN_WORK:
+        i0, i1 = _windows(tx, rx, pts)
     else:
-        i0, i1 = np.zeros(t.shape[0], np.intp), np.full(t.shape[0], m, np.intp)
+        i0, i1 = np.zeros(n, np.intp), np.full(n, m, np.intp)
     order = np.argsort(i0, kind="stable")
     rows = max(1, min(_WINDOW_ROWS, _CHUNK // m)) if (i1 - i0).max() < m else max(1, _CHUNK // m)
     for start in range(0, order.size, rows):
@@ -181,9 +184,7 @@ def first_echo(
         a, b = int(i0[sel].min()), int(i1[sel].max())
         if b - a < 3:
             continue  # no sample of the curve in these readings' beams
-        path, pick = _chunk_echoes(
-            t[sel], ht[sel], wt[sel], r[sel], hr[sel], wr[sel], pts[a:b], k[sel]
-        )
+        path, pick = _chunk_echoes(tx.take(sel), rx.take(sel), pts[a:b], k[sel])
         found = np.isfinite(path)
         out[sel] = np.where(found, path, np.nan)
         at[sel] = np.where(found, pick + a, -1)
@@ -191,27 +192,21 @@ def first_echo(
 
 
 def _chunk_echoes(
-    t: FloatArray,
-    ht: FloatArray,
-    wt: FloatArray,
-    r: FloatArray,
-    hr: FloatArray,
-    wr: FloatArray,
-    pts: FloatArray,
-    k: npt.NDArray[np.intp],
+    tx: _Beam, rx: _Beam, pts: FloatArray, k: npt.NDArray[np.intp]
 ) -> tuple[FloatArray, npt.NDArray[np.intp]]:
     """:func:`first_echo` for some readings over a stretch of the curve. Its end samples
     are never specular: the curve's own ends, or a window's margin beyond every beam."""
     px, py = pts[None, :, 0], pts[None, :, 1]
-    tdx, tdy = px - t[:, 0:1], py - t[:, 1:2]
-    ok = _in_beam(tdx, tdy, ht, wt)
-    if np.array_equal(t, r) and np.array_equal(ht, hr):
+    tdx, tdy = px - tx.xy[:, 0:1], py - tx.xy[:, 1:2]
+    ok = _in_beam(tdx, tdy, tx.heading, tx.half)
+    if np.array_equal(tx.xy, rx.xy) and np.array_equal(tx.heading, rx.heading):
         # monostatic: one beam, the path is twice the distance
-        ok &= _in_beam(tdx, tdy, hr, wr) if not np.array_equal(wt, wr) else ok
+        if not np.array_equal(tx.half, rx.half):
+            ok &= _in_beam(tdx, tdy, rx.heading, rx.half)
         path = 2.0 * np.hypot(tdx, tdy)
     else:
-        rdx, rdy = px - r[:, 0:1], py - r[:, 1:2]
-        ok &= _in_beam(rdx, rdy, hr, wr)
+        rdx, rdy = px - rx.xy[:, 0:1], py - rx.xy[:, 1:2]
+        ok &= _in_beam(rdx, rdy, rx.heading, rx.half)
         path = np.hypot(tdx, tdy) + np.hypot(rdx, rdy)
     mid = path[:, 1:-1]
     low = (mid <= path[:, :-2]) & (mid <= path[:, 2:])
@@ -232,6 +227,12 @@ def _chunk_echoes(
     # a rank beyond the window's samples has no echo in it (nor in the whole curve)
     best = np.where(k < path.shape[1], best, np.inf)
     return best, pick
+
+
+def _beam(xy: npt.ArrayLike, heading: npt.ArrayLike, half: npt.ArrayLike) -> _Beam:
+    h = np.asarray(heading, dtype=np.float64).reshape(-1)
+    w = np.broadcast_to(np.asarray(half, dtype=np.float64), h.shape)
+    return _Beam(np.asarray(xy, dtype=np.float64).reshape(-1, 2), h, w)
 
 
 def first_echo_path(
