@@ -51,6 +51,7 @@ from sonarproc.auto.holdout import (
     range_loss,
     subset_beams,
 )
+from sonarproc.auto.hull import HULL_WINDOW_CELLS, sensor_side
 from sonarproc.auto.refit_rounds import (
     END_GAP_M,
     END_SHARE,
@@ -478,7 +479,11 @@ def _score_settings(
         if not isinstance(whole, (PolyFit, SplineFit)) or rows.size == 0:
             continue
         hull = fitted_points(points, map_bins, grid)
-        excess = hull_excess(whole.sample(grid.cell), hull[:, 0], hull[:, 1], window=10 * grid.cell)
+        curve = whole.sample(grid.cell)
+        excess = hull_excess(
+            curve, hull[:, 0], hull[:, 1], window=HULL_WINDOW_CELLS * grid.cell,
+            side=sensor_side(echoing, curve),
+        )  # fmt: skip
         if excess > hull_tolerance(out.noise or 0.0, grid.cell):
             out.excluded[setting] = f"leaves its points' hull by {100 * excess:.3g} cm"
             continue

@@ -35,6 +35,7 @@ __all__ = [
     "firing_folds",
     "heldout_splits",
     "hull_excess",
+    "local_hull",
     "make_folds",
     "pass_folds",
     "predicted_path",
@@ -220,14 +221,21 @@ def range_loss(measured: FloatArray, predicted: FloatArray, cap: float) -> Float
     return np.where(np.isfinite(r), np.minimum(r, cap), cap)
 
 
-def hull_excess(curve: FloatArray, px: FloatArray, py: FloatArray, *, window: float) -> float:
-    """How far (m) a fitted curve leaves the points' local vertical hull.
+def local_hull(
+    x: FloatArray, px: FloatArray, py: FloatArray, *, window: float
+) -> tuple[FloatArray, FloatArray]:
+    """The points' local vertical hull at each ``x``: the lowest and highest y (m).
 
     The hull at x is the range of the points' y within ``window`` of x (widened to the
-    nearest points where there is a gap); 0 when the curve stays inside it.
+    nearest points where there is a gap, and to the neighbouring windows').
+
+    Examples
+    --------
+    >>> lo, hi = local_hull(np.array([0.05, 0.5]), np.array([0.0, 0.1, 0.9]),
+    ...                     np.array([1.0, 1.2, 1.1]), window=0.1)
+    >>> lo.tolist(), hi.tolist()
+    ([1.0, 1.1], [1.2, 1.2])
     """
-    if curve.shape[0] == 0 or px.size == 0:
-        return 0.0
     lo_x = float(px.min())
     nb = max(1, int(np.ceil((float(px.max()) - lo_x) / window)) + 1)
     b = np.minimum(((px - lo_x) / window).astype(np.intp), nb - 1)
@@ -235,8 +243,7 @@ def hull_excess(curve: FloatArray, px: FloatArray, py: FloatArray, *, window: fl
     hi = np.full(nb, -np.inf)
     np.minimum.at(lo, b, py)
     np.maximum.at(hi, b, py)
-    filled = np.isfinite(lo)
-    idx = np.flatnonzero(filled)
+    idx = np.flatnonzero(np.isfinite(lo))
     # an empty bin takes the hull of both nearest bins with points
     left = idx[np.clip(np.searchsorted(idx, np.arange(nb), side="right") - 1, 0, idx.size - 1)]
     right = idx[np.clip(np.searchsorted(idx, np.arange(nb)), 0, idx.size - 1)]
@@ -245,6 +252,41 @@ def hull_excess(curve: FloatArray, px: FloatArray, py: FloatArray, *, window: fl
     # and every bin the hull of its neighbours too (a slope crossing a bin edge)
     lo = np.minimum(lo, np.minimum(np.r_[lo[:1], lo[:-1]], np.r_[lo[1:], lo[-1:]]))
     hi = np.maximum(hi, np.maximum(np.r_[hi[:1], hi[:-1]], np.r_[hi[1:], hi[-1:]]))
-    cb = np.clip(((curve[:, 0] - lo_x) / window).astype(np.intp), 0, nb - 1)
-    excess = np.maximum(curve[:, 1] - hi[cb], lo[cb] - curve[:, 1])
+    cb = np.clip(((x - lo_x) / window).astype(np.intp), 0, nb - 1)
+    return lo[cb], hi[cb]
+
+
+def hull_excess(
+    curve: FloatArray, px: FloatArray, py: FloatArray, *, window: float, side: int = 0
+) -> float:
+    """How far (m) a fitted curve leaves the points' hull.
+
+    ``side`` 0: the local hull (:func:`local_hull`) on both sides. ``side`` +1 (the
+    sensors below the curve, at lower y) or -1 (above): the local hull on the sensors'
+    side, and on the far side only the highest (lowest) of all the points. A reading's
+    first echo comes from the nearest part of the surface in its beam, so the points
+    are thin where the surface recedes from the sensors (a crest seen from below, with
+    its flanks in every beam), and a curve that follows the surface there leaves their
+    local hull; towards the sensors, a curve that leaves it would be heard first.
+
+    Examples
+    --------
+    >>> px = np.array([0.0, 0.1, 0.9, 1.0]); py = np.array([1.0, 1.0, 1.0, 1.1])
+    >>> crest = np.array([[0.5, 1.08]])
+    >>> round(hull_excess(crest, px, py, window=0.1), 3)
+    0.08
+    >>> hull_excess(crest, px, py, window=0.1, side=1)
+    0.0
+    >>> round(hull_excess(np.array([[0.5, 0.9]]), px, py, window=0.1, side=1), 3)
+    0.1
+    """
+    if curve.shape[0] == 0 or px.size == 0:
+        return 0.0
+    y = curve[:, 1]
+    lo, hi = local_hull(curve[:, 0], px, py, window=window)
+    if side > 0:
+        lo, hi = lo, np.full_like(hi, float(py.max()))
+    elif side < 0:
+        lo, hi = np.full_like(lo, float(py.min())), hi
+    excess = np.maximum(y - hi, lo - y)
     return float(max(0.0, np.nanmax(excess)))

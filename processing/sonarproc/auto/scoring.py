@@ -20,7 +20,8 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import Candidate, spline_lambda
-from sonarproc.auto.holdout import hull_excess, predicted_path, range_loss, subset_beams
+from sonarproc.auto.holdout import predicted_path, range_loss, subset_beams
+from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
 from sonarproc.auto.score import SURFACES_MAX_CELLS, Score, robust_residual
 from sonarproc.auto.separation import profile_map
@@ -247,5 +248,4 @@ def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) 
             s.whole_fits[setting] = fit
             s.coverage[setting] = _coverage(fit, implied)
             if not isinstance(fit, FitFailure):
-                sampled = fit.sample(grid.cell)
-                s.hull[setting] = hull_excess(sampled, px, py, window=10 * grid.cell)
+                s.hull[setting] = data_hull_excess(fit, px, py, beams, grid.cell)

@@ -29,7 +29,8 @@ import numpy.typing as npt
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
-from sonarproc.auto.holdout import Split, heldout_splits, hull_excess, subset_beams
+from sonarproc.auto.holdout import Split, heldout_splits, subset_beams
+from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.score import (
     CAP_CELLS,
     CRITERION,
@@ -267,9 +268,7 @@ def run_auto(
             s.excluded = f"on every reading, the fit failed: {r.fit.reason}"
             continue
         if s.excluded is None:
-            excess = hull_excess(
-                r.fit.sample(r.grid.cell), r.points_x, r.points_y, window=10 * r.grid.cell
-            )
+            excess = data_hull_excess(r.fit, r.points_x, r.points_y, choice.scored, r.grid.cell)
             if excess > HULL_CELLS * r.grid.cell:
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue

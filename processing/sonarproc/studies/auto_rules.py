@@ -66,6 +66,9 @@ HELD_ASIDE = (
     "auto12-sparse-crests", "auto12-sparse-noisy", "auto12-pairs-bumps",
     "auto13-pairs-ledge", "auto13-ring-bumps", "auto13-linear-dip",
     "auto14-noisy-pairs-curve", "auto14-noisy-linear-wave", "auto14-noisy-ring-walk",
+    "auto15-sparse-ripple", "auto15-noisy-pairs-wave", "auto15-sparse-pairs-steps",
+    "auto16-sparse-swell", "auto16-sparse-from-above", "auto16-ring-ripple",
+    "auto16-pairs-crest", "auto16-noisy-sparse",
 )  # fmt: skip
 
 

@@ -360,8 +360,11 @@ def test_noisy_echo_points_widen_the_refits_hull_tolerance(
 ) -> None:
     """150 readings with 4 cm of range noise: a smooth refit passes outside a few scattered
     echo points by more than 3 cells; the hull tolerance follows the noise (2 sigma)."""
+    import sonarproc.auto.echo_refit as echo_refit
     import sonarproc.auto.refit_rounds as refit_rounds
 
+    # the local hull on both sides: the far side's looser hull would hide the tolerance
+    monkeypatch.setattr(echo_refit, "sensor_side", lambda beams, curve: 0)
     beams = _bistatic_beams(np.random.default_rng(seed), 150, noise=0.08)
     start, bins, _, grid = _refit_case()
     lengths = _splines(0.2, 0.4, 0.8, 1.6)
