@@ -27,12 +27,16 @@ from sonarproc.auto.score import HULL_CELLS
 from sonarproc.fit import PolarFit, PolyFit, SplineFit
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["HULL_WINDOW_CELLS", "SIDE_SHARE", "data_hull_excess", "sensor_side"]
+__all__ = ["HULL_READINGS", "HULL_WINDOW_CELLS", "SIDE_SHARE", "data_hull_excess", "sensor_side"]
 
 FloatArray = npt.NDArray[np.float64]
 
 #: Width (cells) of the hull's bins along x.
 HULL_WINDOW_CELLS = 10
+#: At most this many readings (evenly spread through the log) are asked for echo points:
+#: a few hundred per metre of surface are plenty for a hull, and every fit that leaves
+#: its map's hull asks them.
+HULL_READINGS = 1500
 #: Share of the sensors' positions that must lie on one side of a profile for that side
 #: to count as theirs.
 SIDE_SHARE = 0.95
@@ -78,7 +82,8 @@ def data_hull_excess(
     px, py : ndarray
         The map's points (m).
     beams : Beams or None
-        The readings; None judges against the map's points alone.
+        The readings (at most :data:`HULL_READINGS` of them are asked); None judges
+        against the map's points alone.
     cell : float
         The grid's cell (m): the fit's sampling step, and the unit of the tolerance.
 
@@ -114,7 +119,9 @@ def data_hull_excess(
     if len(beams.path) == 0 or curve.shape[0] < 3:
         return excess
     span = (float(curve[0, 0]), float(curve[-1, 0]))
-    _, points = echo_points(fit, beams, span, step=cell, tol=HULL_CELLS * cell)
+    n = len(beams.path)
+    among = None if n <= HULL_READINGS else np.linspace(0, n - 1, HULL_READINGS).astype(np.intp)
+    _, points = echo_points(fit, beams, span, step=cell, tol=HULL_CELLS * cell, among=among)
     if points.shape[0] == 0:
         return excess
     both_x, both_y = np.concatenate((px, points[:, 0])), np.concatenate((py, points[:, 1]))
