@@ -285,8 +285,8 @@ def hull_excess(
     y = curve[:, 1]
     lo, hi = local_hull(curve[:, 0], px, py, window=window)
     if side > 0:
-        lo, hi = lo, np.full_like(hi, float(py.max()))
+        hi = np.full_like(hi, float(py.max()))
     elif side < 0:
-        lo, hi = np.full_like(lo, float(py.min())), hi
+        lo = np.full_like(lo, float(py.min()))
     excess = np.maximum(y - hi, lo - y)
     return float(max(0.0, np.nanmax(excess)))
