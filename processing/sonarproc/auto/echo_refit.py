@@ -7,9 +7,19 @@ profile and fits a curve through them (:func:`refit_profile`). Which curve, and 
 it replaces the chosen candidate's fit, is decided here by the criterion of ``--auto``
 itself (:func:`choose_refit`): each setting's fit to the echo points of the training
 folds predicts the held-out readings, and the lowest trimmed mean range residual wins;
-the settings within :data:`TIE_SE` paired standard errors of it cannot be told apart by
-the readings. The refit replaces the chosen fit unless its residual is above the chosen
-candidate's own by more than :data:`TIE_SE` paired standard errors.
+the settings close to it cannot be told apart by the readings (:func:`tied_settings`).
+The refit replaces the chosen fit unless its residual is above the chosen candidate's
+own by more than :data:`TIE_SE` paired standard errors.
+
+Two smoothing lengths are tied within :data:`SPLINE_TIE_SE` paired standard error over
+firings (:func:`~sonarproc.auto.score.clustered_paired_se`): the folds hold out whole
+firings, and on a log where every pair listens one firing gives dozens of held-out
+readings that share its pose and its stretch of surface, so counted one by one they
+separate lengths whose residuals differ by hundredths of a millimetre. Tied lengths are
+averaged, which costs little if the tie is wrong. A polynomial and a spline, or two
+polynomials, are tied within :data:`TIE_SE` paired standard errors over readings: a
+tied polynomial may replace the splines altogether (below), and over firings the
+high-order polynomials tie with everything on such logs.
 
 Smoothing splines of the candidates' lengths and least-squares polynomials of the
 candidates' orders are tried (:class:`RefitSetting`). When a polynomial is tied with
@@ -46,6 +56,7 @@ import numpy.typing as npt
 from sonarproc.auto.holdout import (
     Split,
     curve_path,
+    firing_index,
     heldout_splits,
     hull_excess,
     range_loss,
@@ -76,7 +87,7 @@ from sonarproc.auto.refit_rounds import (
     sample_curve,
     tolerances,
 )
-from sonarproc.auto.score import paired_se, robust_residual
+from sonarproc.auto.score import clustered_paired_se, paired_se, robust_residual
 from sonarproc.fit import Fit, PolyFit, SplineFit
 from sonarproc.grid import Grid
 from sonarproc.metrics import Bins
@@ -85,10 +96,11 @@ from sonarproc.pipeline.selection import Beams
 # the rounds' names are re-exported: this module is where ``--auto`` finds the refit
 __all__ = [
     "END_GAP_M", "END_SHARE", "HULL_NOISE_WIDTH", "MAX_PAIRS", "MIN_ECHO_POINTS",
-    "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "REFIT_SETTINGS", "ROUNDS_M", "TIE_SE",
+    "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "REFIT_SETTINGS", "ROUNDS_M",
+    "SPLINE_TIE_SE", "TIE_SE",
     "RefitChoice", "RefitSetting", "agreement_tolerance", "choose_refit", "echo_points",
     "hull_tolerance", "main_body", "range_noise", "references", "refit_profile",
-    "simplest_agreeing", "tolerances",
+    "simplest_agreeing", "tied_settings", "tolerances",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -99,10 +111,13 @@ MIN_ECHO_POINTS = 10
 #: The echo points are searched for on at most this many (reading, profile sample) pairs:
 #: a longer log's readings are subsampled (seeded) so that the refit stays a few runs.
 MAX_PAIRS = 5_000_000
-#: Refits whose held-out residuals are within this many paired standard errors of the
-#: lowest are tied (:func:`choose_refit`); a refit within this many of the
-#: chosen candidate's residual, or below it, is applied.
+#: Refits whose held-out residuals are within this many paired standard errors (over
+#: readings) of the lowest are tied, unless both are splines (:func:`tied_settings`); a
+#: refit within this many of the chosen candidate's residual, or below it, is applied.
 TIE_SE = 2.0
+#: Two smoothing lengths are tied within this many paired standard errors over firings
+#: (the one-standard-error rule).
+SPLINE_TIE_SE = 1.0
 
 
 @dataclass
@@ -289,8 +304,8 @@ def choose_refit(
 ) -> RefitChoice:
     """Choose the echo refit's curve by the held-out range residual.
 
-    The settings whose residuals are within :data:`TIE_SE` paired standard errors of the
-    lowest cannot be told apart by the readings. Among them the lowest-order polynomial
+    The settings whose residuals are close to the lowest cannot be told apart by the
+    readings (:func:`tied_settings`). Among them the lowest-order polynomial
     that agrees with the most flexible tied refit wherever readings echo is taken
     (:func:`simplest_agreeing`); failing one, the tied splines' refits are averaged. The
     refit is applied when its residual is below the chosen candidate's, or above it by
@@ -326,8 +341,10 @@ def choose_refit(
     """
     criterion = (
         "the chosen profile refitted through the readings' echo points (smoothing splines "
-        "and polynomials, scored by the same held-out range residual; among those within "
-        f"{TIE_SE:g} paired standard errors of the best, the lowest-order polynomial that "
+        "and polynomials, scored by the same held-out range residual; among those tied "
+        f"with the best (smoothing lengths within {SPLINE_TIE_SE:g} paired standard error "
+        f"over firings, other refits within {TIE_SE:g} over readings), the lowest-order "
+        "polynomial that "
         "agrees wherever readings echo with the most flexible tied spline, or with the "
         "best refit if that is a polynomial, else the tied splines averaged); applied "
         "unless its residual is above the chosen candidate's by more than "
@@ -376,7 +393,8 @@ def choose_refit(
             else "no reading echoes from the chosen profile"
         )  # fmt: skip
         return out
-    _settle_ties(out, echoing, grid.cell)
+    held = np.concatenate([h for _, h in splits]) if splits else np.zeros(0, np.intp)
+    _settle_ties(out, echoing, grid.cell, firing_index(beams.readings)[held])
     if len(out.averaged) == 1:
         one = out.averaged[0]
         refit, losses, out.echo_span = fits[one], out.losses[one], spans[one]
@@ -411,17 +429,58 @@ def choose_refit(
     return out
 
 
-def _settle_ties(out: RefitChoice, beams: Beams, cell: float) -> None:
-    """Set ``out``'s best setting, the settings tied with it, and the refit taken: the
-    lowest-order tied polynomial that agrees with a reference (:func:`references`,
+def tied_settings(
+    residuals: dict[RefitSetting, float],
+    losses: dict[RefitSetting, FloatArray],
+    firings: npt.NDArray[np.intp],
+) -> tuple[RefitSetting, ...]:
+    """The settings the held-out readings cannot tell apart from the best (module notes).
+
+    Two splines are tied when the difference of their residuals is within
+    :data:`SPLINE_TIE_SE` paired standard errors over firings (``firings``: each held-out
+    loss's firing); any other pair within :data:`TIE_SE` paired standard errors over
+    readings.
+
+    Examples
+    --------
+    Twenty firings of twenty readings each. The 0.2 m spline and the order-6
+    polynomial lose the same as the 0.1 m spline on every reading, plus 1 mm on every
+    reading of half of the firings, 1 mm less on the others, and 0.2 mm on all: about two
+    standard errors over readings, half of one over firings.
+
+    >>> rng = np.random.default_rng(0)
+    >>> base = 0.002 + rng.random(400) * 0.01
+    >>> firings = np.arange(400) // 20
+    >>> s1, s2 = RefitSetting("spline", 0.1), RefitSetting("spline", 0.2)
+    >>> p6 = RefitSetting("poly", 6)
+    >>> worse = base + np.where(firings % 2 == 0, 0.001, -0.001) + 0.0002
+    >>> losses = {s1: base, s2: worse, p6: worse}
+    >>> residuals = {k: robust_residual(v) for k, v in losses.items()}
+    >>> [k.short for k in tied_settings(residuals, losses, firings)]
+    ['spline L=0.1 m', 'spline L=0.2 m']
+    """
+    best = min(residuals, key=lambda k: residuals[k])
+
+    def tied(k: RefitSetting) -> bool:
+        gap = residuals[k] - residuals[best]
+        if k.family == "spline" and best.family == "spline":
+            se = clustered_paired_se(losses[best], losses[k], firings)
+            return bool(gap <= SPLINE_TIE_SE * np.nan_to_num(se))
+        return bool(gap <= TIE_SE * np.nan_to_num(paired_se(losses[best], losses[k])))
+
+    return tuple(k for k in sorted(residuals) if k == best or tied(k))
+
+
+def _settle_ties(
+    out: RefitChoice, beams: Beams, cell: float, firings: npt.NDArray[np.intp]
+) -> None:
+    """Set ``out``'s best setting, the settings tied with it (:func:`tied_settings`;
+    ``firings``: each held-out loss's firing), and the refit taken: the lowest-order tied
+    polynomial that agrees with a reference (:func:`references`,
     :func:`simplest_agreeing`), else the tied splines (averaged)."""
     best = min(out.residuals, key=lambda k: out.residuals[k])
     out.best = best
-    out.tied = tuple(
-        k for k in sorted(out.residuals)
-        if k == best or out.residuals[k] - out.residuals[best]
-        <= TIE_SE * np.nan_to_num(paired_se(out.losses[best], out.losses[k]))
-    )  # fmt: skip
+    out.tied = tied_settings(out.residuals, out.losses, firings)
     for reference in references(out.tied, best):
         # the noise about the refit, not about the start: a start's bias is no noise
         tolerance = agreement_tolerance(range_noise(out.fits[reference], beams, cell), cell)

@@ -33,6 +33,7 @@ __all__ = [
     "Split",
     "curve_path",
     "firing_folds",
+    "firing_index",
     "heldout_splits",
     "hull_excess",
     "local_hull",
@@ -60,15 +61,16 @@ def firing_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[
     >>> bool(f[0] == f[1] and f[2] == f[3] and len(set(f.tolist())) == 3)
     True
     """
-    firing = _firings(readings)
+    firing = firing_index(readings)
     rng = np.random.default_rng(seed)
     n = int(firing.max()) + 1 if firing.size else 0
     fold_of_firing = rng.permutation(n) % k
     return fold_of_firing[firing].astype(np.intp)
 
 
-def _firings(readings: np.ndarray) -> npt.NDArray[np.intp]:
-    """Index of each reading's firing, firings numbered in time order."""
+def firing_index(readings: np.ndarray) -> npt.NDArray[np.intp]:
+    """Index of each reading's firing (its time and transmitter), firings numbered in
+    time order."""
     keys = np.column_stack((np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
     _, firing = np.unique(keys, axis=0, return_inverse=True)
     return np.asarray(firing.reshape(-1), dtype=np.intp)
@@ -86,7 +88,7 @@ def time_block_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDAr
     >>> bool(f[0] == f[1] and len(set(f.tolist())) == 2 and (np.diff(f) != 0).sum() <= 2)
     True
     """
-    firing = _firings(readings)
+    firing = firing_index(readings)
     n = int(firing.max()) + 1 if firing.size else 0
     shift = int(np.random.default_rng(seed).integers(0, max(n, 1)))
     block = ((np.arange(n) + shift) % max(n, 1)) * k // max(n, 1)
@@ -108,7 +110,7 @@ def pass_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np
     >>> bool(f[0] == f[2] and f[4] == f[6] and f[0] != f[4])
     True
     """
-    firing = _firings(readings)
+    firing = firing_index(readings)
     n = int(firing.max()) + 1 if firing.size else 0
     first = np.zeros(n, dtype=np.intp)
     first[firing] = np.arange(firing.size)

@@ -69,6 +69,8 @@ HELD_ASIDE = (
     "auto15-sparse-ripple", "auto15-noisy-pairs-wave", "auto15-sparse-pairs-steps",
     "auto16-sparse-swell", "auto16-sparse-from-above", "auto16-ring-ripple",
     "auto16-pairs-crest", "auto16-noisy-sparse",
+    "auto17-pairs-notch", "auto17-linear-wave", "auto17-pairs-sparse-wave", "auto17-ring-steps",
+    "auto17-noisy-pairs-bumps",
 )  # fmt: skip
 
 

@@ -1,4 +1,5 @@
-"""``--auto``'s guard-rail hull: the sensors' side, the readings' echo points."""
+"""``--auto``'s guard-rail hull (the sensors' side, the readings' echo points), and its
+paired errors over firings."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import sonarproc.auto.echo_refit as echo_refit
 from sonarproc.auto.echo_refit import choose_refit
 from sonarproc.auto.holdout import hull_excess, local_hull
 from sonarproc.auto.hull import data_hull_excess, sensor_side
-from sonarproc.auto.score import HULL_CELLS
+from sonarproc.auto.score import HULL_CELLS, clustered_paired_se, paired_se
 from sonarproc.fit import PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.testing import beams_facing
@@ -143,3 +144,22 @@ def _worst(got: echo_refit.RefitChoice, sign: float) -> float:
     assert got.applied and isinstance(got.fit, PolyFit | SplineFit) and got.echo_span
     x = np.linspace(*got.echo_span, 300)
     return float(np.max(np.abs(got.fit(x) - sign * _wave(x))))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    a=arrays(np.float64, st.integers(2, 120), elements=st.floats(0.0, 0.05)),
+    data=st.data(),
+)
+def test_paired_errors_over_clusters(a: np.ndarray, data: st.DataObject) -> None:
+    """One reading per cluster: the paired error over readings. Cluster labels are names
+    only: renaming them (in the same order, so the seeded draws pick the same clusters)
+    changes nothing."""
+    b = data.draw(arrays(np.float64, a.size, elements=st.floats(0.0, 0.05)))
+    labels = data.draw(arrays(np.int64, a.size, elements=st.integers(0, 6)))
+    single = clustered_paired_se(a, b, np.arange(a.size))
+    assert single == pytest.approx(paired_se(a, b), rel=1e-9, abs=1e-15)
+    renamed = clustered_paired_se(a, b, 11 + 3 * labels)
+    assert renamed == pytest.approx(clustered_paired_se(a, b, labels), rel=1e-9, abs=1e-15) or (
+        np.isnan(renamed) and np.isnan(clustered_paired_se(a, b, labels))
+    )
