@@ -114,12 +114,12 @@ def data_hull_excess(
     curve = fit.sample(cell)
     window = HULL_WINDOW_CELLS * cell
     excess = hull_excess(curve, px, py, window=window)
-    if excess <= HULL_CELLS * cell or isinstance(fit, PolarFit) or beams is None:
+    if beams is None or isinstance(fit, PolarFit) or excess <= HULL_CELLS * cell:
         return excess
-    if len(beams.path) == 0 or curve.shape[0] < 3:
+    n = len(beams.path)
+    if n == 0 or curve.shape[0] < 3:
         return excess
     span = (float(curve[0, 0]), float(curve[-1, 0]))
-    n = len(beams.path)
     among = None if n <= HULL_READINGS else np.linspace(0, n - 1, HULL_READINGS).astype(np.intp)
     _, points = echo_points(fit, beams, span, step=cell, tol=HULL_CELLS * cell, among=among)
     if points.shape[0] == 0:

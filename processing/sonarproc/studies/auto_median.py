@@ -39,6 +39,7 @@ import numpy.typing as npt
 from sonarlog import SonarLog
 from sonarproc.auto import AutoChoice, Score, run_auto
 from sonarproc.auto.holdout import hull_excess
+from sonarproc.auto.hull import HULL_WINDOW_CELLS
 from sonarproc.auto.score import HULL_CELLS
 from sonarproc.fit import FitFailure
 from sonarproc.metrics import truth_on_columns
@@ -121,7 +122,9 @@ def members(
         if r is None or isinstance(r.fit, FitFailure) or s.candidate.method in methods:
             continue
         cell = r.grid.cell
-        excess = hull_excess(r.fit.sample(cell), r.points_x, r.points_y, window=10 * cell)
+        excess = hull_excess(
+            r.fit.sample(cell), r.points_x, r.points_y, window=HULL_WINDOW_CELLS * cell
+        )
         if excess > HULL_CELLS * cell:
             continue
         methods.add(s.candidate.method)
