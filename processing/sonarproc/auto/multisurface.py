@@ -17,6 +17,7 @@ import numpy.typing as npt
 from sonarproc.grid import Grid
 from sonarproc.methods.base import Beams, MethodMap
 from sonarproc.methods.echo_model import first_echo_path
+from sonarproc.surfaces.find import decide
 
 __all__ = ["fitted_surfaces", "surfaces_path"]
 
@@ -25,12 +26,16 @@ FloatArray = npt.NDArray[np.float64]
 
 def fitted_surfaces(mmap: MethodMap, grid: Grid, beams: Beams) -> list[FloatArray] | None:
     """The polylines ``fit = "auto"`` fits to ``mmap`` and refits through the echo points of
-    ``beams`` (the readings ``mmap`` was built from); None where it finds one function of x.
+    ``beams`` (the readings ``mmap`` was built from); None where it finds one function of x,
+    on the map or among the refitted surfaces.
     """
     from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
     found = choose_fit(mmap.processed, mmap.evidence, grid, beams)
-    if found.surfaces is None:
+    if found.surfaces is None or decide(found.surfaces).single_function:
+        # the map's stray cells (a noisy log's ghosts) can hide one curve from the first
+        # decision; the refit through the echo points drops them, and one open curve that
+        # is a function of x is left to the y(x) candidates and their echo refit
         return None
     return [np.asarray(p, dtype=np.float64) for p in found.surfaces.polylines() if len(p) >= 2]
 

@@ -71,6 +71,8 @@ HELD_ASIDE = (
     "auto16-pairs-crest", "auto16-noisy-sparse",
     "auto17-pairs-notch", "auto17-linear-wave", "auto17-pairs-sparse-wave", "auto17-ring-steps",
     "auto17-noisy-pairs-bumps",
+    "auto18-noisy-pairs-hump", "auto18-pairs-ripples", "auto18-linear-bumps", "auto18-ring-wave",
+    "auto18-sparse-noisy-dent",
 )  # fmt: skip
 
 
