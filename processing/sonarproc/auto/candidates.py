@@ -23,7 +23,8 @@ candidate            map                              fit family (settings tried
 
 ``surfaces`` is the fit of scenes that are not one profile ``y(x)`` (a room, a corridor,
 a pillar): :func:`sonarproc.pipeline.surfacefit.choose_fit` on the map; where it finds
-one function of ``x`` the candidate stands aside (the ``y(x)`` candidates cover it).
+one function of ``x``, on the map or among the surfaces refitted through the echo points,
+the candidate stands aside (the ``y(x)`` candidates cover it).
 
 A spline's smoothing length ``L`` sets its roughness penalty so that waves shorter than
 about ``L`` are smoothed away: ``lam = (mean column count / cell) * (L / 2 pi)**4``.
