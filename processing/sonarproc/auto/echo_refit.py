@@ -16,7 +16,11 @@ firings (:func:`~sonarproc.auto.score.clustered_paired_se`): the folds hold out 
 firings, and on a log where every pair listens one firing gives dozens of held-out
 readings that share its pose and its stretch of surface, so counted one by one they
 separate lengths whose residuals differ by hundredths of a millimetre. Tied lengths are
-averaged, which costs little if the tie is wrong. A polynomial and a spline, or two
+averaged, which costs little if the tie is wrong. A smoothing length next to the best one
+is tied with it also when neither is better on both counts (:func:`undominated`): the
+best predicts more of the held-out readings (a rougher curve has the normals that give
+specular points at bumps; so has noise), the neighbour predicts the readings both
+predict better. A polynomial and a spline, or two
 polynomials, are tied within :data:`TIE_SE` paired standard errors over readings: a
 tied polynomial may replace the splines altogether (below), and over firings the
 high-order polynomials tie with everything on such logs.
@@ -100,7 +104,7 @@ __all__ = [
     "SPLINE_TIE_SE", "TIE_SE",
     "RefitChoice", "RefitSetting", "agreement_tolerance", "choose_refit", "echo_points",
     "hull_tolerance", "main_body", "range_noise", "references", "refit_profile",
-    "simplest_agreeing", "tied_settings", "tolerances",
+    "simplest_agreeing", "tied_settings", "tolerances", "undominated",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -343,7 +347,9 @@ def choose_refit(
         "the chosen profile refitted through the readings' echo points (smoothing splines "
         "and polynomials, scored by the same held-out range residual; among those tied "
         f"with the best (smoothing lengths within {SPLINE_TIE_SE:g} paired standard error "
-        f"over firings, other refits within {TIE_SE:g} over readings), the lowest-order "
+        f"over firings, or next to the best and better on the readings both predict while "
+        f"the best predicts more; other refits within {TIE_SE:g} over readings), the "
+        "lowest-order "
         "polynomial that "
         "agrees wherever readings echo with the most flexible tied spline, or with the "
         "best refit if that is a polynomial, else the tied splines averaged); applied "
@@ -394,7 +400,7 @@ def choose_refit(
         )  # fmt: skip
         return out
     held = np.concatenate([h for _, h in splits]) if splits else np.zeros(0, np.intp)
-    _settle_ties(out, echoing, grid.cell, firing_index(beams.readings)[held])
+    _settle_ties(out, echoing, grid.cell, firing_index(beams.readings)[held], cap)
     if len(out.averaged) == 1:
         one = out.averaged[0]
         refit, losses, out.echo_span = fits[one], out.losses[one], spans[one]
@@ -429,17 +435,44 @@ def choose_refit(
     return out
 
 
+def undominated(best: FloatArray, other: FloatArray, cap: float) -> bool:
+    """Whether ``other``'s held-out losses lose to ``best``'s only by predicting fewer readings.
+
+    True when ``best`` predicts more of the readings (a loss below ``cap``: the curve has
+    a specular point for the reading, and it is not off by the cap) and ``other``
+    predicts the readings both predict better (:func:`robust_residual`): neither is
+    better on both counts.
+
+    Examples
+    --------
+    The best predicts two readings more; on the other six the other curve is closer.
+
+    >>> best = np.array([0.02, 0.02, 0.02, 0.02, 0.02, 0.02, 0.03, 0.03])
+    >>> other = np.array([0.01, 0.01, 0.01, 0.01, 0.01, 0.01, 0.1, 0.1])
+    >>> undominated(best, other, 0.1), undominated(best, best + 0.01, 0.1)
+    (True, False)
+    """
+    hit_best, hit_other = best < cap, other < cap
+    both = hit_best & hit_other
+    if not both.any() or hit_best.sum() <= hit_other.sum():
+        return False
+    return robust_residual(other[both]) < robust_residual(best[both])
+
+
 def tied_settings(
     residuals: dict[RefitSetting, float],
     losses: dict[RefitSetting, FloatArray],
     firings: npt.NDArray[np.intp],
+    cap: float | None = None,
 ) -> tuple[RefitSetting, ...]:
     """The settings the held-out readings cannot tell apart from the best (module notes).
 
     Two splines are tied when the difference of their residuals is within
     :data:`SPLINE_TIE_SE` paired standard errors over firings (``firings``: each held-out
     loss's firing); any other pair within :data:`TIE_SE` paired standard errors over
-    readings.
+    readings. With ``cap`` (the losses' cap, m), the smoothing lengths next to the best
+    spline's are tied with it also when neither is better on both counts
+    (:func:`undominated`).
 
     Examples
     --------
@@ -460,27 +493,34 @@ def tied_settings(
     ['spline L=0.1 m', 'spline L=0.2 m']
     """
     best = min(residuals, key=lambda k: residuals[k])
+    splines = sorted(k for k in residuals if k.family == "spline")
+    neighbours = set()
+    if best.family == "spline" and cap is not None:
+        i = splines.index(best)
+        neighbours = set(splines[max(i - 1, 0) : i + 2]) - {best}
 
     def tied(k: RefitSetting) -> bool:
         gap = residuals[k] - residuals[best]
         if k.family == "spline" and best.family == "spline":
             se = clustered_paired_se(losses[best], losses[k], firings)
-            return bool(gap <= SPLINE_TIE_SE * np.nan_to_num(se))
+            if gap <= SPLINE_TIE_SE * np.nan_to_num(se):
+                return True
+            return k in neighbours and undominated(losses[best], losses[k], cap or np.inf)
         return bool(gap <= TIE_SE * np.nan_to_num(paired_se(losses[best], losses[k])))
 
     return tuple(k for k in sorted(residuals) if k == best or tied(k))
 
 
 def _settle_ties(
-    out: RefitChoice, beams: Beams, cell: float, firings: npt.NDArray[np.intp]
+    out: RefitChoice, beams: Beams, cell: float, firings: npt.NDArray[np.intp], cap: float
 ) -> None:
     """Set ``out``'s best setting, the settings tied with it (:func:`tied_settings`;
-    ``firings``: each held-out loss's firing), and the refit taken: the lowest-order tied
-    polynomial that agrees with a reference (:func:`references`,
+    ``firings``: each held-out loss's firing; ``cap``: the losses' cap, m), and the refit
+    taken: the lowest-order tied polynomial that agrees with a reference (:func:`references`,
     :func:`simplest_agreeing`), else the tied splines (averaged)."""
     best = min(out.residuals, key=lambda k: out.residuals[k])
     out.best = best
-    out.tied = tied_settings(out.residuals, out.losses, firings)
+    out.tied = tied_settings(out.residuals, out.losses, firings, cap)
     for reference in references(out.tied, best):
         # the noise about the refit, not about the start: a start's bias is no noise
         tolerance = agreement_tolerance(range_noise(out.fits[reference], beams, cell), cell)

@@ -73,6 +73,8 @@ HELD_ASIDE = (
     "auto17-noisy-pairs-bumps",
     "auto18-noisy-pairs-hump", "auto18-pairs-ripples", "auto18-linear-bumps", "auto18-ring-wave",
     "auto18-sparse-noisy-dent",
+    "auto19-noisy-pairs-ripple", "auto19-noisy-pairs-dents", "auto19-sparse-pairs-bump",
+    "auto19-ring-noisy-wave", "auto19-linear-noisy-steps",
 )  # fmt: skip
 
 

@@ -28,7 +28,9 @@ from sonarproc.auto.echo_refit import (
     references,
     refit_profile,
     simplest_agreeing,
+    tied_settings,
     tolerances,
+    undominated,
 )
 from sonarproc.auto.score import paired_se, robust_residual
 from sonarproc.fit import PolyFit, SplineFit, fit_polynomial, fit_spline
@@ -256,6 +258,30 @@ def test_lengths_the_readings_cannot_tell_apart_are_averaged() -> None:
     assert doc["fit_short"] == "mean of splines L=0.2, 0.2001 m"
     assert doc["residual_m"] == pytest.approx(got.residual) and got.residual is not None
     assert got.residual < 0.01 and got.residual < got.residuals[RefitSetting("spline", 1.6)]
+
+
+def test_a_neighbouring_length_better_on_the_shared_readings_is_tied() -> None:
+    # 40 firings of 10 readings. The 0.1 m spline predicts every reading to 2 cm; the
+    # 0.2 m and 0.4 m splines have no specular point for 3 readings of each firing (the
+    # cap) and predict the other 7 to 1.6 cm. The 0.1 m spline wins the trimmed mean by
+    # the same margin in every firing (no standard error to tie them by), but only by
+    # predicting more readings: its neighbour is tied with it, the 0.4 m spline is not.
+    cap = 0.1
+    firings = np.repeat(np.arange(40), 10)
+    missed = np.tile(np.arange(10) < 3, 40)
+    s1, s2, s4 = _splines(0.1, 0.2, 0.4)
+    rough = np.full(400, 0.02)
+    smooth = np.where(missed, cap, 0.016)
+    losses = {s1: rough, s2: smooth, s4: smooth.copy()}
+    residuals = {k: robust_residual(v) for k, v in losses.items()}
+    assert residuals[s1] == pytest.approx(0.02) and residuals[s2] == pytest.approx(0.0216)
+    assert undominated(rough, smooth, cap) and not undominated(smooth, rough, cap)
+    assert tied_settings(residuals, losses, firings, cap) == (s1, s2)
+    assert tied_settings(residuals, losses, firings) == (s1,)
+    # a neighbour that predicts as many readings is judged by the residuals alone
+    worse = {s1: rough, s2: np.full(400, 0.03), s4: smooth}
+    res = {k: robust_residual(v) for k, v in worse.items()}
+    assert tied_settings(res, worse, firings, cap) == (s1,)
 
 
 def test_a_refit_within_two_paired_errors_of_the_candidate_is_applied() -> None:
