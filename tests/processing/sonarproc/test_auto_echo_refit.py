@@ -28,6 +28,7 @@ from sonarproc.auto.echo_refit import (
     references,
     refit_profile,
     simplest_agreeing,
+    tie_reasons,
     tied_settings,
     tolerances,
     undominated,
@@ -278,6 +279,10 @@ def test_a_neighbouring_length_better_on_the_shared_readings_is_tied() -> None:
     assert undominated(rough, smooth, cap) and not undominated(smooth, rough, cap)
     assert tied_settings(residuals, losses, firings, cap) == (s1, s2)
     assert tied_settings(residuals, losses, firings) == (s1,)
+    assert tie_reasons(residuals, losses, firings, cap)[s2] == (
+        "next to the best; better on the 280 readings both predict (1.6 cm against 2 cm), "
+        "the best predicts 120 more"
+    )
     # a neighbour that predicts as many readings is judged by the residuals alone
     worse = {s1: rough, s2: np.full(400, 0.03), s4: smooth}
     res = {k: robust_residual(v) for k, v in worse.items()}
@@ -512,6 +517,8 @@ def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path)
     assert 1 <= len(starts) <= 3 and starts[0].startswith(chosen.candidate.name + " (")
     assert rec["start"] in starts
     assert ("started from" in rec["reason"]) == (rec["start"] != starts[0])
+    # every tied refit says why it is tied; the best is one of them
+    assert set(rec["tied_why"]) == set(rec["tied"]) and "the best" in rec["tied_why"].values()
     r = res.run
     if rec["applied"]:
         assert r.params.fit == r.fit.kind in ("spline", "poly")
