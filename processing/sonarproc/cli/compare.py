@@ -75,7 +75,7 @@ def _table(doc: dict[str, Any], out: Path) -> None:
             number(r["E2"]),
             seconds(r["t_cpu_s"]).removesuffix(" s"),
             str(r["points"]),
-            f"order {r['fit_order']}" if r["fit_ok"] else "FAILED",
+            r["fit"],
         )
     console = Console()
     console.width = max(console.width, 100)

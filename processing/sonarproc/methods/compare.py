@@ -17,6 +17,7 @@ from sonarproc import __version__
 from sonarproc.fit import FitFailure
 from sonarproc.methods.base import MapMethod, MethodResult
 from sonarproc.params import RunParams
+from sonarproc.pipeline.result import RunResult
 from sonarproc.report.jsonable import to_jsonable
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "compare",
     "comparison_doc",
     "comparison_rows",
+    "fit_label",
 ]
 
 log = logging.getLogger(__name__)
@@ -41,6 +43,7 @@ COLUMNS = (
     "points",
     "fit_ok",
     "fit_order",
+    "fit",
 )
 
 
@@ -51,6 +54,27 @@ def compare(log_: SonarLog, params: RunParams, methods: Sequence[MapMethod]) -> 
         log.info("%s: running %s", log_.path, m.name)
         results.append(m.run(log_, params))
     return results
+
+
+def fit_label(run: RunResult) -> str:
+    """A run's fit in a few words: ``order 9``, ``spline``, ``polar, order 9``, ``3 surfaces``.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> fit_label(NS(surfaces=None, fit=NS(kind="spline", order=3)))
+    'spline'
+    >>> fit_label(NS(surfaces=NS(surfaces=[1, 2]), fit=NS(kind="poly", order=9)))
+    '2 surfaces'
+    """
+    if run.surfaces is not None and run.surfaces.surfaces:
+        return f"{len(run.surfaces.surfaces)} surfaces"
+    fit = run.fit
+    if isinstance(fit, FitFailure):
+        return "FAILED"
+    if fit.kind == "spline":
+        return "spline"
+    return f"order {fit.order}" if fit.kind == "poly" else f"{fit.kind}, order {fit.order}"
 
 
 def comparison_rows(results: Sequence[MethodResult]) -> list[dict[str, Any]]:
@@ -71,6 +95,7 @@ def comparison_rows(results: Sequence[MethodResult]) -> list[dict[str, Any]]:
                 "points": int(r.run.points_x.size),
                 "fit_ok": not isinstance(r.run.fit, FitFailure),
                 "fit_order": r.run.fit.order,
+                "fit": fit_label(r.run),
             }
         )
     return [dict(to_jsonable(row)) for row in rows]

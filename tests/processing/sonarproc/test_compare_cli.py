@@ -60,6 +60,7 @@ def test_compare_writes_every_file(
         assert float(row[COLUMNS.index("E1_m")]) == pytest.approx(rec["E1_m"], rel=1e-5)
         assert float(row[COLUMNS.index("f_c")]) == pytest.approx(rec["f_c"], rel=1e-5)
         assert row[COLUMNS.index("fit_ok")] == "true"
+        assert row[COLUMNS.index("fit")] == rec["fit"] == "order 10"
         assert rec["E1_m"] > 0 and rec["t_cpu_s"] > 0
     png = (out / "compare.png").read_bytes()
     assert png.startswith(PNG)
@@ -115,6 +116,13 @@ def test_compare_table_and_subset(
     )
     text = capsys.readouterr().out
     assert "line-of-sight" in text and "histogram" in text and "morphological" not in text
+    assert "order 3" in text
+    # a spline is named as one, not by its degree
+    spl = tmp_path / "spline"
+    assert main(["compare", str(fig16), "--methods", "histogram", "--out", str(spl),
+                 "--fit", "spline", "--json"]) == 0  # fmt: skip
+    row = json.loads(capsys.readouterr().out)["methods"][0]
+    assert row["fit"] == "spline" and row["fit_ok"] is True
     with (out / "compare.csv").open() as fh:
         assert len(list(csv.reader(fh))) == 3
     assert sorted(p.name for p in (out / "export").iterdir()) == [
