@@ -100,7 +100,7 @@ from sonarproc.pipeline.selection import Beams
 # the rounds' names are re-exported: this module is where ``--auto`` finds the refit
 __all__ = [
     "END_GAP_M", "END_SHARE", "HULL_NOISE_WIDTH", "MAX_PAIRS", "MIN_ECHO_POINTS",
-    "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "REFIT_SETTINGS", "ROUNDS_M",
+    "NEIGHBOUR_TIE", "NOISE_MAX", "NOISE_READINGS", "NOISE_WIDTHS", "REFIT_SETTINGS", "ROUNDS_M",
     "SPLINE_TIE_SE", "TIE_SE",
     "RefitChoice", "RefitSetting", "agreement_tolerance", "choose_refit", "echo_points",
     "hull_tolerance", "main_body", "range_noise", "references", "refit_profile",
@@ -122,6 +122,9 @@ TIE_SE = 2.0
 #: Two smoothing lengths are tied within this many paired standard errors over firings
 #: (the one-standard-error rule).
 SPLINE_TIE_SE = 1.0
+#: How :func:`tie_reasons` starts the reason of a neighbouring length neither of which is
+#: better on both counts (:func:`undominated`).
+NEIGHBOUR_TIE = "next to the best; "
 
 
 @dataclass
@@ -349,12 +352,11 @@ def choose_refit(
         "the chosen profile refitted through the readings' echo points (smoothing splines "
         "and polynomials, scored by the same held-out range residual; among those tied "
         f"with the best (smoothing lengths within {SPLINE_TIE_SE:g} paired standard error "
-        f"over firings, or next to the best and better on the readings both predict while "
+        "over firings, or next to the best and better on the readings both predict while "
         f"the best predicts more; other refits within {TIE_SE:g} over readings), the "
-        "lowest-order "
-        "polynomial that "
-        "agrees wherever readings echo with the most flexible tied spline, or with the "
-        "best refit if that is a polynomial, else the tied splines averaged); applied "
+        "lowest-order polynomial that agrees wherever readings echo with the most flexible "
+        "tied spline, or with the best refit if that is a polynomial, else the tied splines "
+        "averaged); applied "
         "unless its residual is above the chosen candidate's by more than "
         f"{TIE_SE:g} paired standard errors"
     )
@@ -436,8 +438,9 @@ def choose_refit(
         out.reason += "; " + out.simpler
     for k in out.averaged:
         why = out.tied_why.get(k, "")
-        if why.startswith("next to the best") and out.best is not None:
-            out.reason += f"; {k.short} tied with {out.best.short}: " + why.split("; ", 1)[1]
+        if why.startswith(NEIGHBOUR_TIE) and out.best is not None:
+            counts = why.removeprefix(NEIGHBOUR_TIE)
+            out.reason += f"; {k.short} tied with {out.best.short}: {counts}"
     return out
 
 
@@ -458,11 +461,23 @@ def undominated(best: FloatArray, other: FloatArray, cap: float) -> bool:
     >>> undominated(best, other, 0.1), undominated(best, best + 0.01, 0.1)
     (True, False)
     """
+    return _undominated_why(best, other, cap) is not None
+
+
+def _undominated_why(best: FloatArray, other: FloatArray, cap: float) -> str | None:
+    """:func:`undominated`'s counts in words, or None when ``other`` is dominated."""
     hit_best, hit_other = best < cap, other < cap
     both = hit_best & hit_other
     if not both.any() or hit_best.sum() <= hit_other.sum():
-        return False
-    return robust_residual(other[both]) < robust_residual(best[both])
+        return None
+    theirs, mine = robust_residual(other[both]), robust_residual(best[both])
+    if theirs >= mine:
+        return None
+    return (
+        f"better on the {int(both.sum())} readings both predict ({100 * theirs:.3g} cm "
+        f"against {100 * mine:.3g} cm), the best predicts "
+        f"{int(hit_best.sum() - hit_other.sum())} more"
+    )
 
 
 def tied_settings(
@@ -539,15 +554,10 @@ def tie_reasons(
             se = float(np.nan_to_num(clustered_paired_se(losses[best], losses[k], firings)))
             if gap <= SPLINE_TIE_SE * se:
                 out[k] = f"within {SPLINE_TIE_SE:g} paired standard error over firings"
-            elif k in neighbours and cap is not None and undominated(losses[best], losses[k], cap):
-                hit_best, hit_k = losses[best] < cap, losses[k] < cap
-                both = hit_best & hit_k
-                out[k] = (
-                    f"next to the best; better on the {int(both.sum())} readings both predict "
-                    f"({100 * robust_residual(losses[k][both]):.3g} cm against "
-                    f"{100 * robust_residual(losses[best][both]):.3g} cm), the best predicts "
-                    f"{int(hit_best.sum() - hit_k.sum())} more"
-                )
+            elif k in neighbours and cap is not None:
+                why = _undominated_why(losses[best], losses[k], cap)
+                if why is not None:
+                    out[k] = NEIGHBOUR_TIE + why
         elif gap <= TIE_SE * float(np.nan_to_num(paired_se(losses[best], losses[k]))):
             out[k] = f"within {TIE_SE:g} paired standard errors over readings"
     return out
