@@ -148,7 +148,6 @@ class RefitChoice:
     echo_x: dict[RefitSetting, FloatArray] = field(default_factory=dict)
     losses: dict[RefitSetting, FloatArray] = field(default_factory=dict)
     #: the settings tied with the best, and why each is (:func:`tie_reasons`)
-    tied: tuple[RefitSetting, ...] = ()
     tied_why: dict[RefitSetting, str] = field(default_factory=dict)
     #: the tied splines averaged into ``fit`` (one setting: that refit alone)
     averaged: tuple[RefitSetting, ...] = ()
@@ -165,6 +164,11 @@ class RefitChoice:
     noise_start: float | None = None
     #: held-out losses of ``fit``, in the order of the folds (for comparing refits)
     heldout: FloatArray | None = None
+
+    @property
+    def tied(self) -> tuple[RefitSetting, ...]:
+        """The settings tied with the best (the best among them), in order."""
+        return tuple(sorted(self.tied_why))
 
     @property
     def setting(self) -> RefitSetting | None:
@@ -541,8 +545,8 @@ def tie_reasons(
     """
     best = min(residuals, key=lambda k: residuals[k])
     splines = sorted(k for k in residuals if k.family == "spline")
-    neighbours = set()
-    if best.family == "spline" and cap is not None:
+    neighbours: set[RefitSetting] = set()
+    if best.family == "spline":
         i = splines.index(best)
         neighbours = set(splines[max(i - 1, 0) : i + 2]) - {best}
     out = {best: "the best"}
@@ -573,7 +577,6 @@ def _settle_ties(
     best = min(out.residuals, key=lambda k: out.residuals[k])
     out.best = best
     out.tied_why = tie_reasons(out.residuals, out.losses, firings, cap)
-    out.tied = tuple(sorted(out.tied_why))
     for reference in references(out.tied, best):
         # the noise about the refit, not about the start: a start's bias is no noise
         tolerance = agreement_tolerance(range_noise(out.fits[reference], beams, cell), cell)
