@@ -5,8 +5,8 @@ rasterisation), :mod:`sonarproc.morphology` (the operations on the map),
 :mod:`sonarproc.fit` and :mod:`sonarproc.metrics`, :mod:`sonarproc.pipeline` (the one seam
 every map goes through: select, grid, build, fit, measure; live processing),
 :mod:`sonarproc.methods` (other ways to build the map), :mod:`sonarproc.report`
-(files and figures), :mod:`sonarproc.sweep`, :mod:`sonarproc.studies` and
-:mod:`sonarproc.cli`. Errors: :mod:`sonarproc.errors`.
+(files and figures), :mod:`sonarproc.sweep` and :mod:`sonarproc.cli`.
+Errors: :mod:`sonarproc.errors`.
 """
 
 from __future__ import annotations

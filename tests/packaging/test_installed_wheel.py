@@ -93,10 +93,10 @@ def test_sonard_against_the_url_emulator(venv: Path, tmp_path: Path) -> None:
 def test_studies_write_where_told(venv: Path, tmp_path: Path) -> None:
     out = tmp_path / "docs"
     out.mkdir()
-    run(venv, tmp_path, "python", "-m", "sonarproc.studies.noise_sweep", "--out-dir", str(out),
+    run(venv, tmp_path, "python", "-m", "sonarmorph_tools.noise_sweep", "--out-dir", str(out),
         "--jobs", "1", "--seeds", "2")  # fmt: skip
     assert (out / "noise-sweep.md").stat().st_size > 200 and (out / "fig14.png").is_file()
-    run(venv, tmp_path, "python", "-m", "sonarproc.studies.reproduce", "--out",
+    run(venv, tmp_path, "python", "-m", "sonarmorph_tools.reproduce", "--out",
         str(out / "reproduction.md"))  # fmt: skip
     text = (out / "reproduction.md").read_text()
     assert "fig13" in text and "fig02" in text and len(text) > 2000

@@ -218,7 +218,7 @@ def test_cli_arc_step_must_be_positive(
 
 
 def test_reproduce_renders_the_sampled_section() -> None:
-    from sonarproc.studies.reproduce import PAPER, TABLE1, Outcome, SampledRow, render_markdown
+    from sonarmorph_tools.reproduce import PAPER, TABLE1, Outcome, SampledRow, render_markdown
 
     def out(f_c: float) -> Outcome:
         return Outcome(0.1, f_c, 2.0, 0.1, 0.01, 100, True)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sonarlog.schema import empty_readings
+from sonarmorph_tools.auto_judge import auto_row
 from sonarproc.arcs import arcs_of, rasterize
 from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose, run_auto
 from sonarproc.auto.candidates import Candidate
@@ -22,7 +23,6 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline import load_log
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.simulate import simulate_to_log
-from sonarproc.studies.auto_study import auto_row
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarlog import READING_DTYPE, SENSOR_DTYPE, SonarLog, read_log
+from sonarmorph_tools.reproduce import PAPER
 from sonarproc.grid import Grid
 from sonarproc.methods import METHODS, make_method, parse_method_list, parse_settings
 from sonarproc.methods.base import MapMethod, MethodMap
@@ -21,7 +22,6 @@ from sonarproc.methods.occupancy import Occupancy, log_odds
 from sonarproc.params import RunParams
 from sonarproc.pipeline import plan_grid, process, select_beams
 from sonarproc.simulate import simulate_to_log
-from sonarproc.studies.reproduce import PAPER
 
 C = 343.3
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"

@@ -6,7 +6,7 @@ random-sensor Figs. 10-12. :func:`run_own_echo` simulates each of those scenario
 the random array (:data:`DRAWS`), runs the paper's n and m on each log :data:`REPEATS`
 times (t_CPU: the median) and keeps, per variant, a :class:`VariantRun`: the arcs, arc
 cells, t_CPU and, on the shipped draw, e, f_c and E1. The section that compares them is
-:mod:`sonarproc.studies.reproduction.own_echo`.
+:mod:`sonarmorph_tools.reproduction.own_echo`.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from sonarmorph_tools.reproduction.outcome import Outcome
+from sonarmorph_tools.reproduction.paper import PAPER
 from sonarproc.params import RunParams
 from sonarproc.pipeline import run_file
-from sonarproc.studies.reproduction.outcome import Outcome
-from sonarproc.studies.reproduction.paper import PAPER
 
 __all__ = [
     "DRAWS",

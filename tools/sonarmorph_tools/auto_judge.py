@@ -7,7 +7,7 @@ paper's E1 (columns with points) where the truth is one profile ``y(x)``, and th
 surfaces metric ``precision_m`` (mean distance of the fitted curves to the truth,
 :func:`sonarproc.surfaces.surface_metrics`) where it is several surfaces (a room, a
 corridor): E1 means nothing there. The table of ``docs/methods.md``
-(:mod:`sonarproc.studies.methods_table`) and a test use it.
+(:mod:`sonarmorph_tools.methods_table`) and a test use it.
 """
 
 from __future__ import annotations

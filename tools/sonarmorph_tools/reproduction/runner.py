@@ -7,17 +7,17 @@ import tempfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from sonarmorph_tools.reproduction.discussion import DISCUSSION
+from sonarmorph_tools.reproduction.document import render_markdown
+from sonarmorph_tools.reproduction.figures import run_auto, run_paper
+from sonarmorph_tools.reproduction.multi_surface import SCENARIOS as MULTI_SURFACE
+from sonarmorph_tools.reproduction.multi_surface import run_multi_surface
+from sonarmorph_tools.reproduction.outcome import AutoOutcome, Outcome, outcome_line
+from sonarmorph_tools.reproduction.own_echo import run_own_echo
+from sonarmorph_tools.reproduction.paper import ARC_STEPS_DEG, TABLES, PaperRow, paper_row
+from sonarmorph_tools.reproduction.paper_tables import run_table
+from sonarmorph_tools.reproduction.sampled import SampledRow, binary_cells, sampled_runs
 from sonarproc.params import RunParams
-from sonarproc.studies.reproduction.discussion import DISCUSSION
-from sonarproc.studies.reproduction.document import render_markdown
-from sonarproc.studies.reproduction.figures import run_auto, run_paper
-from sonarproc.studies.reproduction.multi_surface import SCENARIOS as MULTI_SURFACE
-from sonarproc.studies.reproduction.multi_surface import run_multi_surface
-from sonarproc.studies.reproduction.outcome import AutoOutcome, Outcome, outcome_line
-from sonarproc.studies.reproduction.own_echo import run_own_echo
-from sonarproc.studies.reproduction.paper import ARC_STEPS_DEG, TABLES, PaperRow, paper_row
-from sonarproc.studies.reproduction.paper_tables import run_table
-from sonarproc.studies.reproduction.sampled import SampledRow, binary_cells, sampled_runs
 
 __all__ = ["reproduce"]
 

@@ -10,10 +10,10 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from sonarmorph_tools.reproduction.outcome import AutoOutcome, Outcome, fmt, pair, table_row
+from sonarmorph_tools.reproduction.paper import AUTO, PaperRow, sigma_paper_cm
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, run_file
-from sonarproc.studies.reproduction.outcome import AutoOutcome, Outcome, fmt, pair, table_row
-from sonarproc.studies.reproduction.paper import AUTO, PaperRow, sigma_paper_cm
 
 __all__ = [
     "HEAD",

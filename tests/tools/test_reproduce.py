@@ -1,8 +1,8 @@
-"""Tests for sonarproc.studies.reproduce: the paper's values and the generated markdown."""
+"""Tests for sonarmorph_tools.reproduce: the paper's values and the generated markdown."""
 
 from __future__ import annotations
 
-from sonarproc.studies.reproduce import PAPER, TABLE1, TABLE2, Outcome, render_markdown
+from sonarmorph_tools.reproduce import PAPER, TABLE1, TABLE2, Outcome, render_markdown
 
 
 def _outcome(e: float | None, f_c: float, e1: float | None) -> Outcome:

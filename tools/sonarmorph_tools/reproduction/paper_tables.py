@@ -9,9 +9,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from sonarproc.studies.reproduction.figures import HEAD, paper_row_cells, run_paper
-from sonarproc.studies.reproduction.outcome import Outcome
-from sonarproc.studies.reproduction.paper import PaperRow
+from sonarmorph_tools.reproduction.figures import HEAD, paper_row_cells, run_paper
+from sonarmorph_tools.reproduction.outcome import Outcome
+from sonarmorph_tools.reproduction.paper import PaperRow
 
 __all__ = ["run_table", "table_section", "trend"]
 

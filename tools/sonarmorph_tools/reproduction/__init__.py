@@ -11,12 +11,12 @@
 - :mod:`~.discussion`, :mod:`~.document`: the hand-written part and the whole text;
 - :mod:`~.runner`: :func:`reproduce`, which runs them all.
 
-The command line is :mod:`sonarproc.studies.reproduce`.
+The command line is :mod:`sonarmorph_tools.reproduce`.
 """
 
-from sonarproc.studies.reproduction.document import render_markdown
-from sonarproc.studies.reproduction.outcome import AutoOutcome, Outcome, outcome_line
-from sonarproc.studies.reproduction.paper import (
+from sonarmorph_tools.reproduction.document import render_markdown
+from sonarmorph_tools.reproduction.outcome import AutoOutcome, Outcome, outcome_line
+from sonarmorph_tools.reproduction.paper import (
     ARC_STEPS_DEG,
     AUTO,
     PAPER,
@@ -25,8 +25,8 @@ from sonarproc.studies.reproduction.paper import (
     TABLES,
     PaperRow,
 )
-from sonarproc.studies.reproduction.runner import reproduce
-from sonarproc.studies.reproduction.sampled import SampledRow
+from sonarmorph_tools.reproduction.runner import reproduce
+from sonarmorph_tools.reproduction.sampled import SampledRow
 
 __all__ = [
     "ARC_STEPS_DEG",

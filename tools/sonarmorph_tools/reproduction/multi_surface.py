@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from sonarmorph_tools.reproduction.outcome import fmt, table_row
 from sonarproc.errors import SonarprocError
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, load_log, process, run_file
-from sonarproc.studies.reproduction.outcome import fmt, table_row
 
 __all__ = [
     "COMPLETENESS_TARGET",

@@ -1,4 +1,4 @@
-"""Tests for sonarproc.studies.methods_table: the generated comparison tables of docs/methods.md."""
+"""Tests for sonarmorph_tools.methods_table: the generated comparison tables of docs/methods.md."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from sonarproc.studies.methods_table import (
+from sonarmorph_tools.methods_table import (
     END,
     START,
     main,

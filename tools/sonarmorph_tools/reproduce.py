@@ -7,9 +7,9 @@ tables: our automatic method (:data:`AUTO`) on the same logs; the paper's Table 
 Fig. 2 map) and Table 2 (the Fig. 18 surface); arcs drawn paper-style as samples at fixed
 angular steps (:data:`ARC_STEPS_DEG`); own echoes against every pair for Figs. 10-12;
 and the multi-surface scenes plus a sonard ring log with the default ``sonarproc run``.
-The studies live in :mod:`sonarproc.studies.reproduction`; this module is the command line.
+The studies live in :mod:`sonarmorph_tools.reproduction`; this module is the command line.
 
-Run ``./scripts/reproduce`` (or ``python -m sonarproc.studies.reproduce``); ``--reports DIR``
+Run ``./scripts/reproduce`` (or ``python -m sonarmorph_tools.reproduce``); ``--reports DIR``
 also keeps each run's report directory.
 """
 
@@ -23,8 +23,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from sonarproc.errors import SonarprocError
-from sonarproc.studies.reproduction import (
+from sonarmorph_tools.reproduction import (
     ARC_STEPS_DEG,
     AUTO,
     PAPER,
@@ -38,6 +37,7 @@ from sonarproc.studies.reproduction import (
     render_markdown,
     reproduce,
 )
+from sonarproc.errors import SonarprocError
 from sonarsim.shipped import shipped_dir
 
 __all__ = [
@@ -58,7 +58,7 @@ __all__ = [
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: ``python -m sonarproc.studies.reproduce --out docs/reproduction.md``."""
+    """Command line: ``python -m sonarmorph_tools.reproduce --out docs/reproduction.md``."""
     ap = argparse.ArgumentParser(prog="reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
     ap.add_argument("--out", type=Path, required=True, help="the markdown file to write")

@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from sonarmorph_tools.reproduction.paper import PaperRow
 from sonarproc.pipeline import RunResult
-from sonarproc.studies.reproduction.paper import PaperRow
 
 __all__ = ["AutoOutcome", "Outcome", "fmt", "outcome_line", "pair", "series", "table_row"]
 

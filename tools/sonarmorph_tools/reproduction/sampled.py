@@ -1,7 +1,7 @@
 """Paper-style sampled arcs: the paper's method with arcs drawn as samples every S degrees.
 
 :func:`sampled_runs` runs one log at every step of
-:data:`~sonarproc.studies.reproduction.paper.ARC_STEPS_DEG`; :func:`sampled_section`
+:data:`~sonarmorph_tools.reproduction.paper.ARC_STEPS_DEG`; :func:`sampled_section`
 renders every scenario and Table 1's sweep beside our connected arcs.
 """
 
@@ -12,10 +12,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from sonarmorph_tools.reproduction.outcome import Outcome, fmt, series, table_row
+from sonarmorph_tools.reproduction.paper import PaperRow
 from sonarproc.params import RunParams
 from sonarproc.pipeline import RunResult, run_file
-from sonarproc.studies.reproduction.outcome import Outcome, fmt, series, table_row
-from sonarproc.studies.reproduction.paper import PaperRow
 
 __all__ = ["SampledRow", "binary_cells", "sampled_runs", "sampled_section"]
 

@@ -1,11 +1,11 @@
 """The comparison tables of ``docs/methods.md``, generated from the shipped scenarios.
 
-``python -m sonarproc.studies.methods_table --doc docs/methods.md [--scenarios DIR]`` simulates
+``python -m sonarmorph_tools.methods_table --doc docs/methods.md [--scenarios DIR]`` simulates
 every ``configs/scenarios/*.yaml`` (with its own seed), runs every registered method with
 the paper's operations and polynomial order for that figure
-(:data:`sonarproc.studies.reproduce.PAPER`; the order applies to every method's fit, the
+(:data:`sonarmorph_tools.reproduce.PAPER`; the order applies to every method's fit, the
 operations to ``morphological``), then ``--auto`` and every one of its candidates
-(:mod:`sonarproc.studies.auto_study`: the error by the truth, which auto never sees), and
+(:mod:`sonarmorph_tools.auto_judge`: the error by the truth, which auto never sees), and
 rewrites the part of the doc between ``<!-- methods-table:start -->`` and
 ``<!-- methods-table:end -->``.
 """
@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
+from sonarmorph_tools.reproduce import PAPER, PaperRow
 from sonarproc.methods import DEFAULT_METHODS, make_method
 from sonarproc.methods.compare import compare, comparison_rows
 from sonarproc.params import RunParams
 from sonarproc.pipeline.selection import select_beams
 from sonarproc.runtime import retain_freed_memory
-from sonarproc.studies.reproduce import PAPER, PaperRow
 from sonarsim.shipped import shipped_dir
 
 __all__ = [
@@ -79,7 +79,7 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -
     """
     from dataclasses import replace
 
-    from sonarproc.studies.auto_study import Judge, auto_row, simulated_scenarios
+    from sonarmorph_tools.auto_judge import Judge, auto_row, simulated_scenarios
 
     out: Rows = {}
     auto: Rows = {}
@@ -235,7 +235,7 @@ def splice(doc: str, tables: str) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Regenerate the tables of ``docs/methods.md``."""
     ap = argparse.ArgumentParser(
-        prog="python -m sonarproc.studies.methods_table", description=__doc__
+        prog="python -m sonarmorph_tools.methods_table", description=__doc__
     )
     ap.add_argument("--doc", type=Path, required=True, help="the methods.md to update")
     ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
@@ -252,7 +252,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args.doc.write_text(splice(args.doc.read_text(encoding="utf-8"), tables), encoding="utf-8")
     except (OSError, ValueError) as err:
-        print(f"sonarproc.studies.methods_table: error: {err}", file=sys.stderr)
+        print(f"sonarmorph_tools.methods_table: error: {err}", file=sys.stderr)
         return 2
     print(f"wrote {args.doc}")
     return 0

@@ -4,7 +4,7 @@ Hypothesis: the random-sensor figures were made with every sensor hearing only i
 echo (circles), not with every transmitter/receiver pair (circles and ellipses). Evidence
 for it: the paper's t_CPU grows like the number of sensors, not of pairs.
 
-:func:`run_own_echo` (:mod:`~sonarproc.studies.reproduction.own_echo_runs`) simulates
+:func:`run_own_echo` (:mod:`~sonarmorph_tools.reproduction.own_echo_runs`) simulates
 each scenario of :data:`PAPER_TIMING` twice, ``pairs: own`` and ``pairs: all``, over a few
 seeded draws of the random array (:data:`DRAWS`), runs the paper's n and m on each log
 :data:`REPEATS` times (t_CPU: the median) and keeps the arcs, arc cells, t_CPU and, on the
@@ -17,8 +17,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from sonarproc.studies.reproduction.outcome import fmt, table_row
-from sonarproc.studies.reproduction.own_echo_runs import (
+from sonarmorph_tools.reproduction.outcome import fmt, table_row
+from sonarmorph_tools.reproduction.own_echo_runs import (
     DRAWS,
     PAIRS,
     PAPER_TIMING,
@@ -29,7 +29,7 @@ from sonarproc.studies.reproduction.own_echo_runs import (
     run_own_echo,
     simulate_variant,
 )
-from sonarproc.studies.reproduction.paper import PAPER
+from sonarmorph_tools.reproduction.paper import PAPER
 
 __all__ = [
     "DRAWS",

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sonarlog import read_log
-from sonarproc.studies.reproduce import main
-from sonarproc.studies.reproduction.multi_surface import (
+from sonarmorph_tools.reproduce import main
+from sonarmorph_tools.reproduction.multi_surface import (
     FIRST_ORDER,
     RingLogError,
     SurfaceRow,
@@ -17,8 +17,8 @@ from sonarproc.studies.reproduction.multi_surface import (
     record_ring_log,
     world_truth,
 )
-from sonarproc.studies.reproduction.outcome import Outcome
-from sonarproc.studies.reproduction.own_echo import (
+from sonarmorph_tools.reproduction.outcome import Outcome
+from sonarmorph_tools.reproduction.own_echo import (
     PAPER_TIMING,
     VariantRun,
     own_echo_section,
