@@ -4,16 +4,20 @@ Builds the wheel (``pip wheel``), installs it without dependencies into a new ve
 only other path is the test venv's site-packages (for numpy, h5py, ...; not the editable
 install, whose finder lives in a ``.pth`` that a plain path entry does not run), and runs
 every command by shipped names from an empty directory: ``simulate fig12``, ``run``,
-``compare``, the studies, and ``sonard`` against the ``nomad://`` emulator.
+``compare``, and ``sonard`` against the ``nomad://`` emulator. The wheel holds the product
+only: no tuning studies, no test scenarios, no ``tools/``; the documentation tools in
+``tools/`` run against the installed packages.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import site
 import subprocess
 import sys
 import sysconfig
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -23,8 +27,15 @@ ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.slow
 
 
+#: The scenarios the wheel ships: the paper's figures and the multi-surface scenes.
+SHIPPED_SCENARIOS = {
+    "fig02", "fig06a", "fig06b", "fig08a", "fig08b", "fig10b", "fig10c", "fig12", "fig13",
+    "fig16", "fig18", "corridor-l", "room-box", "hall-pillar",
+}  # fmt: skip
+
+
 @pytest.fixture(scope="module")
-def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     base = tmp_path_factory.mktemp("wheel")
     wheels = base / "wheels"
     subprocess.run(
@@ -32,8 +43,13 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
         check=True,
         cwd=base,
     )
-    (wheel,) = wheels.glob("sonarmorph-*.whl")
-    env_dir = base / "venv"
+    (built,) = wheels.glob("sonarmorph-*.whl")
+    return built
+
+
+@pytest.fixture(scope="module")
+def venv(wheel: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    env_dir = tmp_path_factory.mktemp("venv") / "venv"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(env_dir)], check=True)
     purelib = Path(
         sysconfig.get_path("purelib", vars={"base": str(env_dir), "platbase": str(env_dir)})
@@ -50,10 +66,13 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return env_dir
 
 
-def run(venv: Path, cwd: Path, *args: str) -> subprocess.CompletedProcess[str]:
+def run(
+    venv: Path, cwd: Path, *args: str, env: dict[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
     proc = subprocess.run(
         [str(venv / "bin" / args[0]), *args[1:]],
         cwd=cwd,
+        env=None if env is None else {**os.environ, **env},
         capture_output=True,
         text=True,
         timeout=240,
@@ -90,13 +109,27 @@ def test_sonard_against_the_url_emulator(venv: Path, tmp_path: Path) -> None:
     assert int(proc.stdout) > 50
 
 
-def test_studies_write_where_told(venv: Path, tmp_path: Path) -> None:
+def test_the_wheel_holds_the_product_only(wheel: Path) -> None:
+    names = zipfile.ZipFile(wheel).namelist()
+    tops = {n.split("/", 1)[0] for n in names if not n.split("/", 1)[0].endswith(".dist-info")}
+    assert tops == {"nomad200", "sonarsim", "sonarlog", "sonard", "sonarproc"}
+    assert not [n for n in names if "/studies/" in n or "sonarmorph_tools" in n]
+    prefix = "sonarsim/data/scenarios/"
+    scenarios = {Path(n).stem for n in names if n.startswith(prefix) and n.endswith(".yaml")}
+    assert scenarios == SHIPPED_SCENARIOS
+    # the worlds the shipped scenarios name ship too
+    assert "sonarsim/data/worlds/paper-sinusoid.yaml" in names
+
+
+def test_the_tools_run_against_the_installed_wheel(venv: Path, tmp_path: Path) -> None:
     out = tmp_path / "docs"
     out.mkdir()
+    tools = {"PYTHONPATH": str(ROOT / "tools")}
     run(venv, tmp_path, "python", "-m", "sonarmorph_tools.noise_sweep", "--out-dir", str(out),
-        "--jobs", "1", "--seeds", "2")  # fmt: skip
+        "--jobs", "1", "--seeds", "2", env=tools)  # fmt: skip
     assert (out / "noise-sweep.md").stat().st_size > 200 and (out / "fig14.png").is_file()
     run(venv, tmp_path, "python", "-m", "sonarmorph_tools.reproduce", "--out",
-        str(out / "reproduction.md"))  # fmt: skip
+        str(out / "reproduction.md"), "--only", "fig13", "--only", "fig02", "--no-ring-log",
+        "--quiet", env=tools)  # fmt: skip
     text = (out / "reproduction.md").read_text()
     assert "fig13" in text and "fig02" in text and len(text) > 2000

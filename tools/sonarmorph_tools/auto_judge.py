@@ -159,15 +159,16 @@ def _judged_columns(r: RunResult) -> int | None:
     return int(occ[-1] - occ[0] + 1) if occ.size else 0
 
 
-def simulated_scenarios(scenario_dir: Path) -> Iterator[tuple[str, SonarLog]]:
-    """Simulate each scenario YAML of ``scenario_dir`` (sorted by name) and yield its log.
+def simulated_scenarios(*scenario_dirs: Path) -> Iterator[tuple[str, SonarLog]]:
+    """Simulate each scenario YAML of ``scenario_dirs`` (sorted by name) and yield its log.
 
     The logs are written to a temporary folder that is removed when the iteration ends.
     """
     from sonarproc.simulate import simulate_to_log
 
+    ymls = sorted((y for d in scenario_dirs for y in d.glob("*.yaml")), key=lambda y: y.stem)
     with tempfile.TemporaryDirectory() as tmp:
-        for yml in sorted(scenario_dir.glob("*.yaml")):
+        for yml in ymls:
             path = Path(tmp) / f"{yml.stem}.h5"
             simulate_to_log(yml, path)
             yield yml.stem, load_log(path)

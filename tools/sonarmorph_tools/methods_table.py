@@ -1,7 +1,8 @@
-"""The comparison tables of ``docs/methods.md``, generated from the shipped scenarios.
+"""The comparison tables of ``docs/methods.md``, generated from the scenarios.
 
-``python -m sonarmorph_tools.methods_table --doc docs/methods.md [--scenarios DIR]`` simulates
-every ``configs/scenarios/*.yaml`` (with its own seed), runs every registered method with
+``python -m sonarmorph_tools.methods_table --doc docs/methods.md [--scenarios DIR ...]``
+simulates every scenario of the shipped ``configs/scenarios/`` and of the test scenarios
+``tests/data/scenarios/`` (each with its own seed), runs every registered method with
 the paper's operations and polynomial order for that figure
 (:data:`sonarmorph_tools.reproduce.PAPER`; the order applies to every method's fit, the
 operations to ``morphological``), then ``--auto`` and every one of its candidates
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sonarmorph_tools import TEST_SCENARIOS
 from sonarmorph_tools.reproduce import PAPER, PaperRow
 from sonarproc.methods import DEFAULT_METHODS, make_method
 from sonarproc.methods.compare import compare, comparison_rows
@@ -64,14 +66,16 @@ _METRICS = (
 )
 
 
-def run_scenarios(scenario_dir: Path, *, cell: float = 0.01) -> Rows:
-    """Simulate each scenario and compare every default method on it."""
-    rows, _ = run_all(scenario_dir, cell=cell, with_auto=False)
+def run_scenarios(*scenario_dirs: Path, cell: float = 0.01) -> Rows:
+    """Simulate each scenario of ``scenario_dirs`` and compare every default method on it."""
+    rows, _ = run_all(*scenario_dirs, cell=cell, with_auto=False)
     return rows
 
 
-def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -> tuple[Rows, Rows]:
+def run_all(*scenario_dirs: Path, cell: float = 0.01, with_auto: bool = True) -> tuple[Rows, Rows]:
     """Every method and (``with_auto``) ``--auto`` (:func:`auto_row`) on each scenario.
+
+    The scenarios of every folder of ``scenario_dirs`` run in one order, by name.
 
     A scene whose truth is several surfaces (a room, a corridor) is run with
     ``fit = "auto"`` (the surfaces fit) and its rows carry ``precision_m`` and
@@ -83,7 +87,7 @@ def run_all(scenario_dir: Path, *, cell: float = 0.01, with_auto: bool = True) -
 
     out: Rows = {}
     auto: Rows = {}
-    for name, lg in simulated_scenarios(scenario_dir):
+    for name, lg in simulated_scenarios(*scenario_dirs):
         paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
         params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
         judge = Judge(lg, select_beams(lg, params)[0])
@@ -238,12 +242,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="python -m sonarmorph_tools.methods_table", description=__doc__
     )
     ap.add_argument("--doc", type=Path, required=True, help="the methods.md to update")
-    ap.add_argument("--scenarios", type=Path, default=shipped_dir("scenarios"))
+    ap.add_argument(
+        "--scenarios", type=Path, action="append", default=None, metavar="DIR",
+        help="a folder of scenario YAMLs (repeatable; default: the shipped scenarios and "
+        "tests/data/scenarios)",
+    )  # fmt: skip
     ap.add_argument("--stdout", action="store_true", help="print the tables, leave the doc")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     retain_freed_memory()  # as the sonarproc command does: the wall times are the command's
-    rows, auto = run_all(args.scenarios)
+    dirs = args.scenarios or [shipped_dir("scenarios"), TEST_SCENARIOS]
+    rows, auto = run_all(*dirs)
     surf = render_surface_table(rows)
     tables = render_tables(rows) + "\n" + (surf + "\n" if surf else "") + render_auto_table(auto)
     if args.stdout:

@@ -596,7 +596,7 @@ def test_a_best_polynomial_no_tied_spline_agrees_with_is_kept(tmp_path: Path) ->
     best and follows the dip; the one spline tied with it (L=0.8 m) smooths the dip
     away. The polynomial is kept, not replaced by the tied splines' average."""
     path = tmp_path / "dip.h5"
-    simulate_to_log(ROOT / "configs/scenarios/auto13-linear-dip.yaml", path)
+    simulate_to_log(ROOT / "tests/data/scenarios/auto13-linear-dip.yaml", path)
     res, chosen, choice = run_auto(load_log(path), RunParams())
     rec = choice.to_json(chosen)["echo_refit"]
     assert rec["applied"] and rec["polynomial_order"] == 15 and rec["smoothing_length_m"] is None
@@ -617,7 +617,7 @@ def test_when_every_candidate_is_excluded_the_record_says_so_and_the_fallback_is
     from sonarproc.report.auto_record import auto_record_html
 
     path = tmp_path / "noisy.h5"
-    simulate_to_log(ROOT / "configs/scenarios/auto14-noisy-ring-walk.yaml", path)
+    simulate_to_log(ROOT / "tests/data/scenarios/auto14-noisy-ring-walk.yaml", path)
     res, chosen, choice = run_auto(load_log(path), RunParams())
     rec = choice.to_json(chosen)
     assert chosen.excluded is not None and all(r["excluded"] for r in rec["runners_up"])
