@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import site
 import subprocess
 import sys
@@ -27,6 +28,8 @@ ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.slow
 
 
+#: What the wheel is built from (pyproject's package folders, readme and licence).
+SOURCES = ("pyproject.toml", "README.md", "LICENSE", "drivers", "daemon", "processing")
 #: The scenarios the wheel ships: the paper's figures and the multi-surface scenes.
 SHIPPED_SCENARIOS = {
     "fig02", "fig06a", "fig06b", "fig08a", "fig08b", "fig10b", "fig10c", "fig12", "fig13",
@@ -37,9 +40,19 @@ SHIPPED_SCENARIOS = {
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
     base = tmp_path_factory.mktemp("wheel")
+    # Built from a copy of the sources: setuptools reuses a checkout's build/lib, where files
+    # deleted since an earlier build would still lie and be packed into the wheel.
+    src = base / "src"
+    skip = shutil.ignore_patterns("__pycache__", "*.egg-info", "build")
+    for name in SOURCES:
+        if (ROOT / name).is_dir():
+            shutil.copytree(ROOT / name, src / name, ignore=skip)
+        else:
+            src.mkdir(exist_ok=True)
+            shutil.copy2(ROOT / name, src / name)
     wheels = base / "wheels"
     subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(ROOT)],
+        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(wheels), str(src)],
         check=True,
         cwd=base,
     )
