@@ -93,3 +93,23 @@ def test_render_surface_table() -> None:
     text = render_surface_table(rows)
     assert "| room-box | 5.23 / 0.90 | — |" in text and "fig02" not in text
     assert render_surface_table({"fig02": rows["fig02"]}) == ""
+
+
+def test_only_names_scenarios_of_the_shipped_and_test_folders(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    doc = tmp_path / "doc.md"
+    doc.write_text(f"{START}\n{END}\n")
+    # default folders: the shipped scenarios and tests/data/scenarios; a name in neither
+    assert main(["--doc", str(doc), "--only", "fig12", "--only", "wavy-sparse", "--only",
+                 "nope"]) == 2  # fmt: skip
+    assert capsys.readouterr().err.strip() == "methods_table: error: --only: no scenario nope"
+    assert doc.read_text() == f"{START}\n{END}\n"
+
+
+def test_a_test_scenario_runs_from_its_folder(capsys: pytest.CaptureFixture[str]) -> None:
+    # one small test scenario, its world and sensors reached through ../../../configs
+    assert main(["--doc", "unused.md", "--stdout", "--only", "auto7-ring-hump"]) == 0
+    out = capsys.readouterr().out
+    assert "| auto7-ring-hump (thinning:3, 9) |" in out
+    assert out.count("| auto7-ring-hump |") == 1  # the --auto row

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -159,14 +159,19 @@ def _judged_columns(r: RunResult) -> int | None:
     return int(occ[-1] - occ[0] + 1) if occ.size else 0
 
 
-def simulated_scenarios(*scenario_dirs: Path) -> Iterator[tuple[str, SonarLog]]:
+def simulated_scenarios(
+    *scenario_dirs: Path, only: Collection[str] | None = None
+) -> Iterator[tuple[str, SonarLog]]:
     """Simulate each scenario YAML of ``scenario_dirs`` (sorted by name) and yield its log.
 
-    The logs are written to a temporary folder that is removed when the iteration ends.
+    ``only``: the names (file stems) to simulate, if not all. The logs are written to a
+    temporary folder that is removed when the iteration ends.
     """
     from sonarproc.simulate import simulate_to_log
 
     ymls = sorted((y for d in scenario_dirs for y in d.glob("*.yaml")), key=lambda y: y.stem)
+    if only is not None:
+        ymls = [y for y in ymls if y.stem in only]
     with tempfile.TemporaryDirectory() as tmp:
         for yml in ymls:
             path = Path(tmp) / f"{yml.stem}.h5"

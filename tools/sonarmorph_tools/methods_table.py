@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -72,10 +72,14 @@ def run_scenarios(*scenario_dirs: Path, cell: float = 0.01) -> Rows:
     return rows
 
 
-def run_all(*scenario_dirs: Path, cell: float = 0.01, with_auto: bool = True) -> tuple[Rows, Rows]:
+def run_all(
+    *scenario_dirs: Path, cell: float = 0.01, with_auto: bool = True,
+    only: Collection[str] | None = None,
+) -> tuple[Rows, Rows]:  # fmt: skip
     """Every method and (``with_auto``) ``--auto`` (:func:`auto_row`) on each scenario.
 
-    The scenarios of every folder of ``scenario_dirs`` run in one order, by name.
+    The scenarios of every folder of ``scenario_dirs`` run in one order, by name; ``only``
+    keeps those of these names.
 
     A scene whose truth is several surfaces (a room, a corridor) is run with
     ``fit = "auto"`` (the surfaces fit) and its rows carry ``precision_m`` and
@@ -87,7 +91,7 @@ def run_all(*scenario_dirs: Path, cell: float = 0.01, with_auto: bool = True) ->
 
     out: Rows = {}
     auto: Rows = {}
-    for name, lg in simulated_scenarios(*scenario_dirs):
+    for name, lg in simulated_scenarios(*scenario_dirs, only=only):
         paper = PAPER.get(name, PaperRow("—", "thinning:3", 9))
         params = RunParams(cell=cell, ops=paper.ops, order=paper.order)
         judge = Judge(lg, select_beams(lg, params)[0])
@@ -248,11 +252,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         "tests/data/scenarios)",
     )  # fmt: skip
     ap.add_argument("--stdout", action="store_true", help="print the tables, leave the doc")
+    ap.add_argument(
+        "--only", action="append", default=None, metavar="NAME",
+        help="this scenario only (repeatable; with --stdout, to look at a few)",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     retain_freed_memory()  # as the sonarproc command does: the wall times are the command's
     dirs = args.scenarios or [shipped_dir("scenarios"), TEST_SCENARIOS]
-    rows, auto = run_all(*dirs)
+    names = {p.stem for d in dirs for p in d.glob("*.yaml")}
+    unknown = sorted(set(args.only or ()) - names)
+    if unknown:
+        print(f"methods_table: error: --only: no scenario {', '.join(unknown)}", file=sys.stderr)
+        return 2
+    rows, auto = run_all(*dirs, only=args.only)
     surf = render_surface_table(rows)
     tables = render_tables(rows) + "\n" + (surf + "\n" if surf else "") + render_auto_table(auto)
     if args.stdout:
