@@ -2,20 +2,24 @@
 
 Unknowns: the offset ``(dx, dy, dtheta)`` of every correction node but the first (the
 first fixes the world frame: the corrected track starts where the raw one does), and
-three odometry calibration errors, the systematic part of drift (Borenstein and Feng's
-UMBmark: an average wheel diameter off, unequal wheel diameters, a wheel base off):
+two odometry calibration errors, the systematic part of drift (Borenstein and Feng's
+UMBmark: an average wheel diameter off, unequal wheel diameters):
 
 * ``scale``: the fraction by which every distance driven is off;
 * ``heading_rate``: heading error per metre driven (rad/m, a robot that curves when
-  it should drive straight);
-* ``turn_scale``: the fraction by which every turn is off.
+  it should drive straight).
+
+A third, a turn scale (a wheel base off), is not estimated: on a loop it rotates the
+track as much per lap as a heading rate does, so the echoes cannot tell the two apart
+and the solution would trade one for the other; the random heading error per radian
+turned (see :func:`odometry_ties`) covers it.
 
 Residuals, each divided by its standard deviation:
 
 * odometry, between consecutive nodes: the corrected relative motion (in the first
   node's frame) minus the raw one as calibrated, position and heading; their deviations
   (the random part of drift) grow with the distance driven and the angle turned;
-* calibration: each calibration error over a broad prior (5 %, 5 degrees per 10 m, 5 %),
+* calibration: each calibration error over a broad prior (5 %, 5 degrees per 10 m),
   which only matters where the echoes cannot tell (a single straight corridor);
 * echoes, the specular model: a matched query reading, under its own correction, should
   lie at its range from its matched wall (moved by the correction of the wall's own
@@ -50,9 +54,11 @@ IntArray = npt.NDArray[np.intp]
 #: Residuals are in standard deviations; beyond this many the loss grows linearly (a
 #: residual that large is more likely a wrong match than noise).
 ROBUST_SCALE = 2.0
-#: Prior deviations of (scale, heading_rate, turn_scale): broad, several times the
-#: systematic errors of an uncalibrated differential drive.
-CALIBRATION_PRIOR = np.array([0.05, math.radians(5.0) / 10.0, 0.01])
+#: Prior deviations of (scale, heading_rate): broad, several times the systematic
+#: errors of an uncalibrated differential drive.
+CALIBRATION_PRIOR = np.array([0.05, math.radians(5.0) / 10.0])
+#: Number of calibration unknowns.
+NCAL = CALIBRATION_PRIOR.size
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,9 +67,8 @@ class OdometryTies:
 
     #: raw node poses (K, 3): x, y, theta
     pose: FloatArray
-    #: raw motion from node k to k + 1 in node k's frame (K - 1, 2), signed turn (K - 1,)
+    #: raw motion from node k to k + 1 in node k's frame (K - 1, 2)
     step_xy: FloatArray
-    step_theta: FloatArray
     #: distance driven between the nodes (K - 1,)
     driven: FloatArray
     #: standard deviations (K - 1,) of position (m) and heading (rad) of each step
@@ -73,7 +78,7 @@ class OdometryTies:
 
 @dataclass(frozen=True, eq=False)
 class GraphSolution:
-    """Node offsets (K, 3), calibration (3,), the robust cost at zero and at the end."""
+    """Node offsets (K, 3), calibration (2,), the robust cost at zero and at the end."""
 
     offsets: FloatArray
     calibration: FloatArray
@@ -83,25 +88,25 @@ class GraphSolution:
 
 
 def odometry_ties(
-    pose: FloatArray, driven: FloatArray, turn: FloatArray, turned: FloatArray, *,
+    pose: FloatArray, driven: FloatArray, turned: FloatArray, *,
     drift_fraction: float, heading_drift: float, turn_radius: float,
     position_floor: float, heading_floor: float,
 ) -> OdometryTies:  # fmt: skip
     """Relative motions between nodes and how far odometry may have erred on each.
 
-    ``driven``, ``turn`` and ``turned`` (K - 1,) are the distance (m), the signed turn
-    and the total absolute turn (rad) between consecutive nodes.
+    ``driven`` and ``turned`` (K - 1,) are the distance (m) and the total absolute turn
+    (rad) between consecutive nodes.
     """
     d = np.diff(pose[:, :2], axis=0)
     c, s = np.cos(pose[:-1, 2]), np.sin(pose[:-1, 2])
     step = np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]))
     sig_xy = drift_fraction * driven + position_floor
     sig_th = heading_drift * (driven + turn_radius * turned) + heading_floor
-    return OdometryTies(pose, step, turn, driven, sig_xy, sig_th)
+    return OdometryTies(pose, step, driven, sig_xy, sig_th)
 
 
 def _split(params: FloatArray) -> tuple[FloatArray, FloatArray]:
-    return np.vstack((np.zeros((1, 3)), params[:-3].reshape(-1, 3))), params[-3:]
+    return np.vstack((np.zeros((1, 3)), params[:-NCAL].reshape(-1, 3))), params[-NCAL:]
 
 
 def _anchor_place(nodes: Nodes, u: FloatArray) -> tuple[IntArray, FloatArray]:
@@ -154,7 +159,7 @@ class _Problem:
         off, cal = _split(params)
         t, g = self.ties, self._geometry(off)
         r_xy = (g["step"] - (1.0 + cal[0]) * t.step_xy) / t.sigma_xy[:, None]
-        turn = np.diff(off[:, 2]) - cal[2] * t.step_theta - cal[1] * t.driven
+        turn = np.diff(off[:, 2]) - cal[1] * t.driven
         r_th = turn / t.sigma_theta
         reach = np.sum(g["normal"] * (g["centre"] - g["sensor"]), axis=1)
         r_echo = (reach - self.rays.range_m) / self.echo_sigma
@@ -164,7 +169,7 @@ class _Problem:
         """The residuals' derivatives, in closed form (sparse)."""
         off, _ = _split(params)
         t, g, k = self.ties, self._geometry(off), self.nodes.count
-        n_odo, n_par = k - 1, 3 * (k - 1) + 3
+        n_odo, n_par = k - 1, 3 * (k - 1) + NCAL
         rows: list[IntArray] = []
         cols: list[IntArray] = []
         vals: list[FloatArray] = []
@@ -178,7 +183,7 @@ class _Problem:
 
         def add_cal(row: IntArray, which: int, value: FloatArray) -> None:
             rows.append(row)
-            cols.append(np.full(row.size, n_par - 3 + which, dtype=np.intp))
+            cols.append(np.full(row.size, n_par - NCAL + which, dtype=np.intp))
             vals.append(np.broadcast_to(value, row.shape))
 
         # odometry: step = R(-theta_k') (p_{k+1}' - p_k'); d step / d phi_k = (step_y, -step_x)
@@ -196,8 +201,7 @@ class _Problem:
         add(row, kk + 1, 2, 1.0 / t.sigma_theta)
         add(row, kk, 2, -1.0 / t.sigma_theta)
         add_cal(row, 1, -t.driven / t.sigma_theta)
-        add_cal(row, 2, -t.step_theta / t.sigma_theta)
-        for which in range(3):
+        for which in range(NCAL):
             prior = 1.0 / CALIBRATION_PRIOR[which : which + 1]
             add_cal(np.array([3 * n_odo + which]), which, prior)
         # echoes: f = n' . (centre' - sensor') - range
@@ -206,13 +210,13 @@ class _Problem:
         dq = (-normal[:, 0] * e, -normal[:, 1] * e, -np.sum(normal * _perp(g["arm"]), axis=1) * e)
         turn_a = np.sum(_perp(normal) * gap, axis=1) + np.sum(normal * _perp(g["rel"]), axis=1)
         da = (normal[:, 0] * e, normal[:, 1] * e, turn_a * e)
-        row = 3 * n_odo + 3 + np.arange(self.m.size)
+        row = 3 * n_odo + NCAL + np.arange(self.m.size)
         for comp in range(3):
             add(row, self.q_lo, comp, (1.0 - self.q_w) * dq[comp])
             add(row, self.q_lo + 1, comp, self.q_w * dq[comp])
             add(row, self.a_lo, comp, (1.0 - self.a_w) * da[comp])
             add(row, self.a_lo + 1, comp, self.a_w * da[comp])
-        shape = (3 * n_odo + 3 + self.m.size, n_par)
+        shape = (3 * n_odo + NCAL + self.m.size, n_par)
         jac = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                          shape=shape)  # fmt: skip
         return jac.tocsr()
@@ -243,8 +247,8 @@ def solve_graph(
         This round's echo matches.
     start : ndarray, shape (K, 3)
         Node offsets to start from (the first row is ignored: it stays zero).
-    calibration : ndarray, shape (3,)
-        Calibration errors to start from (scale, heading rate, turn scale).
+    calibration : ndarray, shape (2,)
+        Calibration errors to start from (scale, heading rate).
     echo_sigma : float
         Standard deviation (m) of an echo point about its wall.
     max_evaluations : int

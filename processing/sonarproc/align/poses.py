@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import echo_rays
-from sonarproc.align.graph import odometry_ties, solve_graph
+from sonarproc.align.graph import NCAL, odometry_ties, solve_graph
 from sonarproc.align.matching import RayFrame, line_matches, match_lines
 from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
 
@@ -44,9 +44,10 @@ class Alignment:
         Echo points matched to another stretch's lines in the last round.
     cost_before, cost_after : float
         The last round's robust cost with no correction and with the correction.
-    calibration : ndarray, shape (3,)
-        The odometry's systematic errors found: distance scale error (fraction), heading
-        error per metre driven (rad/m), turn scale error (fraction).
+    calibration : ndarray, shape (2,)
+        The odometry's systematic errors found: distance scale error (fraction) and
+        heading error per metre driven (rad/m), as corrections (the raw odometry's own
+        errors have the opposite sign).
     reason : str
         Why the poses were left as they were, or ``""`` when a correction was solved.
     """
@@ -82,7 +83,6 @@ class Alignment:
             "cost_after": self.cost_after,
             "odometry_scale_error": float(self.calibration[0]),
             "odometry_heading_rate_rad_per_m": float(self.calibration[1]),
-            "odometry_turn_scale_error": float(self.calibration[2]),
             "reason": self.reason,
         }
 
@@ -94,7 +94,7 @@ def _unchanged(readings: np.ndarray, reason: str) -> Alignment:
     path = np.column_stack((x[:1], y[:1]))
     log.info("alignment: poses left unchanged: %s", reason)
     return Alignment(x.copy(), y.copy(), th.copy(), path, path.copy(), np.zeros((1, 3)),
-                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(3), reason)  # fmt: skip
+                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason)  # fmt: skip
 
 
 def align_poses(
@@ -190,12 +190,9 @@ def align_poses(
         return _unchanged(readings, "the track is shorter than half a node spacing")
     rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
     driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
-    turn_steps = wrap(np.diff(track[:, 2]))
-    heading = np.concatenate(([0.0], np.cumsum(turn_steps)))
-    turned = np.concatenate(([0.0], np.cumsum(np.abs(turn_steps))))
+    turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap(np.diff(track[:, 2]))))))
     ties = odometry_ties(
-        track[nodes.at], np.diff(driven[nodes.at]), np.diff(heading[nodes.at]),
-        np.diff(turned[nodes.at]),
+        track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
         drift_fraction=drift_fraction, heading_drift=heading_drift, turn_radius=turn_radius,
         position_floor=0.005, heading_floor=math.radians(0.1),
     )  # fmt: skip
@@ -207,7 +204,7 @@ def align_poses(
     stretch = nodes.lo[rays.reading]
     queries = np.unique(np.linspace(0, rays.size - 1, min(max_queries, rays.size)).astype(np.intp))
     offsets = np.zeros((nodes.count, 3))
-    calibration = np.zeros(3)
+    calibration = np.zeros(NCAL)
     first, last = match_radius
     done = evaluations = matched = 0
     cost_before = cost_after = 0.0
