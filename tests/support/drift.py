@@ -8,8 +8,14 @@ per metre added to the heading. The signs come from a seeded generator.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import numpy.typing as npt
+import yaml
+
+if TYPE_CHECKING:
+    from sonarsim import SimResult
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -54,3 +60,17 @@ def drifted_readings(
 def pose_error_rms(readings: np.ndarray, x: FloatArray, y: FloatArray) -> float:
     """RMS over readings of the distance between their true and given positions."""
     return float(np.sqrt(np.mean((readings["x"] - x) ** 2 + (readings["y"] - y) ** 2)))
+
+
+def looped_scenario(name: str, loops: int, *, seed: int | None = None) -> SimResult:
+    """Simulate a shipped scenario whose route (a closed loop) is driven ``loops`` times."""
+    from sonarsim import scenario_from_dict, simulate
+    from sonarsim.shipped import resolve_shipped
+
+    path = resolve_shipped(name, kind="scenarios")
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    way = data["path"]["locations"]["waypoints"]
+    if way[0] != way[-1]:
+        raise ValueError(f"{name}: its route is not a closed loop")
+    data["path"]["locations"]["waypoints"] = way + way[1:] * (loops - 1)
+    return simulate(scenario_from_dict(data, base_dir=path.parent, source=str(path), seed=seed))

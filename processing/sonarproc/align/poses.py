@@ -217,15 +217,16 @@ def align_poses(
                                   max_thickness=echo_sigma)  # fmt: skip
         if query.size == 0:
             break
-        matches = line_matches(query, nbrs, raw, rays.sensors(*now)[1][query],
-                               min_points=min_points)
+        matches = line_matches(
+            query, nbrs, raw, rays.sensors(*now)[1][query], min_points=min_points
+        )
         if matches.size == 0:
             break
         sol = solve_graph(nodes, ties, rays, track, matches, offsets, calibration,
                           echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
         done, evaluations, matched = k + 1, evaluations + sol.evaluations, matches.size
         cost_before, cost_after = sol.cost_before, sol.cost_after
-        moved = _largest_move(sol.offsets - offsets, track, nodes)
+        moved = _largest_move(sol.offsets - offsets)
         offsets, calibration = sol.offsets, sol.calibration
         log.debug("alignment round %d: radius %.3f m, %d matches, moved %.4f m",
                   k + 1, radius, matches.size, moved)  # fmt: skip
@@ -246,8 +247,8 @@ def align_poses(
     )  # fmt: skip
 
 
-def _largest_move(change: FloatArray, track: FloatArray, nodes: object) -> float:
-    """Largest move of a node position by an offset change, its turn counted at 1 m."""
+def _largest_move(change: FloatArray) -> float:
+    """Largest move of a node by an offset change, its turn counted as at 1 m range."""
     return float(np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(change[:, 2])))
 
 
@@ -267,9 +268,7 @@ def corrected_readings(readings: np.ndarray, alignment: Alignment) -> np.ndarray
     (True, False)
     """
     if alignment.x.shape != readings.shape:
-        raise ValueError(
-            f"alignment: has {alignment.x.size} poses for {readings.size} readings"
-        )
+        raise ValueError(f"alignment: has {alignment.x.size} poses for {readings.size} readings")
     out = readings.copy()
     turn = wrap(alignment.theta - np.asarray(readings["theta"], dtype=np.float64))
     out["x"], out["y"], out["theta"] = alignment.x, alignment.y, alignment.theta
