@@ -26,6 +26,8 @@ IntArray = npt.NDArray[np.intp]
 #: Neighbours examined per query: enough that a stretch of wall seen by another stretch
 #: of track still shows several points when the query's own stretch crowds the nearest.
 NEIGHBOURS = 48
+#: Travel (m) between two readings for them to count as seen from distinct places.
+MIN_STEP = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,6 +142,7 @@ def line_matches(
     query_look: FloatArray,
     *,
     min_points: int,
+    min_places: int,
 ) -> LineMatches:
     """The walls that matched neighbours echo from, in the raw frame of their stretch.
 
@@ -148,7 +151,8 @@ def line_matches(
     away from their sensors. The specular model then places it: only neighbours whose
     line of sight lies within their half beam of the normal echo from it, each at its
     range along the normal from its sensor; the centroid is the mean of those points.
-    A match needs ``min_points`` such neighbours, and a query whose line of sight
+    A match needs ``min_points`` such neighbours seen from ``min_places`` distinct
+    places (readings at least 1 cm of travel apart), and a query whose line of sight
     (``query_look``, under the current correction) also lies within its beam of the
     normal. The line is anchored where its readings were taken (their mean travel and
     robot position), so that the least-squares problem moves it with the correction of
@@ -176,13 +180,21 @@ def line_matches(
     facing = (look[nb, 0] * normal[:, None, 0] + look[nb, 1] * normal[:, None, 1]
               >= np.cos(raw.half_beam[nb]))  # fmt: skip
     member &= facing
+    # distinct places the line was seen from: a wall is told from a corner or from two
+    # unrelated echoes only when seen from several places (one place's echoes can pair
+    # any two points into a "line")
+    seen_at = np.sort(np.where(member, raw.u[nb], np.nan), axis=1)
+    steps = np.diff(seen_at, axis=1)
+    places = member.any(axis=1) + np.sum(np.nan_to_num(steps, nan=0.0) > MIN_STEP, axis=1)
     # the mean of the specular echo points (sensor + range x normal)
     reach = mean(raw.range_m, member)
     ex = mean(raw.sensor_xy[:, 0], member) + reach * normal[:, 0]
     ey = mean(raw.sensor_xy[:, 1], member) + reach * normal[:, 1]
     q = np.column_stack((np.cos(query_look), np.sin(query_look)))
-    keep = (member.sum(axis=1) >= min_points) & (
-        np.sum(q * normal, axis=1) >= np.cos(raw.half_beam[query])
+    keep = (
+        (member.sum(axis=1) >= min_points)
+        & (places >= min_places)
+        & (np.sum(q * normal, axis=1) >= np.cos(raw.half_beam[query]))
     )
     anchor_xy = np.column_stack((mean(raw.robot_xy[:, 0], member),
                                  mean(raw.robot_xy[:, 1], member)))  # fmt: skip

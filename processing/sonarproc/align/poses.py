@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import echo_rays
-from sonarproc.align.graph import NCAL, odometry_ties, solve_graph
+from sonarproc.align.graph import CALIBRATION_PRIOR, NCAL, odometry_ties, solve_graph
 from sonarproc.align.matching import RayFrame, line_matches, match_lines
 from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
 
@@ -20,6 +20,12 @@ __all__ = ["Alignment", "align_poses", "align_readings", "corrected_readings"]
 log = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+
+#: A calibration beyond this many prior deviations (15 %, 15 degrees per 10 m) is not
+#: odometry drift; the correction is then refused.
+PLAUSIBLE = 3.0
+#: Fewest echo matches per correction node (three per unknown) for a correction.
+MATCHES_PER_NODE = 9
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,6 +115,7 @@ def align_poses(
     echo_sigma: float = 0.03,
     match_radius: tuple[float, float] = (0.5, 0.2),
     min_points: int = 4,
+    min_places: int = 3,
     max_queries: int = 4000,
     rounds: int = 8,
     max_evaluations: int = 50,
@@ -154,6 +161,9 @@ def align_poses(
         wall is seen again; the last, a few echo deviations, keeps wrong matches out.
     min_points : int
         Fewest echo points of another stretch a local line needs.
+    min_places : int
+        Fewest distinct places (1 cm of travel apart) those points must be seen from:
+        the echoes of one place pair into chance lines (two walls, a corner).
     max_queries : int
         Most echo points matched per round, spread evenly along the track (a long log's
         walls are seen many times over; the cost then stays bounded).
@@ -165,8 +175,12 @@ def align_poses(
     Returns
     -------
     Alignment
-        Corrected poses per reading (unchanged, with ``reason``, when the track is
-        shorter than a node spacing or no echo matches another stretch).
+        Corrected poses per reading; unchanged, with ``reason``, when the track is
+        shorter than a node spacing, fewer than 9 echoes per node (three per unknown)
+        match another stretch, or the correction
+        needs an odometry calibration no robot has (a distance scale off by more than
+        15 % or a heading drift beyond 15 degrees per 10 m: the echoes were then matched
+        to the wrong walls).
 
     Examples
     --------
@@ -218,9 +232,17 @@ def align_poses(
         if query.size == 0:
             break
         matches = line_matches(
-            query, nbrs, raw, rays.sensors(*now)[1][query], min_points=min_points
+            query,
+            nbrs,
+            raw,
+            rays.sensors(*now)[1][query],
+            min_points=min_points,
+            min_places=min_places,
         )
-        if matches.size == 0:
+        if matches.size < MATCHES_PER_NODE * nodes.count:
+            # each node has three unknowns: with fewer echo constraints than a few per
+            # unknown, chance matches would decide the correction, not the walls
+            matched = matches.size
             break
         sol = solve_graph(nodes, ties, rays, track, matches, offsets, calibration,
                           echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
@@ -232,8 +254,21 @@ def align_poses(
                   k + 1, radius, matches.size, moved)  # fmt: skip
         if moved < 1e-3 and radius <= last:
             break
-    if done == 0:
+    if matched == 0:
         return _unchanged(readings, "no echo point matches another stretch of the track")
+    if matched < MATCHES_PER_NODE * nodes.count:
+        return _unchanged(
+            readings,
+            f"too few echoes match other stretches of the track ({matched} for "
+            f"{nodes.count} nodes; {MATCHES_PER_NODE} per node needed)",
+        )
+    if np.any(np.abs(calibration) > PLAUSIBLE * CALIBRATION_PRIOR):
+        # no working odometry errs this much: the echoes were matched to the wrong walls
+        return _unchanged(
+            readings,
+            f"the correction found is implausible for odometry (scale {calibration[0]:+.3f}, "
+            f"heading {math.degrees(calibration[1]) * 10.0:+.1f} degrees per 10 m)",
+        )
     per = interpolate_offsets(offsets, nodes.lo, nodes.w)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)

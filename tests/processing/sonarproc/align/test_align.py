@@ -136,7 +136,7 @@ def test_closed_form_jacobian_matches_finite_differences() -> None:
     stretch = nodes.lo[rays.reading]
     q, nb = match_lines(pts, stretch, np.arange(rays.size), radius=0.3, min_points=4,
                         max_thickness=0.03)  # fmt: skip
-    m = line_matches(q, nb, raw, look[q], min_points=4)
+    m = line_matches(q, nb, raw, look[q], min_points=4, min_places=3)
     assert m.size > 50
     driven = np.full(nodes.count - 1, 1.0)
     ties = odometry_ties(track[nodes.at], driven, np.zeros(nodes.count - 1),
