@@ -116,8 +116,8 @@ def align_poses(
     match_radius: tuple[float, float] = (0.5, 0.2),
     min_points: int = 4,
     min_places: int = 3,
-    max_queries: int = 4000,
-    rounds: int = 8,
+    queries_per_node: int = 60,
+    rounds: int = 5,
     max_evaluations: int = 50,
 ) -> Alignment:
     """Estimate a smooth correction of the pose track so that echoes of a wall agree.
@@ -164,9 +164,10 @@ def align_poses(
     min_places : int
         Fewest distinct places (1 cm of travel apart) those points must be seen from:
         the echoes of one place pair into chance lines (two walls, a corner).
-    max_queries : int
-        Most echo points matched per round, spread evenly along the track (a long log's
-        walls are seen many times over; the cost then stays bounded).
+    queries_per_node : int
+        Most echo points matched per round, per node, spread evenly along the track: a
+        few times the 9 per node a correction needs (a long log's walls are seen many
+        times over; the cost then grows with the track, not with the readings).
     rounds : int
         Most association rounds.
     max_evaluations : int
@@ -216,7 +217,8 @@ def align_poses(
     raw = RayFrame(raw_points, raw_xy, raw_look, rays.range_m, rays.half_beam,
                    u[rays.reading], ray_pose[:, :2])  # fmt: skip
     stretch = nodes.lo[rays.reading]
-    queries = np.unique(np.linspace(0, rays.size - 1, min(max_queries, rays.size)).astype(np.intp))
+    wanted = min(queries_per_node * nodes.count, rays.size)
+    queries = np.unique(np.linspace(0, rays.size - 1, wanted).astype(np.intp))
     offsets = np.zeros((nodes.count, 3))
     calibration = np.zeros(NCAL)
     first, last = match_radius
