@@ -213,6 +213,8 @@ def table(outcomes: list[Outcome]) -> list[str]:
         return f"{o.wall_s:.1f} s ({o.wall_s * 1e4 / o.report['counts']['readings_total']:.1f} s)"
 
     row("`sonarproc run` wall (per 10 000 readings)", each(per_10k))
+    row("`sonarproc run` CPU, reading to fitting (`t_cpu_s`)", each(
+        lambda o: f"{float(o.report['metrics'].get('t_cpu_s', float('nan'))):.1f} s"))  # fmt: skip
     row("surfaces", each(lambda o: len(o.report.get("surfaces", []))))
     row("longest surface", each(lambda o: f"{max(o.figures['lengths'], default=0.0):.2f} m"))
     row("surfaces of 2 m or more", each(lambda o: sum(x >= 2.0 for x in o.figures["lengths"])))
@@ -260,6 +262,14 @@ def write_doc(outcomes: list[Outcome]) -> None:
         "the processing or of the odometry correction, which were set from physical",
         "arguments and simulated logs only; it was used only to choose the order of its",
         "sonar columns (see its PROVENANCE.md).",
+        "",
+        "The odometry correction's accuracy where the truth is known (simulated logs with",
+        "injected drift: pose error removed, surface precision with and without drift and",
+        "after the correction) is printed by `python tools/real_logs/drift_study.py",
+        "--work DIR`.",
+        "",
+        "Times are those of the machine that generated this page (a shared one: compare",
+        "them with `./scripts/bench`, not across pages).",
         "",
         "Add a log you may not ship: `python tools/real_logs/evaluate.py --log PATH",
         "[--sensors YAML | --robot PRESET] --source TEXT` (it joins the shipped ones).",
