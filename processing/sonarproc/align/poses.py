@@ -1,0 +1,321 @@
+"""Align a log's poses: the public entry points (see the package notes)."""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarlog import DEFAULT_SPEED_OF_SOUND
+from sonarproc.align.echoes import echo_rays
+from sonarproc.align.graph import CALIBRATION_PRIOR, NCAL, odometry_ties, solve_graph
+from sonarproc.align.matching import RayFrame, line_matches, match_lines
+from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
+
+__all__ = ["Alignment", "align_poses", "align_readings", "corrected_readings"]
+
+log = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+
+#: A calibration beyond this many prior deviations (15 %, 15 degrees per 10 m) is not
+#: odometry drift; the correction is then refused.
+PLAUSIBLE = 3.0
+#: Fewest echo matches per correction node (three per unknown) for a correction.
+MATCHES_PER_NODE = 9
+
+
+@dataclass(frozen=True, eq=False)
+class Alignment:
+    """A smooth correction of a log's pose track (SI units, arrays per reading row).
+
+    Attributes
+    ----------
+    x, y, theta : ndarray, shape (N,)
+        Corrected base pose of every reading, in the readings' row order.
+    raw_path, corrected_path : ndarray, shape (K, 2)
+        The robot's position at each correction node, before and after.
+    node_offsets : ndarray, shape (K, 3)
+        The correction ``(dx, dy, dtheta)`` at each node (the first is zero).
+    path_difference_max_m, path_difference_mean_m : float
+        Largest and mean distance between a reading's raw and corrected position.
+    heading_difference_max_rad : float
+        Largest heading correction.
+    rounds, evaluations : int
+        Association rounds run, and residual evaluations in all of them.
+    matches : int
+        Echo points matched to another stretch's lines in the last round.
+    cost_before, cost_after : float
+        The last round's robust cost with no correction and with the correction.
+    calibration : ndarray, shape (2,)
+        The odometry's systematic errors found: distance scale error (fraction) and
+        heading error per metre driven (rad/m), as corrections (the raw odometry's own
+        errors have the opposite sign).
+    reason : str
+        Why the poses were left as they were, or ``""`` when a correction was solved.
+    """
+
+    x: FloatArray
+    y: FloatArray
+    theta: FloatArray
+    raw_path: FloatArray
+    corrected_path: FloatArray
+    node_offsets: FloatArray
+    path_difference_max_m: float
+    path_difference_mean_m: float
+    heading_difference_max_rad: float
+    rounds: int
+    evaluations: int
+    matches: int
+    cost_before: float
+    cost_after: float
+    calibration: FloatArray
+    reason: str = ""
+
+    def summary(self) -> dict[str, float | int | str]:
+        """The scalar figures, for a report."""
+        return {
+            "nodes": int(self.node_offsets.shape[0]),
+            "path_difference_max_m": self.path_difference_max_m,
+            "path_difference_mean_m": self.path_difference_mean_m,
+            "heading_difference_max_rad": self.heading_difference_max_rad,
+            "rounds": self.rounds,
+            "evaluations": self.evaluations,
+            "matches": self.matches,
+            "cost_before": self.cost_before,
+            "cost_after": self.cost_after,
+            "odometry_scale_error": float(self.calibration[0]),
+            "odometry_heading_rate_rad_per_m": float(self.calibration[1]),
+            "reason": self.reason,
+        }
+
+
+def _unchanged(readings: np.ndarray, reason: str) -> Alignment:
+    x = np.asarray(readings["x"], dtype=np.float64)
+    y = np.asarray(readings["y"], dtype=np.float64)
+    th = np.asarray(readings["theta"], dtype=np.float64)
+    path = np.column_stack((x[:1], y[:1]))
+    log.info("alignment: poses left unchanged: %s", reason)
+    return Alignment(x.copy(), y.copy(), th.copy(), path, path.copy(), np.zeros((1, 3)),
+                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason)  # fmt: skip
+
+
+def align_poses(
+    readings: np.ndarray,
+    sensors: np.ndarray,
+    *,
+    speed_of_sound: float = DEFAULT_SPEED_OF_SOUND,
+    node_spacing: float = 1.0,
+    turn_radius: float = 0.25,
+    drift_fraction: float = 0.005,
+    heading_drift: float = math.radians(0.5) / 10.0,
+    echo_sigma: float = 0.03,
+    match_radius: tuple[float, float] = (0.5, 0.2),
+    min_points: int = 4,
+    min_places: int = 3,
+    queries_per_node: int = 60,
+    rounds: int = 5,
+    max_evaluations: int = 50,
+) -> Alignment:
+    """Estimate a smooth correction of the pose track so that echoes of a wall agree.
+
+    A pose graph over the track (:mod:`sonarproc.align`): nodes about every
+    ``node_spacing`` of travel hold offsets, interpolated between them for every reading;
+    consecutive nodes are tied by odometry; echo points of one stretch are matched to
+    lines of echo points of other stretches and pulled onto them. Matches are found
+    again after each solve (``rounds`` times at most, the match radius shrinking
+    geometrically from the first value of ``match_radius`` to the second), until the
+    correction moves no reading by more than 1 mm.
+
+    Parameters
+    ----------
+    readings : ndarray of sonarlog.READING_DTYPE
+        The log's readings (any row order; time order is taken from ``t``).
+    sensors : ndarray of sonarlog.SENSOR_DTYPE
+        The log's sensors.
+    speed_of_sound : float
+        m/s, to turn times of flight into ranges.
+    node_spacing : float
+        Travel between correction nodes (m). At 2 % drift the pose errs by 2 cm over
+        1 m, less than an echo's noise: a correction interpolated linearly over 1 m
+        follows the drift closely enough.
+    turn_radius : float
+        Travel counted per radian turned (m): the arc a wheel runs while a differential
+        drive of about 0.5 m wheel base turns on the spot, where odometry errs too.
+    drift_fraction, heading_drift : float
+        Standard deviation of odometry's *random* error per metre driven, once its
+        systematic errors (scale, heading per metre, turn scale; estimated here) are
+        taken out: of position as a fraction of the distance (0.5 %), of heading in
+        rad/m (0.5 degrees per 10 m). On an indoor floor a wheeled robot's random
+        errors are a fraction of its systematic ones (which reach a few per cent and a
+        few degrees per 10 m uncalibrated).
+    echo_sigma : float
+        Standard deviation of a line-of-sight echo point about its wall (m): sonar range
+        noise and quantisation (about 1 cm) plus the line-of-sight point's offset in
+        front of an obliquely seen wall (a few per cent of the range).
+    match_radius : (float, float)
+        First and last match radius (m): the first must exceed the pose error where a
+        wall is seen again; the last, a few echo deviations, keeps wrong matches out.
+    min_points : int
+        Fewest echo points of another stretch a local line needs.
+    min_places : int
+        Fewest distinct places (1 cm of travel apart) those points must be seen from:
+        the echoes of one place pair into chance lines (two walls, a corner).
+    queries_per_node : int
+        Most echo points matched per round, per node, spread evenly along the track: a
+        few times the 9 per node a correction needs (a long log's walls are seen many
+        times over; the cost then grows with the track, not with the readings).
+    rounds : int
+        Most association rounds.
+    max_evaluations : int
+        Most residual evaluations per round's solve.
+
+    Returns
+    -------
+    Alignment
+        Corrected poses per reading; unchanged, with ``reason``, when the track is
+        shorter than a node spacing, fewer than 9 echoes per node (three per unknown)
+        match another stretch, or the correction
+        needs an odometry calibration no robot has (a distance scale off by more than
+        15 % or a heading drift beyond 15 degrees per 10 m: the echoes were then matched
+        to the wrong walls).
+
+    Examples
+    --------
+    A log without readings that echo is left as it is:
+
+    >>> from sonarlog import READING_DTYPE, SENSOR_DTYPE
+    >>> a = align_poses(np.zeros(3, READING_DTYPE), np.zeros(1, SENSOR_DTYPE))
+    >>> a.reason, a.path_difference_max_m
+    ('the track is shorter than half a node spacing', 0.0)
+    """
+    if readings.size == 0:
+        return _unchanged(readings, "no readings")
+    order = np.argsort(readings["t"], kind="stable")
+    r = readings[order]
+    track = np.column_stack((r["x"], r["y"], r["theta"])).astype(np.float64)
+    if not np.all(np.isfinite(track)):
+        raise ValueError("readings: x, y and theta must be finite to align the poses")
+    u = travel(track[:, 0], track[:, 1], track[:, 2], turn_radius=turn_radius)
+    nodes = place_nodes(u, spacing=node_spacing)
+    if nodes.count < 2:
+        return _unchanged(readings, "the track is shorter than half a node spacing")
+    rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
+    driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
+    turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap(np.diff(track[:, 2]))))))
+    ties = odometry_ties(
+        track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
+        drift_fraction=drift_fraction, heading_drift=heading_drift, turn_radius=turn_radius,
+        position_floor=0.005, heading_floor=math.radians(0.1),
+    )  # fmt: skip
+    ray_pose = track[rays.reading]
+    raw_xy, raw_look = rays.sensors(ray_pose[:, 0], ray_pose[:, 1], ray_pose[:, 2])
+    raw_points = rays.points(ray_pose[:, 0], ray_pose[:, 1], ray_pose[:, 2])
+    raw = RayFrame(raw_points, raw_xy, raw_look, rays.range_m, rays.half_beam,
+                   u[rays.reading], ray_pose[:, :2])  # fmt: skip
+    stretch = nodes.lo[rays.reading]
+    wanted = min(queries_per_node * nodes.count, rays.size)
+    queries = np.unique(np.linspace(0, rays.size - 1, wanted).astype(np.intp))
+    offsets = np.zeros((nodes.count, 3))
+    calibration = np.zeros(NCAL)
+    first, last = match_radius
+    done = evaluations = matched = 0
+    cost_before = cost_after = 0.0
+    for k in range(rounds):
+        radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
+        o = interpolate_offsets(offsets, nodes.lo[rays.reading], nodes.w[rays.reading])
+        now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
+        pts = rays.points(*now)
+        query, nbrs = match_lines(pts, stretch, queries, radius=radius, min_points=min_points,
+                                  max_thickness=echo_sigma)  # fmt: skip
+        if query.size == 0:
+            break
+        matches = line_matches(
+            query,
+            nbrs,
+            raw,
+            rays.sensors(*now)[1][query],
+            min_points=min_points,
+            min_places=min_places,
+        )
+        if matches.size < MATCHES_PER_NODE * nodes.count:
+            # each node has three unknowns: with fewer echo constraints than a few per
+            # unknown, chance matches would decide the correction, not the walls
+            matched = matches.size
+            break
+        sol = solve_graph(nodes, ties, rays, track, matches, offsets, calibration,
+                          echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
+        done, evaluations, matched = k + 1, evaluations + sol.evaluations, matches.size
+        cost_before, cost_after = sol.cost_before, sol.cost_after
+        moved = _largest_move(sol.offsets - offsets)
+        offsets, calibration = sol.offsets, sol.calibration
+        log.debug("alignment round %d: radius %.3f m, %d matches, moved %.4f m",
+                  k + 1, radius, matches.size, moved)  # fmt: skip
+        if moved < 1e-3 and radius <= last:
+            break
+    if matched == 0:
+        return _unchanged(readings, "no echo point matches another stretch of the track")
+    if matched < MATCHES_PER_NODE * nodes.count:
+        return _unchanged(
+            readings,
+            f"too few echoes match other stretches of the track ({matched} for "
+            f"{nodes.count} nodes; {MATCHES_PER_NODE} per node needed)",
+        )
+    if np.any(np.abs(calibration) > PLAUSIBLE * CALIBRATION_PRIOR):
+        # no working odometry errs this much: the echoes were matched to the wrong walls
+        return _unchanged(
+            readings,
+            f"the correction found is implausible for odometry (scale {calibration[0]:+.3f}, "
+            f"heading {math.degrees(calibration[1]) * 10.0:+.1f} degrees per 10 m)",
+        )
+    per = interpolate_offsets(offsets, nodes.lo, nodes.w)
+    cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
+    x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)
+    x[order], y[order], th[order] = cx, cy, cth
+    diff = np.hypot(per[:, 0], per[:, 1])
+    raw_path = track[nodes.at, :2]
+    return Alignment(
+        x, y, th, raw_path, raw_path + offsets[:, :2], offsets,
+        float(diff.max()), float(diff.mean()), float(np.abs(per[:, 2]).max()),
+        done, evaluations, matched, cost_before, cost_after, calibration,
+    )  # fmt: skip
+
+
+def _largest_move(change: FloatArray) -> float:
+    """Largest move of a node by an offset change, its turn counted as at 1 m range."""
+    return float(np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(change[:, 2])))
+
+
+def corrected_readings(readings: np.ndarray, alignment: Alignment) -> np.ndarray:
+    """A copy of ``readings`` (same dtype) with the aligned poses.
+
+    ``x``, ``y`` and ``theta`` take the corrected values; ``turret`` turns with
+    ``theta`` (the turret's heading relative to the base is what the robot measured).
+
+    Examples
+    --------
+    >>> from sonarlog import READING_DTYPE, SENSOR_DTYPE
+    >>> r = np.zeros(2, READING_DTYPE)
+    >>> a = align_poses(r, np.zeros(1, SENSOR_DTYPE))
+    >>> out = corrected_readings(r, a)
+    >>> out.dtype == r.dtype, out is r
+    (True, False)
+    """
+    if alignment.x.shape != readings.shape:
+        raise ValueError(f"alignment: has {alignment.x.size} poses for {readings.size} readings")
+    out = readings.copy()
+    turn = wrap(alignment.theta - np.asarray(readings["theta"], dtype=np.float64))
+    out["x"], out["y"], out["theta"] = alignment.x, alignment.y, alignment.theta
+    out["turret"] = wrap(np.asarray(readings["turret"], dtype=np.float64) + turn)
+    return out
+
+
+def align_readings(
+    readings: np.ndarray, sensors: np.ndarray, **options: object
+) -> tuple[np.ndarray, Alignment]:
+    """:func:`align_poses` then :func:`corrected_readings`: the corrected copy and how."""
+    alignment = align_poses(readings, sensors, **options)  # type: ignore[arg-type]
+    return corrected_readings(readings, alignment), alignment
