@@ -4,7 +4,7 @@ Input: the node graph the extraction builds for a 20 m x 20 m room (four walls d
 bands a few centimetres thick, plus clutter), pooled into 2.5 cm nodes and joined within
 10 cm: about 40 000 nodes and 200 000 edges. Each figure is the best of five; the ratio
 is ours over scipy's on the same graph in the same run (scipy's including the sparse
-matrix it needs). :mod:`sonarproc.surfaces.graphs` exists so that the surface stage
+matrix it needs). :mod:`sonarproc.surfaces.extraction.graphs` exists so that the surface stage
 imports no scipy (0.15-0.3 s of every fresh ``sonarproc run``).
 """
 
@@ -17,13 +17,13 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
 from scipy.sparse.csgraph import dijkstra, minimum_spanning_tree
 
-from sonarproc.surfaces.graphs import (
+from sonarproc.surfaces.extraction.graphs import (
     connected_components,
     forest_distances,
     forest_tours,
     minimum_spanning_forest,
 )
-from sonarproc.surfaces.neighbours import close_pairs
+from sonarproc.surfaces.planar.neighbours import close_pairs
 
 ROOM = 20.0
 NODE = 0.025

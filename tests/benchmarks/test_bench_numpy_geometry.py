@@ -21,10 +21,10 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from sonarproc.surfaces import ridge_nms
-from sonarproc.surfaces.gridfilters import bilinear_nearest, gaussian_filters
-from sonarproc.surfaces.nearest import nearest_points
-from sonarproc.surfaces.neighbours import pairs_within
-from sonarproc.surfaces.ridge import HESSIAN_ORDERS
+from sonarproc.surfaces.extraction.bilinear import bilinear_nearest
+from sonarproc.surfaces.extraction.ridge import HESSIAN_ORDERS
+from sonarproc.surfaces.planar.nearest import nearest_points
+from sonarproc.surfaces.planar.neighbours import pairs_within
 
 
 def _room_counts(rng: np.random.Generator, n: int = 1000) -> np.ndarray:
@@ -81,11 +81,6 @@ def test_bench_numpy_geometry_against_scipy() -> None:
     _line("ridge_nms", best_of(lambda: ridge_nms(mask, counts)),
           best_of(lambda: _ridge_scipy(mask, counts)))  # fmt: skip
     cc = counts.astype(np.float32)
-    _line(
-        "Hessian filters (whole map)",
-        best_of(lambda: gaussian_filters(cc, 2.0, HESSIAN_ORDERS)),
-        best_of(lambda: [ndimage.gaussian_filter(cc, 2.0, order=o) for o in HESSIAN_ORDERS]),
-    )
     y, x = rng.uniform(0, 999, (2, 150_000))
     _line(
         "bilinear sampling, 150 000 points",

@@ -8,7 +8,7 @@ wall (a vote of :data:`SURFACE_VOTES` arcs, then the ridge across each wall's ow
 direction), and decides by :func:`sonarproc.surfaces.decide`: still one function of x,
 or several surfaces, each fitted with a line, an arc or a spline. Given the readings,
 each surface is then refitted through its readings' specular echo points
-(:mod:`sonarproc.surfaces.echoes`): the crest of the counts lies on the sensors' side of
+(:mod:`sonarproc.surfaces.echoes.refine`): the crest of the counts lies on the sensors' side of
 a surface, the echo points on it. As that refit sets the precision, the surfaces are
 then extracted on a map of :data:`EXTRACT_CELL_M` cells (the counts summed over blocks;
 on a 1 cm map, a quarter of the cells and far fewer chance ridges).
@@ -43,9 +43,9 @@ from sonarproc.surfaces import (
     surface_metrics,
     truth_points,
 )
-from sonarproc.surfaces.coarse import coarse_counts
-from sonarproc.surfaces.echoes import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
-from sonarproc.surfaces.tangents import tangent_lines
+from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
+from sonarproc.surfaces.echoes.tangents import tangent_lines
+from sonarproc.surfaces.extraction.coarse import coarse_counts
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -208,7 +208,7 @@ def _lines_first(
 ) -> AutoFit:
     """A long log's surfaces: walls from the readings' tangent votes, the rest from the map.
 
-    The walls (:func:`sonarproc.surfaces.tangents.tangent_lines`) explain most readings
+    The walls (:func:`sonarproc.surfaces.echoes.tangents.tangent_lines`) explain most readings
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """

@@ -16,11 +16,35 @@ room sees several walls, corners, boxes and pillars; this package finds them sep
    truth; :func:`write_surfaces_csv` and :func:`write_surfaces_geojson` write them.
 """
 
-from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
-from sonarproc.surfaces.echoes import refine_fits
-from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
+from sonarproc.surfaces.echoes.refine import refine_fits
+from sonarproc.surfaces.echoes.specular import (
+    EchoGeometry,
+    SurfaceEchoes,
+    count_seen_through,
+    echo_points,
+)
+from sonarproc.surfaces.evaluation.truth import (
+    SurfaceMetrics,
+    seen_truth,
+    surface_metrics,
+    truth_is_function,
+    truth_points,
+)
+from sonarproc.surfaces.evaluation.writers import (
+    surfaces_geojson,
+    write_surfaces_csv,
+    write_surfaces_geojson,
+)
+from sonarproc.surfaces.extraction.extract import (
+    SurfaceCells,
+    SurfaceParams,
+    cells_of,
+    extract_surfaces,
+)
+from sonarproc.surfaces.extraction.ridge import ridge_directions, ridge_nms
 from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
-from sonarproc.surfaces.models import (
+from sonarproc.surfaces.fitting.batch import fit_surface, fit_surfaces
+from sonarproc.surfaces.fitting.models import (
     SurfaceFailure,
     SurfaceFit,
     choose_model,
@@ -28,25 +52,11 @@ from sonarproc.surfaces.models import (
     fit_line,
     fit_spline,
 )
-from sonarproc.surfaces.polylines import (
+from sonarproc.surfaces.planar.polylines import (
     distance_to_polylines,
     join_polylines,
     resample,
     split_polylines,
-)
-from sonarproc.surfaces.ridge import ridge_directions, ridge_nms
-from sonarproc.surfaces.specular import EchoGeometry, SurfaceEchoes, count_seen_through, echo_points
-from sonarproc.surfaces.truth import (
-    SurfaceMetrics,
-    seen_truth,
-    surface_metrics,
-    truth_is_function,
-    truth_points,
-)
-from sonarproc.surfaces.writers import (
-    surfaces_geojson,
-    write_surfaces_csv,
-    write_surfaces_geojson,
 )
 
 __all__ = [

@@ -8,9 +8,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.models import arc_candidate
-from sonarproc.surfaces.polylines import distance_to_polylines
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.models import arc_candidate
+from sonarproc.surfaces.planar.polylines import distance_to_polylines
 
 
 @settings(max_examples=60, deadline=None)

@@ -9,13 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces import specular
-from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
-from sonarproc.surfaces.polylines import resample, resample_segments
-from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.echoes import specular
+from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surface, fit_surfaces
+from sonarproc.surfaces.fitting.grouped import fit_circles, fit_lines, floor_rms
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
+from sonarproc.surfaces.planar.polylines import resample, resample_segments
 
 CELL = 0.01
 

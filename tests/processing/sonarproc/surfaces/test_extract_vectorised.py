@@ -13,10 +13,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.grid import Grid
-from sonarproc.surfaces import SurfaceParams, extract_surfaces, neighbours
-from sonarproc.surfaces.coarse import coarse_counts
-from sonarproc.surfaces.neighbours import close_pairs, nearest_in_run, nearest_within
-from sonarproc.surfaces.runs import (
+from sonarproc.surfaces import SurfaceParams, extract_surfaces
+from sonarproc.surfaces.extraction.coarse import coarse_counts
+from sonarproc.surfaces.planar import neighbours
+from sonarproc.surfaces.planar.neighbours import close_pairs, nearest_in_run, nearest_within
+from sonarproc.surfaces.planar.runs import (
     ragged_arange,
     run_cumsum,
     run_interp,

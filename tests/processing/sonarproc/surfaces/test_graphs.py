@@ -11,7 +11,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
 from scipy.sparse.csgraph import dijkstra, minimum_spanning_tree
 
-from sonarproc.surfaces.graphs import (
+from sonarproc.surfaces.extraction.graphs import (
     connected_components,
     forest_distances,
     forest_tours,

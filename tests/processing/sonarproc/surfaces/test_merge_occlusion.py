@@ -7,13 +7,13 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces import occlusion
-from sonarproc.surfaces.batchfit import fit_surface
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.merge import merge_collinear
-from sonarproc.surfaces.models import SurfaceFit
-from sonarproc.surfaces.occlusion import contradicted, corner_extensions, segment_crossings
-from sonarproc.surfaces.polylines import resample
+from sonarproc.surfaces.echoes import occlusion
+from sonarproc.surfaces.echoes.occlusion import contradicted, corner_extensions, segment_crossings
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surface
+from sonarproc.surfaces.fitting.merge import merge_collinear
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.planar.polylines import resample
 
 CELL = 0.01
 

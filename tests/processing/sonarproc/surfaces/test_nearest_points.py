@@ -8,11 +8,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.pipeline.surfacefit import column_spans
-from sonarproc.surfaces import nearest, neighbours
-from sonarproc.surfaces.feet import feet_on_polyline, feet_on_polylines
-from sonarproc.surfaces.nearest import BRANCH, nearest_points
-from sonarproc.surfaces.neighbours import pairs_within
-from sonarproc.surfaces.polylines import distance_to_polylines
+from sonarproc.surfaces.planar import nearest, neighbours
+from sonarproc.surfaces.planar.feet import feet_on_polyline, feet_on_polylines
+from sonarproc.surfaces.planar.nearest import BRANCH, nearest_points
+from sonarproc.surfaces.planar.neighbours import pairs_within
+from sonarproc.surfaces.planar.polylines import distance_to_polylines
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
 

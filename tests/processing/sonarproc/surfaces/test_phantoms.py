@@ -21,11 +21,11 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline import process
 from sonarproc.pipeline import surfacefit as surfacefit_module
 from sonarproc.surfaces import EchoGeometry, count_seen_through, echo_points, refine_fits
-from sonarproc.surfaces import echoes as echoes_module
-from sonarproc.surfaces.batchfit import fit_surface
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.models import SurfaceFit
-from sonarproc.surfaces.polylines import resample
+from sonarproc.surfaces.echoes import refine as echoes_module
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surface
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.planar.polylines import resample
 
 C = 343.3
 CELL = 0.01

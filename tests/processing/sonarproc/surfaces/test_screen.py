@@ -8,15 +8,15 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces import dirbins
-from sonarproc.surfaces.batchfit import fit_surface
-from sonarproc.surfaces.echoes import refine_fits
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.feet import feet_on_segments
-from sonarproc.surfaces.models import SurfaceFit
-from sonarproc.surfaces.polylines import resample
-from sonarproc.surfaces.screen import echo_counts, screen_fits
-from sonarproc.surfaces.specular import EchoGeometry
+from sonarproc.surfaces.echoes import dirbins
+from sonarproc.surfaces.echoes.refine import refine_fits
+from sonarproc.surfaces.echoes.screen import echo_counts, screen_fits
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surface
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.planar.feet import feet_on_segments
+from sonarproc.surfaces.planar.polylines import resample
 
 CELL = 0.01
 BEAM = math.radians(12.5)

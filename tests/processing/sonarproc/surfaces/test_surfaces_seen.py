@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sonarproc.surfaces import join_polylines, seen, seen_truth, truth_points
+from sonarproc.surfaces import join_polylines, seen_truth, truth_points
+from sonarproc.surfaces.evaluation import seen
 
 Floats = npt.NDArray[np.float64]
 

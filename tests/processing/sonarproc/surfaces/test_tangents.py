@@ -1,4 +1,4 @@
-"""Walls from the readings' tangent votes (sonarproc.surfaces.tangents) and the long-log path."""
+"""Walls from the readings' tangent votes (surfaces.echoes.tangents) and the long-log path."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.surfaces import EchoGeometry
-from sonarproc.surfaces.tangents import tangent_lines
+from sonarproc.surfaces.echoes.tangents import tangent_lines
 
 HALF_BEAM = math.radians(12.5)
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.runs import ragged_arange, run_cumsum, run_interp, run_median
+from sonarproc.surfaces.planar.runs import ragged_arange, run_cumsum, run_interp, run_median
 
 __all__ = ["centrelines", "corners"]
 

@@ -9,7 +9,7 @@ is a phantom standing in free space that the sound crossed. Where at least
 is dropped; the strongest contradictions are settled first. A path's last
 :data:`END_MARGIN_M` are not tested, so that surfaces meeting at a corner do not
 contradict each other. A surface's ends are uncertain (a fit is stretched over its ridge
-by up to :data:`~sonarproc.surfaces.echoes.MAX_STRETCH_M`): crossings within
+by up to :data:`~sonarproc.surfaces.echoes.refine.MAX_STRETCH_M`): crossings within
 :data:`END_ZONE_M` of its ends do not make it lose, though they still count against the
 surface whose paths they are (a phantom seen through a wall near a corner).
 
@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.feet import straight_polylines
+from sonarproc.surfaces.planar.feet import straight_polylines
 
 __all__ = [
     "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
@@ -77,7 +77,7 @@ def corner_extensions(
     """The stretches that complete long straight surfaces to their corners (module notes).
 
     ``straight``: which polylines are straight, if known
-    (:func:`~sonarproc.surfaces.feet.straight_polylines`).
+    (:func:`~sonarproc.surfaces.planar.feet.straight_polylines`).
 
     Returns
     -------

@@ -1,19 +1,19 @@
-"""The model of every surface, chosen by the criterion of :mod:`sonarproc.surfaces.models`.
+"""The model of every surface, chosen by the criterion of :mod:`sonarproc.surfaces.fitting.models`.
 
 A room's ridge breaks into about a thousand groups of cells, and the refinement fits
 hundreds of echo sets. :func:`fit_surfaces` fits the lines and circles of all groups
-together (:mod:`sonarproc.surfaces.grouped`: grouped sums instead of one SVD or solve per
+together (:mod:`sonarproc.surfaces.fitting.grouped`: grouped sums instead of one SVD or solve per
 group), computes every group's floor the same way, and builds polylines only for the
 candidates the criterion needs:
 
-1. fewer than :data:`~sonarproc.surfaces.models.MIN_CELLS` cells, or all at one point:
-   a :class:`~sonarproc.surfaces.models.SurfaceFailure`;
+1. fewer than :data:`~sonarproc.surfaces.fitting.models.MIN_CELLS` cells, or all at one point:
+   a :class:`~sonarproc.surfaces.fitting.models.SurfaceFailure`;
 2. the line, kept at once when its RMS residual is at most ``1.25 floor + 0.25 cell``
    (the criterion would pick it whatever the others give);
 3. otherwise the arc (dropped if it does not bend: radius above 20 times its length);
 4. the spline, only when neither passes the same test and there are at least
-   :data:`~sonarproc.surfaces.models.MIN_SPLINE_CELLS` cells;
-5. :func:`~sonarproc.surfaces.models.choose_model` among those fitted.
+   :data:`~sonarproc.surfaces.fitting.models.MIN_SPLINE_CELLS` cells;
+5. :func:`~sonarproc.surfaces.fitting.models.choose_model` among those fitted.
 
 A group's result does not depend on the other groups given with it: :func:`fit_surface`
 is the one-group case.
@@ -26,9 +26,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.grouped import fit_circles, fit_lines, floor_rms
-from sonarproc.surfaces.models import (
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.grouped import fit_circles, fit_lines, floor_rms
+from sonarproc.surfaces.fitting.models import (
     CELL_FACTOR,
     MAX_RADIUS_PER_LENGTH,
     MIN_CELLS,
@@ -43,7 +43,7 @@ from sonarproc.surfaces.models import (
     line_candidate,
     line_params,
 )
-from sonarproc.surfaces.polylines import resample_segments
+from sonarproc.surfaces.planar.polylines import resample_segments
 
 __all__ = ["fit_surface", "fit_surfaces"]
 

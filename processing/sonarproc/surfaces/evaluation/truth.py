@@ -8,7 +8,7 @@
   ``within`` (default 5 cm) of a fitted surface.
 
 Which truth points the sonars saw is :func:`seen_truth` (module
-:mod:`sonarproc.surfaces.seen`, re-exported here).
+:mod:`sonarproc.surfaces.evaluation.seen`, re-exported here).
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.polylines import distance_to_polylines, resample, split_polylines
-from sonarproc.surfaces.seen import SEEN_TOLERANCE_M, seen_truth
+from sonarproc.surfaces.evaluation.seen import SEEN_TOLERANCE_M, seen_truth
+from sonarproc.surfaces.planar.polylines import distance_to_polylines, resample, split_polylines
 
 __all__ = [
     "COMPLETENESS_WITHIN_M",

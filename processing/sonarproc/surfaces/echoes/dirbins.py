@@ -30,7 +30,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.runs import ragged_arange
+from sonarproc.surfaces.planar.runs import ragged_arange
 
 __all__ = ["BIN_DEG", "BUCKET_M", "DENSE_KEYS", "normal_bin_pairs"]
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from sonarproc.surfaces.models import SurfaceFit
+from sonarproc.surfaces.fitting.models import SurfaceFit
 
 __all__ = ["surfaces_geojson", "write_surfaces_csv", "write_surfaces_geojson"]
 
@@ -30,7 +30,7 @@ def write_surfaces_csv(surfaces: Sequence[SurfaceFit], path: str | Path) -> Path
     Examples
     --------
     >>> import tempfile
-    >>> from sonarproc.surfaces.models import SurfaceFit
+    >>> from sonarproc.surfaces.fitting.models import SurfaceFit
     >>> f = SurfaceFit("line", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.0, 50, 50)
     >>> p = write_surfaces_csv([f], Path(tempfile.mkdtemp()) / "surfaces.csv")
     >>> p.read_text().splitlines()
@@ -50,7 +50,7 @@ def surfaces_geojson(surfaces: Sequence[SurfaceFit]) -> dict[str, Any]:
 
     Examples
     --------
-    >>> from sonarproc.surfaces.models import SurfaceFit
+    >>> from sonarproc.surfaces.fitting.models import SurfaceFit
     >>> f = SurfaceFit("arc", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.002, 50, 80)
     >>> doc = surfaces_geojson([f])
     >>> doc["features"][0]["geometry"]["type"], doc["features"][0]["properties"]["model"]

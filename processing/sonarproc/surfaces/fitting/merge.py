@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.batchfit import fit_surfaces
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.graphs import connected_components
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.extraction.graphs import connected_components
+from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 
 __all__ = ["MERGE_ANGLE_RAD", "MERGE_GAP_M", "MERGE_OFFSET_M", "merge_collinear"]
 

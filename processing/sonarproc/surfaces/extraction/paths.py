@@ -2,7 +2,7 @@
 
 A surface is its tree's longest path, found with two distance passes along every tree
 at once (from any node to the farthest, ``u``; from ``u`` to the farthest, ``v``; the
-path is where ``d(u) + d(v)`` equals the length; :mod:`~sonarproc.surfaces.graphs`).
+path is where ``d(u) + d(v)`` equals the length; :mod:`~sonarproc.surfaces.extraction.graphs`).
 A node off the path hangs on the nearest path node of its tree in the plane (on a thick
 band the tree may run beside the path for a long way) and takes that node's arc length.
 Side branches reaching more than ``bridge_m`` off the path, whose farthest node is at
@@ -19,14 +19,14 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.graphs import (
+from sonarproc.surfaces.extraction.graphs import (
     ForestTours,
     connected_components,
     forest_distances,
     forest_tours,
 )
-from sonarproc.surfaces.neighbours import nearest_in_run, nearest_within
-from sonarproc.surfaces.runs import bounds_of
+from sonarproc.surfaces.planar.neighbours import nearest_in_run, nearest_within
+from sonarproc.surfaces.planar.runs import bounds_of
 
 __all__ = ["MAX_ROUNDS", "TreePaths", "tree_paths"]
 
@@ -175,7 +175,7 @@ def tree_paths(
         Tree of each node (``0 .. T-1``).
     pairs : tuple of ndarray
         ``i, j, d2``: node pairs (``i < j``) closer than ``bridge_m`` and their squared
-        distances (:func:`~sonarproc.surfaces.neighbours.close_pairs`).
+        distances (:func:`~sonarproc.surfaces.planar.neighbours.close_pairs`).
     p : SurfaceParams
         ``bridge_m`` and ``min_length_m``.
 

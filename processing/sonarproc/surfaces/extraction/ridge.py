@@ -9,16 +9,17 @@ a cell is kept when its smoothed count is at least the (bilinearly interpolated)
 count one cell away on both sides along that normal. Two parallel walls are two separate
 ridges, each a maximum along its own normal, so both survive, whatever their direction.
 
-The work is done only inside the bounding box of the set cells (plus a margin), and the
-comparisons only at set cells.
+The filters are :func:`scipy.ndimage.gaussian_filter`'s, run only inside the bounding box
+of the set cells (plus a margin); the comparisons are made only at set cells.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+from scipy import ndimage
 
-from sonarproc.surfaces.gridfilters import bilinear_nearest, gaussian_filters
+from sonarproc.surfaces.extraction.bilinear import bilinear_nearest
 
 __all__ = ["RIDGE_SIGMA_CELLS", "ridge_directions", "ridge_nms"]
 
@@ -47,21 +48,9 @@ def _crop(mask: BoolArray, margin: int) -> tuple[slice, slice] | None:
     return slice(r0, r1), slice(c0, c1)
 
 
-def _smoothed_near(counts: FloatingArray, cells: IntArray, sigma: float) -> FloatingArray:
-    """The smoothed counts, exact at ``cells`` and their eight neighbours.
-
-    The comparisons along the normal read only there: one cell away, bilinearly.
-    """
-    if not sigma > 0:
-        return counts
-    near = np.zeros(counts.shape, dtype=bool)
-    near.ravel()[cells] = True
-    # grown by one cell (a neighbour may lie in the next tile of the filter)
-    near[1:] |= near[:-1].copy()
-    near[:-1] |= near[1:].copy()
-    near[:, 1:] |= near[:, :-1].copy()
-    near[:, :-1] |= near[:, 1:].copy()
-    return gaussian_filters(counts, sigma, [(0, 0)], where=near)[0]
+def _hessian(c: FloatingArray, sigma: float) -> list[FloatingArray]:
+    """The Gaussian-smoothed map's second derivatives d2/dx2, d2/dy2, d2/dxdy."""
+    return [ndimage.gaussian_filter(c, sigma, order=o) for o in HESSIAN_ORDERS]
 
 
 def ridge_directions(
@@ -80,7 +69,7 @@ def ridge_directions(
     (1.0, 0.0)
     """
     c = np.asarray(counts, dtype=np.float32)
-    hxx, hyy, hxy = gaussian_filters(c, sigma, HESSIAN_ORDERS)
+    hxx, hyy, hxy = _hessian(c, sigma)
     # eigenvector of the larger eigenvalue at angle 0.5 atan2(2 hxy, hxx - hyy); the
     # normal is perpendicular to it
     theta = 0.5 * np.arctan2(2.0 * hxy, hxx - hyy) + 0.5 * np.pi
@@ -139,8 +128,7 @@ def ridge_nms(
     mc = m[box]
     cc = np.asarray(c[box], dtype=np.float32)
     flat = np.flatnonzero(mc)
-    # the Hessian only at the kept cells, the smoothed counts only next to the crests
-    hxx, hyy, hxy = gaussian_filters(cc, direction_sigma, HESSIAN_ORDERS, where=mc)
+    hxx, hyy, hxy = _hessian(cc, direction_sigma)
     a, b, d = (h.ravel()[flat].astype(np.float64) for h in (hxx, hxy, hyy))
     root = np.sqrt(0.25 * (a - d) ** 2 + b * b)
     lam_min, lam_max = 0.5 * (a + d) - root, 0.5 * (a + d) + root
@@ -150,7 +138,7 @@ def ridge_nms(
     iy, ix = np.divmod(flat, mc.shape[1])
     theta = 0.5 * np.arctan2(2.0 * b, a - d) + 0.5 * np.pi
     nx, ny = np.cos(theta), np.sin(theta)
-    smooth = _smoothed_near(cc, flat, sigma)
+    smooth = ndimage.gaussian_filter(cc, sigma) if sigma > 0 else cc
     here = smooth.ravel()[flat]
     fy, fx = iy.astype(np.float64), ix.astype(np.float64)
     ahead = bilinear_nearest(smooth, fy + ny, fx + nx)

@@ -22,15 +22,15 @@ cells (otherwise the line, which fits as well, is taken).
 * arc: algebraic circle (Kasa) refined by Gauss-Newton on the geometric distance, trimmed
   like the line; the arc spans the cells' angles in their order along the surface, or
   the whole circle for a closed surface.
-* spline: cubic smoothing splines (:mod:`sonarproc.surfaces.smoothing`) of x(s) and
+* spline: cubic smoothing splines (:mod:`sonarproc.surfaces.fitting.smoothing`) of x(s) and
   y(s) over the cells averaged in bins of arc length (one cell, or the length over
   :data:`MAX_SPLINE_BINS` on long surfaces), smoothing chosen by GCV.
 
 Degenerate input (fewer than :data:`MIN_CELLS` cells, all cells in one place, a singular
 system) gives a :class:`SurfaceFailure` with the reason, never a curve. The criterion is
-applied by :func:`~sonarproc.surfaces.batchfit.fit_surfaces` (many surfaces at once) and
-:func:`~sonarproc.surfaces.batchfit.fit_surface` (one); the line and circle fits here are
-the one-group case of :mod:`sonarproc.surfaces.grouped`.
+applied by :func:`~sonarproc.surfaces.fitting.batch.fit_surfaces` (many surfaces at once) and
+:func:`~sonarproc.surfaces.fitting.batch.fit_surface` (one); the line and circle fits here are
+the one-group case of :mod:`sonarproc.surfaces.fitting.grouped`.
 """
 
 from __future__ import annotations
@@ -42,10 +42,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.grouped import fit_circles, fit_lines
-from sonarproc.surfaces.polylines import distance_to_polylines, resample, to_adjacent_segments
-from sonarproc.surfaces.smoothing import smoothing_spline
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.grouped import fit_circles, fit_lines
+from sonarproc.surfaces.fitting.smoothing import smoothing_spline
+from sonarproc.surfaces.planar.polylines import (
+    distance_to_polylines,
+    resample,
+    to_adjacent_segments,
+)
 
 __all__ = [
     "MIN_CELLS",
@@ -174,7 +178,7 @@ def line_params(point: FloatArray, direction: FloatArray) -> dict[str, Any]:
 def fit_line(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:
     """Total least squares line segment through the cells (one trimmed refit).
 
-    See :func:`sonarproc.surfaces.grouped.fit_lines` (this is its one-group case).
+    See :func:`sonarproc.surfaces.fitting.grouped.fit_lines` (this is its one-group case).
     """
     if cells.size < 2:
         return SurfaceFailure(f"line: {cells.size} cells, need at least 2", cells.size)
@@ -237,7 +241,7 @@ def _arc_distances(
 def fit_arc(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailure:
     """Circular arc through the cells: algebraic start, geometric refinement, one trim.
 
-    See :func:`sonarproc.surfaces.grouped.fit_circles` (this is its one-group case).
+    See :func:`sonarproc.surfaces.fitting.grouped.fit_circles` (this is its one-group case).
     """
     if cells.size < 3:
         return SurfaceFailure(f"arc: {cells.size} cells, need at least 3", cells.size)

@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.specular import EchoGeometry
+from sonarproc.surfaces.echoes.specular import EchoGeometry
 
 __all__ = ["TangentSegment", "tangent_lines"]
 

@@ -7,12 +7,12 @@ a wall, or round a pillar) the crest of the arc counts therefore lies on the sen
 side of the surface, and arcs crossing at a shallow angle (the tails of a bundle) make
 ridges where there is no surface at all. The ridge gives a first estimate of each
 surface; this module replaces it by the surface through the readings' echo points
-(:mod:`sonarproc.surfaces.specular`: the point at the measured range along the
+(:mod:`sonarproc.surfaces.echoes.specular`: the point at the measured range along the
 perpendicular from the sensor).
 
 The direction of the foot is the surface normal even when the estimate is displaced
 along it, so the echo points lie on the true surface: the refit removes the bias. Each
-surface is refitted (:func:`~sonarproc.surfaces.batchfit.fit_surfaces`, same criterion)
+surface is refitted (:func:`~sonarproc.surfaces.fitting.batch.fit_surfaces`, same criterion)
 through its echo points, twice, with the tolerances of :data:`ROUNDS_M` (a long log's
 first round scores a fixed random subset of :data:`FIRST_ROUND_READINGS` readings, with
 the fewest echoes scaled down alike: that round only weeds out the chance ridges, a
@@ -33,10 +33,10 @@ that round's tolerance of it (the ridge sees the surface further than the perpen
 reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
 its ends in the next round), by at most :data:`MAX_STRETCH_M` at each end. Before the
 first round the straight pieces that no reading of that round echoes from are dropped
-(:mod:`sonarproc.surfaces.screen`: half the chance ridges of an hour's log, found far
+(:mod:`sonarproc.surfaces.echoes.screen`: half the chance ridges of an hour's log, found far
 faster than by that round) and the pieces of one wall are joined
-(:mod:`sonarproc.surfaces.merge`); after the last, of two surfaces that contradict each
-other the weaker goes (:mod:`sonarproc.surfaces.occlusion`).
+(:mod:`sonarproc.surfaces.fitting.merge`); after the last, of two surfaces that contradict each
+other the weaker goes (:mod:`sonarproc.surfaces.echoes.occlusion`).
 """
 
 from __future__ import annotations
@@ -47,14 +47,14 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.batchfit import fit_surfaces
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.merge import merge_collinear
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
-from sonarproc.surfaces.occlusion import contradicted
-from sonarproc.surfaces.polylines import resample
-from sonarproc.surfaces.screen import screen_fits
-from sonarproc.surfaces.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.echoes.occlusion import contradicted
+from sonarproc.surfaces.echoes.screen import screen_fits
+from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.merge import merge_collinear
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.planar.polylines import resample
 
 __all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "ROUNDS_M", "refine_fits"]
 

@@ -9,7 +9,7 @@ whose nodes are runs of consecutive points, each with a bounding box, a chord (i
 point to its last) and the largest distance of its points from that chord.
 
 Queries with a target within a few target spacings are answered first, all at once, by
-the bucket search of :func:`sonarproc.surfaces.neighbours.nearest_within` (exact for
+the bucket search of :func:`sonarproc.surfaces.planar.neighbours.nearest_within` (exact for
 every query it answers). The others walk down the tree together, one level at a time, in
 chunks of :data:`QUERY_CHUNK`. Pieces searched together are ordered along a Z-order curve
 first, so that the levels above one node per piece are compact too. A node's
@@ -31,8 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.neighbours import nearest_within
-from sonarproc.surfaces.runs import ragged_arange
+from sonarproc.surfaces.planar.neighbours import nearest_within
+from sonarproc.surfaces.planar.runs import ragged_arange
 
 __all__ = ["BRANCH", "nearest_points"]
 

@@ -1,18 +1,18 @@
 """Straight ridge pieces no reading echoes from, dropped before the echo rounds.
 
 An hour's log of a room leaves about a thousand chance ridges (arcs crossing in free
-space) for a dozen walls, and the first echo round of :mod:`sonarproc.surfaces.echoes`
-drops almost all of them, but only after they were merged (:mod:`sonarproc.surfaces.merge`)
+space) for a dozen walls, and the first echo round of :mod:`sonarproc.surfaces.echoes.refine`
+drops almost all of them, but only after they were merged (:mod:`sonarproc.surfaces.fitting.merge`)
 and scored with the others. Half of them are straight pieces that no reading of that
 round echoes from at all; :func:`screen_fits` drops those first. Such a piece adds no
 echo to a wall it would have been merged with (the same readings, on nearly the same
 line), so that wall keeps the echoes it needs.
 
 :func:`echo_counts` counts the readings echoing from each straight polyline with the
-test of :func:`~sonarproc.surfaces.specular.echo_points` (the foot of the sensor on the
+test of :func:`~sonarproc.surfaces.echoes.specular.echo_points` (the foot of the sensor on the
 line inside the polyline and inside the beam, its distance within ``tol`` of the range),
 each reading counted for every surface it echoes from. Its pairs come from a search over
-direction bins (:func:`~sonarproc.surfaces.dirbins.normal_bin_pairs`), not from a radius
+direction bins (:func:`~sonarproc.surfaces.echoes.dirbins.normal_bin_pairs`), not from a radius
 search round each reading's arc.
 """
 
@@ -23,11 +23,11 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.dirbins import normal_bin_pairs
-from sonarproc.surfaces.extract import SurfaceCells
-from sonarproc.surfaces.feet import median_steps
-from sonarproc.surfaces.models import SurfaceFit
-from sonarproc.surfaces.specular import EchoGeometry
+from sonarproc.surfaces.echoes.dirbins import normal_bin_pairs
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.planar.feet import median_steps
 
 __all__ = ["echo_counts", "screen_fits"]
 
@@ -61,7 +61,7 @@ def screen_fits(
     A wall along y = 1 that a sensor below it faces, and a piece of ridge beside the
     sensor, along its beam:
 
-    >>> from sonarproc.surfaces.batchfit import fit_surfaces
+    >>> from sonarproc.surfaces.fitting.batch import fit_surfaces
     >>> x = np.arange(-0.5, 0.5, 0.01)
     >>> wall = SurfaceCells(x, 1 + 0 * x, x + 0.5, np.ones_like(x), False)
     >>> side = SurfaceCells(0.5 + 0 * x, x + 0.5, x + 0.5, np.ones_like(x), False)

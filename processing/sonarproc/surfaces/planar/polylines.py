@@ -2,7 +2,7 @@
 
 A set of polylines is an ``(N, 2)`` array whose pieces are separated by rows of NaN (the
 ``/truth/profile`` convention of sonarlog v1.1). Everything here is vectorised; distances
-go through a tree search of the polyline vertices (:mod:`sonarproc.surfaces.nearest`) and
+go through a tree search of the polyline vertices (:mod:`sonarproc.surfaces.planar.nearest`) and
 then the exact distance to the two segments meeting at the nearest vertex.
 """
 
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.nearest import nearest_points
-from sonarproc.surfaces.runs import ragged_arange
+from sonarproc.surfaces.planar.nearest import nearest_points
+from sonarproc.surfaces.planar.runs import ragged_arange
 
 __all__ = [
     "distance_to_polylines", "join_polylines", "resample", "resample_segments", "split_polylines",

@@ -1,4 +1,4 @@
-"""The numpy Gaussian filters and bilinear sampling against scipy.ndimage (to the bit)."""
+"""The ridge through scipy.ndimage; our bilinear sampling against map_coordinates (to the bit)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from sonarproc.surfaces import gridfilters
-from sonarproc.surfaces.gridfilters import (
-    bilinear_nearest,
-    gaussian_filter,
-    gaussian_filters,
-    gaussian_kernel,
-)
-from sonarproc.surfaces.ridge import HESSIAN_ORDERS, ridge_directions, ridge_nms
+from sonarproc.surfaces.extraction import bilinear
+from sonarproc.surfaces.extraction.bilinear import bilinear_nearest
+from sonarproc.surfaces.extraction.ridge import HESSIAN_ORDERS, ridge_directions, ridge_nms
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
 DTYPES = st.sampled_from([np.float32, np.float64, np.int64])
@@ -28,50 +23,6 @@ def _counts(rng: np.random.Generator, ny: int, nx: int, dtype: type) -> np.ndarr
     else:
         c = rng.random((ny, nx)) * 50
     return np.asarray(c).astype(dtype)
-
-
-@settings(max_examples=60, deadline=None)
-@given(SEEDS, st.integers(1, 40), st.integers(1, 40), DTYPES,
-       st.sampled_from([0.5, 1.0, 1.7, 2.0, 3.3]),
-       st.tuples(st.integers(0, 2), st.integers(0, 2)))  # fmt: skip
-def test_gaussian_filter_is_scipys_to_the_bit(
-    seed: int, ny: int, nx: int, dtype: type, sigma: float, order: tuple[int, int]
-) -> None:
-    a = _counts(np.random.default_rng(seed), ny, nx, dtype)
-    got = gaussian_filter(a, sigma, order=order)
-    want = ndimage.gaussian_filter(a.astype(got.dtype), sigma, order=order)
-    assert got.dtype == want.dtype
-    assert np.array_equal(got, want)
-
-
-@settings(max_examples=25, deadline=None)
-@given(SEEDS, st.integers(1, 70), st.integers(1, 70), st.sampled_from([1.0, 2.0]))
-def test_tiles_and_where_give_the_same_values(seed: int, ny: int, nx: int, sigma: float) -> None:
-    rng = np.random.default_rng(seed)
-    a = _counts(rng, ny, nx, np.float32)
-    want = [ndimage.gaussian_filter(a, sigma, order=o) for o in HESSIAN_ORDERS]
-    where = rng.random((ny, nx)) < 0.05
-    old = gridfilters.TILE
-    try:
-        gridfilters.TILE = 16  # several tiles, some of them partial
-        full = gaussian_filters(a, sigma, HESSIAN_ORDERS)
-        part = gaussian_filters(a, sigma, HESSIAN_ORDERS, where=where)
-    finally:
-        gridfilters.TILE = old
-    for f, p, w in zip(full, part, want, strict=True):
-        assert np.array_equal(f, w)
-        assert np.array_equal(p[where], w[where])
-
-
-def test_gaussian_kernels_sum_and_shape() -> None:
-    g0, g1, g2 = (gaussian_kernel(2.0, o) for o in (0, 1, 2))
-    assert g0.shape == g1.shape == g2.shape == (17,)  # radius int(4 * 2 + 0.5)
-    assert g0.sum() == pytest.approx(1.0, abs=1e-15)
-    x = np.arange(-8, 9)
-    assert (x * g1).sum() == pytest.approx(-1.0, abs=1e-3)  # d/dx of x is 1 (convolved; cut)
-    assert np.array_equal(g0, g0[::-1]) and np.array_equal(g1, -g1[::-1])
-    with pytest.raises(ValueError, match="sigma"):
-        gaussian_kernel(0.0, 0)
 
 
 @settings(max_examples=60, deadline=None)
@@ -95,7 +46,7 @@ def test_bilinear_nearest_in_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
     rng = np.random.default_rng(3)
     a = rng.random((20, 30)).astype(np.float32)
     y, x = rng.uniform(0, 19, (2, 3, 50))
-    monkeypatch.setattr(gridfilters, "CHUNK", 7)
+    monkeypatch.setattr(bilinear, "CHUNK", 7)
     got = bilinear_nearest(a, y, x)
     assert got.shape == (3, 50)
     assert np.array_equal(got, ndimage.map_coordinates(a, [y, x], order=1, mode="nearest"))
@@ -141,12 +92,7 @@ def test_ridge_nms_keeps_the_cells_the_scipy_ridge_kept(seed: int) -> None:
     counts[(yy - 40) ** 2 + (xx - 70) ** 2 < 36] += 10
     mask = counts > 0
     assert mask[0].any() and mask[-1].any() and mask[:, 0].any() and mask[:, -1].any()
-    old = gridfilters.TILE
-    try:
-        gridfilters.TILE = 32
-        kept = ridge_nms(mask, counts)
-    finally:
-        gridfilters.TILE = old
+    kept = ridge_nms(mask, counts)
     assert kept.sum() > 100
     assert np.array_equal(kept, _ridge_nms_scipy(mask, counts))
 
@@ -163,8 +109,8 @@ def test_ridge_directions_use_the_same_filters() -> None:
 
 def test_bad_shapes_are_refused() -> None:
     with pytest.raises(ValueError, match="2-D"):
-        gaussian_filter(np.zeros(5), 1.0)
-    with pytest.raises(ValueError, match="shape"):
-        gaussian_filters(np.zeros((4, 4)), 1.0, [(0, 0)], where=np.zeros((3, 4), bool))
+        bilinear_nearest(np.zeros(5), [1.0], [1.0])
+    with pytest.raises(ValueError, match="2-D"):
+        ridge_nms(np.zeros(5, bool), np.zeros(5))
     with pytest.raises(ValueError, match="one shape"):
         bilinear_nearest(np.zeros((4, 4)), [1.0, 2.0], [1.0])

@@ -16,7 +16,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.runs import ragged_arange
+from sonarproc.surfaces.planar.runs import ragged_arange
 
 __all__ = ["close_pairs", "nearest_in_run", "nearest_within", "pairs_within"]
 
@@ -29,7 +29,7 @@ DENSE_BUCKETS = 1 << 22
 #: Candidate pairs tested at once by :func:`pairs_within` (temporaries of a few hundred kB).
 PAIR_CHUNK = 1 << 15
 #: Above this many candidate pairs the nearest-point search goes through a tree of runs
-#: of points (:func:`sonarproc.surfaces.nearest.nearest_points`).
+#: of points (:func:`sonarproc.surfaces.planar.nearest.nearest_points`).
 BRUTE_FORCE_PAIRS = 4_000_000
 
 
@@ -208,7 +208,7 @@ def nearest_in_run(
     """For each query point, the nearest target point of its run (ties: the lower index).
 
     Beyond :data:`BRUTE_FORCE_PAIRS` query-target pairs, a tree search
-    (:func:`~sonarproc.surfaces.nearest.nearest_points`) answers instead, with the
+    (:func:`~sonarproc.surfaces.planar.nearest.nearest_points`) answers instead, with the
     same result.
 
     Parameters
@@ -262,7 +262,7 @@ def _nearest_by_tree(
 ) -> tuple[FloatArray, IntArray]:
     """:func:`nearest_in_run` for many points: one tree search, a piece per run."""
     # here, not at the top: the tree search uses this module's bucket search
-    from sonarproc.surfaces.nearest import nearest_points
+    from sonarproc.surfaces.planar.nearest import nearest_points
 
     # each run's targets by index, so that the lower index among equally near targets
     # (the tree's tie rule) is the lower index into pos
