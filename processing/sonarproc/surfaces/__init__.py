@@ -43,15 +43,11 @@ from sonarproc.surfaces.extraction.extract import (
 )
 from sonarproc.surfaces.extraction.ridge import ridge_directions, ridge_nms
 from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
+from sonarproc.surfaces.fitting.arcs import fit_arc
 from sonarproc.surfaces.fitting.batch import fit_surface, fit_surfaces
-from sonarproc.surfaces.fitting.models import (
-    SurfaceFailure,
-    SurfaceFit,
-    choose_model,
-    fit_arc,
-    fit_line,
-    fit_spline,
-)
+from sonarproc.surfaces.fitting.lines import fit_line
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit, choose_model
+from sonarproc.surfaces.fitting.splines import fit_spline
 from sonarproc.surfaces.planar.polylines import (
     distance_to_polylines,
     join_polylines,

@@ -18,7 +18,7 @@ the surface's normal points at the sensor. For a surface and a reading:
   :func:`count_seen_through` tests every reading.
 
 All surfaces are tested at once. Candidate pairs come from radius searches (a grid of
-buckets, :func:`sonarproc.surfaces.planar.neighbours.pairs_within`) between the surfaces'
+buckets, :func:`sonarproc.surfaces.planar.search.pairs_within`) between the surfaces'
 centres and the readings' arc midpoints (every point of an arc lies within its chord's
 reach of the midpoint), surfaces and readings taken in
 classes of similar size; cheap range and bearing tests go next; the feet on straight
@@ -45,7 +45,7 @@ from sonarproc.surfaces.planar.feet import (
     median_steps,
     straight_polylines,
 )
-from sonarproc.surfaces.planar.neighbours import pairs_within
+from sonarproc.surfaces.planar.search import pairs_within
 
 __all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
@@ -401,7 +401,7 @@ def _ball_pairs(
     """Pairs (surface k, reading j) with ``|mid_j - c_k| <= h_k + reach_j``.
 
     Readings are split into classes of similar reach (powers of two), so that each class
-    is one radius search (:func:`~sonarproc.surfaces.planar.neighbours.pairs_within`) with a
+    is one radius search (:func:`~sonarproc.surfaces.planar.search.pairs_within`) with a
     radius per surface close to the pairs' own, ``h_k`` plus the class's largest reach
     (one reach for all would take every reading within the largest reach of every
     surface).

@@ -7,7 +7,7 @@ own echo: its range circle within ``tol``).
 
 Every point the exact test accepts lies in a ball around the reading's beam sector, so
 candidate (reading, point) pairs come from radius searches
-(:func:`sonarproc.surfaces.planar.neighbours.pairs_within`): readings sorted by ball radius are
+(:func:`sonarproc.surfaces.planar.search.pairs_within`): readings sorted by ball radius are
 taken in chunks of about the same radius, and each chunk is paired with the truth points
 within its balls. Most readings see points that earlier readings already saw (a robot
 passes the same wall again and again), so the search holds only the points not seen yet,
@@ -24,7 +24,7 @@ import logging
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.planar.neighbours import pairs_within
+from sonarproc.surfaces.planar.search import pairs_within
 
 __all__ = ["SEEN_TOLERANCE_M", "seen_truth"]
 

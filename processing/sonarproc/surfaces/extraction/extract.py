@@ -4,8 +4,8 @@ The cells (cell centres in world metres) are first pooled into *nodes*: squares 
 ``h = max(cell, bridge_m / 4)``, each node at the mean of its cells, so that thick bands
 and thin ridges cost about the same. Nodes closer than ``bridge_m`` are joined (that is
 the gap bridging), and each connected group is reduced to its minimum spanning tree
-(:mod:`~sonarproc.surfaces.extraction.graphs`). A surface is the tree's longest path (found with two
-distance passes along every tree at once); nodes off that path hang on it, at the arc
+(:mod:`~sonarproc.surfaces.extraction.graphs`). A surface is the tree's longest path (found
+with two distance passes along every tree at once); nodes off that path hang on it, at the arc
 length of the path node they hang from. Side branches that reach more than ``bridge_m``
 off the path and are at least ``min_length_m`` long (a T junction, a box against a wall)
 become groups of their own and go round again. A group whose two path ends lie within
@@ -17,12 +17,11 @@ Each path is then cut at corners: where the turning angle between the chords
 ``corner_deg`` and is the largest within ``w``. Nothing assumes y = f(x): the order is
 the arc length along the tree, so vertical walls, closed shapes and folds work alike.
 
-Every step works on all groups at once: the node pairs come from a grid of buckets
-(:mod:`~sonarproc.surfaces.planar.neighbours`), the paths from
+Every step works on all groups at once: the node pairs come from a k-d tree
+(:mod:`~sonarproc.surfaces.planar.search`), the paths from
 :mod:`~sonarproc.surfaces.extraction.paths`, centre lines and corners from
 :mod:`~sonarproc.surfaces.extraction.corners` (numpy on runs of one array,
-:mod:`~sonarproc.surfaces.planar.runs`). Where the nearest path node is not unique, a node
-hangs on the one with the lowest index, and a centre-line point sums its neighbours in
+:mod:`~sonarproc.surfaces.planar.runs`). A centre-line point sums its neighbours in
 ascending order, so equal inputs give equal outputs to the last bit.
 """
 
@@ -38,8 +37,8 @@ from sonarproc.grid import Grid
 from sonarproc.surfaces.extraction.corners import centrelines, corners
 from sonarproc.surfaces.extraction.graphs import minimum_spanning_forest
 from sonarproc.surfaces.extraction.paths import TreePaths, tree_paths
-from sonarproc.surfaces.planar.neighbours import close_pairs
 from sonarproc.surfaces.planar.runs import bounds_of, run_searchsorted
+from sonarproc.surfaces.planar.search import close_pairs
 
 __all__ = ["SurfaceCells", "SurfaceParams", "cells_of", "extract_surfaces"]
 

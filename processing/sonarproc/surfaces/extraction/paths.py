@@ -2,7 +2,7 @@
 
 A surface is its tree's longest path, found with two distance passes along every tree
 at once (from any node to the farthest, ``u``; from ``u`` to the farthest, ``v``; the
-path is where ``d(u) + d(v)`` equals the length; :mod:`~sonarproc.surfaces.extraction.graphs`).
+path is where ``d(u) + d(v)`` equals the length; :func:`scipy.sparse.csgraph.dijkstra`).
 A node off the path hangs on the nearest path node of its tree in the plane (on a thick
 band the tree may run beside the path for a long way) and takes that node's arc length.
 Side branches reaching more than ``bridge_m`` off the path, whose farthest node is at
@@ -19,14 +19,9 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.extraction.graphs import (
-    ForestTours,
-    connected_components,
-    forest_distances,
-    forest_tours,
-)
-from sonarproc.surfaces.planar.neighbours import nearest_in_run, nearest_within
+from sonarproc.surfaces.extraction.graphs import components, tree_distances
 from sonarproc.surfaces.planar.runs import bounds_of
+from sonarproc.surfaces.planar.search import nearest_in_run, nearest_within
 
 __all__ = ["MAX_ROUNDS", "TreePaths", "tree_paths"]
 
@@ -88,16 +83,18 @@ def _argmax_per_group(values: FloatArray, order: IntArray, bounds: IntArray) -> 
 
 
 def _along(
-    trees: tuple[ForestTours, FloatArray, IntArray, IntArray], sources: IntArray, n: int
+    forest: tuple[IntArray, IntArray, FloatArray, IntArray, IntArray],
+    sources: IntArray,
+    n: int,
 ) -> FloatArray:
     """Distances along the active nodes' trees from ``sources`` (inf off them).
 
-    ``trees`` is the tours of the active nodes' forest, its edge lengths, the active
-    nodes and the number of each node among them.
+    ``forest`` is the edges of the active nodes' forest (numbered among them), their
+    lengths, the active nodes and the number of each node among them.
     """
-    tours, weight, act, local = trees
+    ei, ej, weight, act, local = forest
     d = np.full(n, np.inf)
-    d[act] = forest_distances(tours, weight, local[sources])
+    d[act] = tree_distances(act.size, ei, ej, weight, local[sources])
     return d
 
 
@@ -127,29 +124,16 @@ def _near_path(
 
 
 def _far_path(
-    pos: FloatArray,
-    far: IntArray,
-    path: BoolArray,
-    group: IntArray,
-    blab: IntArray,
-    long_c: BoolArray,
-    reach: float,
+    pos: FloatArray, far: IntArray, path: BoolArray, group: IntArray, reach: float
 ) -> tuple[FloatArray, IntArray]:
     """Nearest path node of each far node (none within the pair distance).
 
-    With a finite ``reach``, only that far and only where it matters: a branch with a
-    node farther than ``reach`` from the path is long, and its nodes get a path of
-    their own next round (inf and -1 for them).
+    With a finite ``reach``, only that far: a node farther than ``reach`` from the path
+    is in a long branch, whose nodes get a path of their own next round (inf and -1).
     """
     on = np.flatnonzero(path)
     if np.isfinite(reach):
-
-        def prune(maybe: BoolArray) -> BoolArray:
-            proven = long_c.copy()
-            proven[blab[far[~maybe]]] = True
-            return maybe & ~proven[blab[far]]
-
-        return nearest_within(pos, far, on, group, reach, prune=prune)
+        return nearest_within(pos, far, on, group, reach)
     on = on[np.argsort(group[on], kind="stable")]
     ids = np.unique(group[on])
     run = np.searchsorted(ids, group[far])
@@ -175,7 +159,7 @@ def tree_paths(
         Tree of each node (``0 .. T-1``).
     pairs : tuple of ndarray
         ``i, j, d2``: node pairs (``i < j``) closer than ``bridge_m`` and their squared
-        distances (:func:`~sonarproc.surfaces.planar.neighbours.close_pairs`).
+        distances (:func:`~sonarproc.surfaces.planar.search.close_pairs`).
     p : SurfaceParams
         ``bridge_m`` and ``min_length_m``.
 
@@ -215,9 +199,7 @@ def tree_paths(
         # the active nodes' trees (one per group), numbered among the active nodes
         local = np.full(n, -1, dtype=np.intp)
         local[act] = np.arange(act.size)
-        tours = forest_tours(act.size, local[ei[keep]], local[ej[keep]],
-                             labels=np.searchsorted(ids, group[act]))  # fmt: skip
-        trees = (tours, ew[keep], act, local)
+        trees = (local[ei[keep]], local[ej[keep]], ew[keep], act, local)
         d0 = _along(trees, first, n)
         u = _argmax_per_group(d0, order, bounds)
         du = _along(trees, u, n)
@@ -240,7 +222,7 @@ def tree_paths(
         if branch.any():
             # branches: components of the forest restricted to branch nodes
             bk = branch[ei] & branch[ej]
-            _, blab = connected_components(n, ei[bk], ej[bk])
+            _, blab = components(n, ei[bk], ej[bk])
             far = np.flatnonzero(off & (src < 0))
             if far.size:
                 # a node farther than both bridge_m and min_length_m from the path is in
@@ -248,9 +230,7 @@ def tree_paths(
                 # path node is not needed (but in the last round it is)
                 last = round_ == MAX_ROUNDS - 1
                 reach = np.inf if last else max(p.bridge_m, p.min_length_m)
-                long_c = np.zeros(int(blab.max()) + 1, dtype=bool)
-                long_c[blab[branch & (dist >= p.min_length_m) & np.isfinite(dist)]] = True
-                dist[far], src[far] = _far_path(pos, far, path, group, blab, long_c, reach)
+                dist[far], src[far] = _far_path(pos, far, path, group, reach)
         hung = off & (src >= 0)
         s[hung] = s[src[hung]]
         anchor[hung] = src[hung]

@@ -27,7 +27,9 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.extraction.extract import SurfaceCells
-from sonarproc.surfaces.fitting.grouped import fit_circles, fit_lines, floor_rms
+from sonarproc.surfaces.fitting.arcs import arc_candidate, fit_circles
+from sonarproc.surfaces.fitting.grouped import floor_rms
+from sonarproc.surfaces.fitting.lines import fit_lines, line_candidate, line_params
 from sonarproc.surfaces.fitting.models import (
     CELL_FACTOR,
     MAX_RADIUS_PER_LENGTH,
@@ -37,12 +39,9 @@ from sonarproc.surfaces.fitting.models import (
     Candidate,
     SurfaceFailure,
     SurfaceFit,
-    arc_candidate,
     choose_model,
-    fit_spline,
-    line_candidate,
-    line_params,
 )
+from sonarproc.surfaces.fitting.splines import fit_spline
 from sonarproc.surfaces.planar.polylines import resample_segments
 
 __all__ = ["fit_surface", "fit_surfaces"]

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.extraction.extract import SurfaceCells
-from sonarproc.surfaces.extraction.graphs import connected_components
+from sonarproc.surfaces.extraction.graphs import components
 from sonarproc.surfaces.fitting.batch import fit_surfaces
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 
@@ -81,7 +81,7 @@ def merge_collinear(
     i, j = i[ok], j[ok]
     if i.size == 0:
         return list(fits), list(cells)
-    _, label = connected_components(len(line), i, j)
+    _, label = components(len(line), i, j)
     out_fits: list[SurfaceFit] = []
     out_cells: list[SurfaceCells] = []
     groups: dict[int, list[int]] = {}

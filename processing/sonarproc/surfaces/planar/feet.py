@@ -2,10 +2,10 @@
 
 The foot of a reading on a surface is where the surface's normal points at the sensor.
 On a straight polyline it is one closed-form projection for any number of points and
-surfaces at once; on a curved one, a tree search of its vertices gives the nearest vertex
-(:func:`sonarproc.surfaces.planar.nearest.nearest_points`)
-and the two segments beside it are searched. A foot within half a step of an open end
-counts as the end (the reading saw past the surface's end, not its face).
+surfaces at once; on a curved one, a k-d tree of its vertices gives the nearest vertex
+(:func:`sonarproc.surfaces.planar.search.nearest_points`) and the two segments beside it
+are searched. A foot within half a step of an open end counts as the end (the reading
+saw past the surface's end, not its face).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.planar.nearest import nearest_points
 from sonarproc.surfaces.planar.runs import run_cumsum
+from sonarproc.surfaces.planar.search import nearest_points
 
 __all__ = [
     "feet_on_polyline",

@@ -2,8 +2,8 @@
 
 A set of polylines is an ``(N, 2)`` array whose pieces are separated by rows of NaN (the
 ``/truth/profile`` convention of sonarlog v1.1). Everything here is vectorised; distances
-go through a tree search of the polyline vertices (:mod:`sonarproc.surfaces.planar.nearest`) and
-then the exact distance to the two segments meeting at the nearest vertex.
+go through a k-d tree of the polyline vertices (:mod:`sonarproc.surfaces.planar.search`)
+and then the exact distance to the two segments meeting at the nearest vertex.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.planar.nearest import nearest_points
 from sonarproc.surfaces.planar.runs import ragged_arange
+from sonarproc.surfaces.planar.search import nearest_points
 
 __all__ = [
     "distance_to_polylines", "join_polylines", "resample", "resample_segments", "split_polylines",
@@ -165,9 +165,9 @@ def distance_to_polylines(
     lengths = np.array([len(p) for p in parts])
     first = np.repeat(np.cumsum(lengths) - lengths, lengths)
     last = first + np.repeat(lengths, lengths) - 1
-    bounds = np.concatenate(([0], np.cumsum(lengths)))
+    best_all, k_all = nearest_points(verts, q)
     for c0 in range(0, len(q), chunk):
         qq = q[c0 : c0 + chunk]
-        best, k = nearest_points(verts, qq, bounds=bounds)
+        best, k = best_all[c0 : c0 + chunk], k_all[c0 : c0 + chunk]
         out[c0 : c0 + chunk] = to_adjacent_segments(qq, verts, k, best, first[k], last[k])
     return out

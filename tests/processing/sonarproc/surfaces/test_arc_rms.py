@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sonarproc.surfaces.extraction.extract import SurfaceCells
-from sonarproc.surfaces.fitting.models import arc_candidate
+from sonarproc.surfaces.fitting.arcs import arc_candidate
 from sonarproc.surfaces.planar.polylines import distance_to_polylines
 
 

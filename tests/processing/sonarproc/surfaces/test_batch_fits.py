@@ -12,9 +12,11 @@ from hypothesis import strategies as st
 from sonarproc.surfaces.echoes import specular
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.arcs import fit_arc, fit_circles
 from sonarproc.surfaces.fitting.batch import fit_surface, fit_surfaces
-from sonarproc.surfaces.fitting.grouped import fit_circles, fit_lines, floor_rms
-from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit, fit_arc, fit_line
+from sonarproc.surfaces.fitting.grouped import floor_rms
+from sonarproc.surfaces.fitting.lines import fit_line, fit_lines
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.planar.polylines import resample, resample_segments
 
 CELL = 0.01

@@ -1,5 +1,5 @@
-"""Graph algorithms in numpy: hand-made graphs with exact answers, and scipy's csgraph as
-the oracle on random graphs (components, spanning forests, distances along a forest)."""
+"""The extraction's graphs: hand-made graphs with exact answers, and scipy's csgraph as the
+oracle of our spanning forest on random graphs."""
 
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
-from scipy.sparse.csgraph import dijkstra, minimum_spanning_tree
+from scipy.sparse.csgraph import minimum_spanning_tree
 
+from sonarproc.surfaces.extraction import graphs
 from sonarproc.surfaces.extraction.graphs import (
-    connected_components,
-    forest_distances,
-    forest_tours,
+    components,
     minimum_spanning_forest,
+    tree_distances,
 )
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
@@ -31,21 +31,6 @@ def _random_graph(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndar
     return pairs[:, 0], pairs[:, 1]
 
 
-def _random_forest(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """A random forest over n nodes: each node joins a random earlier one or starts a tree,
-    under a random numbering of the nodes; ends of an edge in either order."""
-    joins = rng.random(n) < 0.9
-    joins[0] = False
-    child = np.flatnonzero(joins)
-    parent = (rng.random(child.size) * child).astype(np.intp)  # an earlier node
-    relabel = rng.permutation(n)
-    i, j = relabel[child], relabel[parent]
-    swap = rng.random(i.size) < 0.5
-    i[swap], j[swap] = j[swap], i[swap]
-    order = rng.permutation(i.size)
-    return i[order], j[order]
-
-
 def _scipy_graph(n: int, i: np.ndarray, j: np.ndarray, w: np.ndarray) -> coo_matrix:
     """The edges as scipy takes them: each once, above the diagonal."""
     return coo_matrix((w, (np.minimum(i, j), np.maximum(i, j))), shape=(n, n))
@@ -55,22 +40,22 @@ def test_components_of_a_hand_made_graph() -> None:
     # 0-1-2 with a repeated edge and a self loop, 3 alone, 4-6 and 5-6
     i = [2, 0, 1, 6, 5, 1]
     j = [1, 1, 2, 4, 6, 1]
-    k, labels = connected_components(7, i, j)
+    k, labels = components(7, i, j)
     assert k == 3
     assert labels.tolist() == [0, 0, 0, 1, 2, 2, 2]
     assert labels.dtype == np.intp
 
 
 def test_components_of_no_nodes_and_of_no_edges() -> None:
-    k, labels = connected_components(0, [], [])
+    k, labels = components(0, [], [])
     assert (k, labels.tolist()) == (0, [])
-    k, labels = connected_components(3, [], [])
+    k, labels = components(3, [], [])
     assert (k, labels.tolist()) == (3, [0, 1, 2])
 
 
 def test_a_long_path_numbered_backwards_is_one_component() -> None:
     n = 5000
-    k, labels = connected_components(n, np.arange(n - 1, 0, -1), np.arange(n - 2, -1, -1))
+    k, labels = components(n, np.arange(n - 1, 0, -1), np.arange(n - 2, -1, -1))
     assert k == 1 and not labels.any()
 
 
@@ -80,15 +65,17 @@ def test_a_long_path_numbered_backwards_is_one_component() -> None:
 )
 def test_bad_edges_are_refused(i: list[int], j: list[int], message: str) -> None:
     with pytest.raises(ValueError, match=message):
-        connected_components(3, i, j)
+        components(3, i, j)
 
 
 @settings(max_examples=60, deadline=None)
 @given(SEEDS, st.integers(1, 80))
 def test_components_equal_scipys_labels(seed: int, n: int) -> None:
+    # the spanning forest's own hooking (its rounds join components with it) and ours
     rng = np.random.default_rng(seed)
     i, j = _random_graph(rng, n)
-    k, labels = connected_components(n, i, j)
+    assert graphs._components(n, i, j)[1].tolist() == components(n, i, j)[1].tolist()
+    k, labels = components(n, i, j)
     want_k, want = scipy_components(_scipy_graph(n, i, j, np.ones(i.size)), directed=False)
     assert k == want_k
     assert labels.tolist() == want.tolist()
@@ -145,56 +132,7 @@ def test_distances_along_a_hand_made_forest() -> None:
     i = [3, 1, 2, 4, 5]
     j = [0, 3, 3, 2, 6]
     w = [1.0, 2.0, 0.5, 0.25, 9.0]
-    tours = forest_tours(8, i, j)
-    assert tours.labels.tolist() == [0, 0, 0, 0, 0, 1, 1, 2]
-    got = forest_distances(tours, w, [4, 7])
+    got = tree_distances(8, i, j, w, [4, 7])
     assert got.tolist() == [1.75, 2.75, 0.25, 0.75, 0.0, np.inf, np.inf, 0.0]
-    # from another source in the same forest, the tours reused
-    assert forest_distances(tours, w, [1]).tolist()[:5] == [3.0, 0.0, 2.5, 2.0, 2.75]
-
-
-def test_distances_refuse_two_sources_in_one_tree() -> None:
-    tours = forest_tours(4, [0, 1], [1, 2])
-    with pytest.raises(ValueError, match="at most one source"):
-        forest_distances(tours, [1.0, 1.0], [0, 2])
-    assert forest_distances(tours, [1.0, 1.0], [2, 2, 3]).tolist() == [2.0, 1.0, 0.0, 0.0]
-
-
-@pytest.mark.parametrize(
-    ("i", "j", "labels"),
-    [
-        ([0, 1, 2], [1, 2, 0], None),  # a triangle
-        ([0, 0], [1, 1], None),  # a repeated edge
-        ([0, 1, 2], [1, 2, 0], [0, 0, 0, 0]),  # a triangle and a node apart, said one tree
-        ([0], [1], [0, 1, 1, 1]),  # an edge between two trees
-        ([0, 2], [1, 3], [0, 0, 0, 0]),  # two trees said to be one
-    ],
-)
-def test_tours_refuse_what_is_not_a_forest(
-    i: list[int], j: list[int], labels: list[int] | None
-) -> None:
-    with pytest.raises(ValueError, match=r"forest|two trees"):
-        forest_tours(4, i, j, labels=labels)
-
-
-@settings(max_examples=60, deadline=None)
-@given(SEEDS, st.integers(1, 300))
-def test_forest_distances_equal_dijkstras(seed: int, n: int) -> None:
-    rng = np.random.default_rng(seed)
-    i, j = _random_forest(rng, n)
-    w = rng.uniform(0.01, 1.0, i.size)
-    k, labels = connected_components(n, i, j)
-    # one source in about two trees of three, anywhere in the tree
-    pick = rng.random(k) < 0.7
-    by_tree = np.argsort(labels + rng.random(n), kind="stable")
-    firsts = np.searchsorted(labels[by_tree], np.arange(k))
-    sources = by_tree[firsts[pick]]
-    graph = _scipy_graph(n, i, j, w).tocsr()
-    want = np.full(n, np.inf)
-    if sources.size:
-        want = np.asarray(dijkstra(graph, directed=False, indices=sources, min_only=True))
-    for tours in (forest_tours(n, i, j), forest_tours(n, i, j, labels=labels)):
-        got = forest_distances(tours, w, sources)
-        assert np.array_equal(np.isinf(got), np.isinf(want))
-        finite = np.isfinite(want)
-        np.testing.assert_allclose(got[finite], want[finite], rtol=1e-12, atol=1e-12)
+    assert tree_distances(8, i, j, w, [1]).tolist()[:5] == [3.0, 0.0, 2.5, 2.0, 2.75]
+    assert np.isinf(tree_distances(3, [0], [1], [1.0], [])).all()

@@ -15,8 +15,6 @@ from hypothesis import strategies as st
 from sonarproc.grid import Grid
 from sonarproc.surfaces import SurfaceParams, extract_surfaces
 from sonarproc.surfaces.extraction.coarse import coarse_counts
-from sonarproc.surfaces.planar import neighbours
-from sonarproc.surfaces.planar.neighbours import close_pairs, nearest_in_run, nearest_within
 from sonarproc.surfaces.planar.runs import (
     ragged_arange,
     run_cumsum,
@@ -79,50 +77,6 @@ def _lattice_points(rng: np.random.Generator, n: int) -> np.ndarray:
     off = rng.random(n) < 0.3
     pts[off] += rng.normal(0.0, 0.01, (int(off.sum()), 2))
     return np.unique(pts, axis=0)
-
-
-@settings(max_examples=40, deadline=None)
-@given(SEEDS, st.sampled_from([0.05, 0.1 + 1e-9, 0.25]))
-def test_close_pairs_are_all_pairs_within_r(seed: int, r: float) -> None:
-    pos = _lattice_points(np.random.default_rng(seed), 400)
-    i, j, d2 = close_pairs(pos, r)
-    dx = pos[:, None, 0] - pos[None, :, 0]
-    dy = pos[:, None, 1] - pos[None, :, 1]
-    full = dx * dx + dy * dy
-    wi, wj = np.nonzero(np.triu(full <= r * r, k=1))
-    assert sorted(zip(i.tolist(), j.tolist(), strict=True)) == list(
-        zip(wi.tolist(), wj.tolist(), strict=True)
-    )
-    assert np.array_equal(d2, full[i, j])
-
-
-@settings(max_examples=40, deadline=None)
-@given(SEEDS)
-def test_nearest_searches_pick_the_lowest_index_of_the_nearest(seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    pos = _lattice_points(rng, 300)
-    group = rng.integers(0, 3, pos.shape[0])
-    is_target = rng.random(pos.shape[0]) < 0.4
-    targets, queries = np.flatnonzero(is_target), np.flatnonzero(~is_target)
-    dx = pos[queries, None, 0] - pos[None, targets, 0]
-    dy = pos[queries, None, 1] - pos[None, targets, 1]
-    d2 = np.where(group[queries, None] == group[None, targets], dx * dx + dy * dy, np.inf)
-    best = d2.min(axis=1)
-    want = np.where(np.isfinite(best), targets[np.argmin(d2, axis=1)], -1)
-    r = 0.2
-    dist, k = nearest_within(pos, queries, targets, group, r)
-    near = best <= r * r
-    assert np.array_equal(k, np.where(near, want, -1))
-    assert np.array_equal(dist, np.where(near, np.sqrt(best), np.inf))
-    # by run: the targets grouped, every query's group holding one
-    order = targets[np.argsort(group[targets], kind="stable")]
-    ids = np.unique(group[order])
-    ok = np.isin(group[queries], ids)
-    bounds = np.searchsorted(group[order], np.append(ids, ids.max() + 1))
-    run = np.searchsorted(ids, group[queries[ok]])
-    dist2, k2 = nearest_in_run(pos, queries[ok], order, bounds, run)
-    assert np.array_equal(k2, want[ok])
-    assert np.array_equal(dist2, np.sqrt(best[ok]))
 
 
 def _cells(points: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
@@ -252,20 +206,3 @@ def test_coarse_counts_sum_blocks_as_a_zero_padded_map(
     assert got.dtype == np.int64 and np.array_equal(got, want)
     assert (coarse.nx, coarse.ny, coarse.cell) == (want.shape[1], want.shape[0], k * 0.01)
     assert coarse.x0 == pytest.approx(0.3 + 0.5 * (k - 1) * 0.01)
-
-
-def test_nearest_in_run_through_the_tree_finds_equally_near_targets(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    rng = np.random.default_rng(7)
-    pos = _lattice_points(rng, 300)
-    targets = np.flatnonzero(rng.random(pos.shape[0]) < 0.4)
-    queries = np.setdiff1d(np.arange(pos.shape[0]), targets)
-    bounds = np.array([0, targets.size])
-    run = np.zeros(queries.size, dtype=np.intp)
-    brute = nearest_in_run(pos, queries, targets, bounds, run)
-    monkeypatch.setattr(neighbours, "BRUTE_FORCE_PAIRS", 0)
-    dist, k = nearest_in_run(pos, queries, targets, bounds, run)
-    assert np.array_equal(dist, brute[0])
-    dx, dy = (pos[k] - pos[queries]).T
-    assert np.array_equal(np.sqrt(dx * dx + dy * dy), dist)
