@@ -177,3 +177,26 @@ def test_layers_import_downwards_only(typing_only: bool) -> None:
     assert not upward, "imports from a higher layer:\n" + "\n".join(
         f"{m} -> {t}" for m, t in upward
     )
+
+
+#: The surface stage's subpackages, in the order they may import each other (each from
+#: those before it only).
+SURFACE_ORDER = ["planar", "extraction", "fitting", "echoes", "evaluation"]
+
+
+def test_surface_subpackages_import_in_order() -> None:
+    prefix = "sonarproc.surfaces."
+
+    def rank(module: str) -> int | None:
+        part = module[len(prefix) :].split(".")[0] if module.startswith(prefix) else ""
+        return SURFACE_ORDER.index(part) if part in SURFACE_ORDER else None
+
+    graph = import_graph()
+    assert any(rank(m) is not None for m in graph)
+    wrong = sorted(
+        (module, target)
+        for module, targets in graph.items()
+        for target in targets
+        if (r := rank(module)) is not None and (t := rank(target)) is not None and t > r
+    )
+    assert not wrong, "\n".join(f"{m} -> {t}" for m, t in wrong)

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.fit._models import FitFailure, FloatArray, PolarFit, PolyFit, SplineFit, as_floats
-from sonarproc.fit._smoothing import smoothing_spline
+from sonarproc.fit._smoothing import smoothing_bspline
 
 __all__ = ["check_bins", "fit_polar", "fit_polynomial", "fit_spline", "solve_normal"]
 
@@ -118,13 +118,15 @@ def fit_spline(
         As for :func:`fit_polynomial`.
     lam : float, optional
         Roughness penalty; ``None`` chooses it by generalised cross-validation
-        (:func:`scipy.interpolate.make_smoothing_spline`); both through
-        :func:`~sonarproc.fit.smoothing_spline`, the package's one smoothing spline.
+        (:func:`scipy.interpolate.make_smoothing_spline`). A given one is fitted by
+        :func:`~sonarproc.fit._smoothing.smoothing_bspline`, the same spline.
 
     Returns
     -------
     SplineFit or FitFailure
     """
+    from scipy.interpolate import make_smoothing_spline
+
     xa, ya, wa = as_floats(x), as_floats(y), as_floats(counts)
     failure = check_bins("spline", xa, ya, wa, 5, 3)
     if failure is not None:
@@ -133,8 +135,11 @@ def fit_spline(
     order = np.argsort(xa[keep], kind="stable")
     xk, yk, wk = xa[keep][order], ya[keep][order], wa[keep][order]
     try:
-        spl = smoothing_spline(xk, yk, wk, lam=lam)
-        knots, coef = as_floats(spl.t), as_floats(spl.c)
+        if lam is None:
+            spl = make_smoothing_spline(xk, yk, w=wk, lam=lam)
+            knots, coef = as_floats(spl.t), as_floats(spl.c)
+        else:
+            knots, coef = smoothing_bspline(xk, yk, wk, lam)
     except (ValueError, np.linalg.LinAlgError) as err:
         return FitFailure("spline", f"smoothing spline failed: {err}", 3)
     return SplineFit(

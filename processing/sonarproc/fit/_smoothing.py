@@ -1,9 +1,4 @@
-"""The package's one cubic smoothing spline: :func:`smoothing_spline`.
-
-With the smoothing chosen by generalised cross-validation it is
-:func:`scipy.interpolate.make_smoothing_spline`. At a given smoothing it is
-:func:`smoothing_bspline`, our own kernel, kept because ``--auto`` fits a hundred
-profiles per log at given smoothings and scipy's builds its bands point by point in Python.
+"""A cubic smoothing spline at a given smoothing, built without a loop per point.
 
 The spline minimises ``sum_i w_i (y_i - g(x_i))^2 + lam * integral g''(x)^2 dx``, the
 criterion of :func:`scipy.interpolate.make_smoothing_spline`, and this is the same
@@ -17,15 +12,10 @@ this is about ten times faster at that size.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import numpy.typing as npt
 
-if TYPE_CHECKING:
-    from scipy.interpolate import BSpline
-
-__all__ = ["smoothing_bspline", "smoothing_spline"]
+__all__ = ["smoothing_bspline"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -133,53 +123,3 @@ def smoothing_bspline(
         c[-1] * (2 * t[-4] - t[-5] - t[-6]) + c[-2],
     ]
     return t, np.asarray(coef, dtype=np.float64)
-
-
-def smoothing_spline(
-    x: npt.ArrayLike, y: npt.ArrayLike, w: npt.ArrayLike | None = None, *, lam: float | None = None
-) -> BSpline:
-    """The cubic smoothing spline of ``y(x)``: GCV smoothing unless ``lam`` is given.
-
-    Both the paper's profile spline (:func:`sonarproc.fit.fit_spline`) and the surfaces'
-    splines in arc length (:mod:`sonarproc.surfaces.fitting.splines`) are this one.
-
-    Parameters
-    ----------
-    x : array_like, shape (n,)
-        Strictly increasing abscissae, ``n >= 5``.
-    y : array_like, shape (n,)
-        Ordinates.
-    w : array_like, shape (n,), optional
-        Positive weights (default 1).
-    lam : float, optional
-        Roughness penalty; ``None`` chooses it by generalised cross-validation
-        (:func:`scipy.interpolate.make_smoothing_spline`).
-
-    Returns
-    -------
-    scipy.interpolate.BSpline
-
-    Raises
-    ------
-    ValueError
-        Fewer than 5 points, abscissae not increasing, a weight not positive.
-
-    Examples
-    --------
-    Points on a straight line are fitted exactly, whatever the smoothing:
-
-    >>> t = np.linspace(0.0, 1.0, 6)
-    >>> f = smoothing_spline(t, 2 * t + 1)
-    >>> np.round(f([0.25, 0.5]), 9).tolist()
-    [1.5, 2.0]
-    """
-    # imported here: scipy.interpolate is slow to import, and most runs fit no spline
-    from scipy.interpolate import BSpline, make_smoothing_spline
-
-    xa = np.asarray(x, dtype=np.float64).ravel()
-    ya = np.asarray(y, dtype=np.float64).ravel()
-    wa = np.ones_like(xa) if w is None else np.asarray(w, dtype=np.float64).ravel()
-    if lam is None:
-        return make_smoothing_spline(xa, ya, w=wa)
-    knots, coef = smoothing_bspline(xa, ya, wa, lam)
-    return BSpline(knots, coef, 3)

@@ -194,15 +194,6 @@ def choose_fit(
     return AutoFit("surfaces", str(criterion), found, detail)
 
 
-def _echo_geometry(beams: Beams) -> EchoGeometry:
-    """The readings as :class:`EchoGeometry` (its ``rows`` are rows of ``beams``)."""
-    tp = beams.poses
-    return EchoGeometry.from_beams(
-        tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
-        tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
-    )  # fmt: skip
-
-
 def _lines_first(
     counts: npt.NDArray[Any], grid: Grid, beams: Beams, spread: dict[str, float]
 ) -> AutoFit:
@@ -212,7 +203,7 @@ def _lines_first(
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """
-    echoes = _echo_geometry(beams)
+    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
     assert echoes.rows is not None  # made by from_beams
     segs, claimed = tangent_lines(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
@@ -256,7 +247,7 @@ def _lines_first(
 
 def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
     """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
-    echoes = _echo_geometry(beams)
+    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
     fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0

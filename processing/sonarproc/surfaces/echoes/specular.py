@@ -17,8 +17,8 @@ the surface's normal points at the sensor. For a surface and a reading:
   readings its search finds (arcs ending near the surface, see below), a lower bound;
   :func:`count_seen_through` tests every reading.
 
-All surfaces are tested at once. Candidate pairs come from radius searches (a grid of
-buckets, :func:`sonarproc.surfaces.planar.search.pairs_within`) between the surfaces'
+All surfaces are tested at once. Candidate pairs come from radius searches (k-d trees,
+:func:`sonarproc.surfaces.planar.search.pairs_within`) between the surfaces'
 centres and the readings' arc midpoints (every point of an arc lies within its chord's
 reach of the midpoint), surfaces and readings taken in
 classes of similar size; cheap range and bearing tests go next; the feet on straight
@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +46,9 @@ from sonarproc.surfaces.planar.feet import (
     straight_polylines,
 )
 from sonarproc.surfaces.planar.search import pairs_within
+
+if TYPE_CHECKING:
+    from sonarlog import TransducerPoses
 
 __all__ = ["EchoGeometry", "SurfaceEchoes", "count_seen_through", "echo_points"]
 
@@ -109,6 +112,17 @@ class EchoGeometry:
         ok = np.isfinite(rng) & np.all(np.isfinite(t), axis=1) & np.all(np.isfinite(r), axis=1)
         return cls(0.5 * (t + r)[ok], heading[ok], np.minimum(tb, rb)[ok], rng[ok],
                    np.flatnonzero(ok))  # fmt: skip
+
+    @classmethod
+    def of_poses(cls, poses: TransducerPoses, path: npt.ArrayLike) -> EchoGeometry:
+        """From a log's transducer poses and path lengths, as the pipeline and ``--auto`` hold them.
+
+        Its ``rows`` are the rows of ``poses`` (readings without a finite geometry dropped).
+        """
+        return cls.from_beams(
+            poses.tx_xy, poses.tx_heading, poses.rx_xy, poses.rx_heading, path,
+            tx_half_beamwidth=poses.tx_half_beamwidth, rx_half_beamwidth=poses.rx_half_beamwidth,
+        )  # fmt: skip
 
     @property
     def size(self) -> int:

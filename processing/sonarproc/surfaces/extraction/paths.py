@@ -18,8 +18,9 @@ from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
+from scipy.sparse import csr_matrix
 
-from sonarproc.surfaces.extraction.graphs import components, tree_distances
+from sonarproc.surfaces.extraction.graphs import components, graph_matrix, tree_distances
 from sonarproc.surfaces.planar.runs import bounds_of
 from sonarproc.surfaces.planar.search import nearest_in_run, nearest_within
 
@@ -82,19 +83,15 @@ def _argmax_per_group(values: FloatArray, order: IntArray, bounds: IntArray) -> 
     return np.asarray(np.maximum.reduceat(at_top, bounds[:-1]), dtype=np.intp)
 
 
-def _along(
-    forest: tuple[IntArray, IntArray, FloatArray, IntArray, IntArray],
-    sources: IntArray,
-    n: int,
-) -> FloatArray:
+def _along(forest: tuple[csr_matrix, IntArray, IntArray], sources: IntArray, n: int) -> FloatArray:
     """Distances along the active nodes' trees from ``sources`` (inf off them).
 
-    ``forest`` is the edges of the active nodes' forest (numbered among them), their
-    lengths, the active nodes and the number of each node among them.
+    ``forest`` is the active nodes' forest (:func:`graph_matrix`, numbered among them),
+    the active nodes and the number of each node among them.
     """
-    ei, ej, weight, act, local = forest
+    graph, act, local = forest
     d = np.full(n, np.inf)
-    d[act] = tree_distances(act.size, ei, ej, weight, local[sources])
+    d[act] = tree_distances(graph, local[sources])
     return d
 
 
@@ -199,7 +196,7 @@ def tree_paths(
         # the active nodes' trees (one per group), numbered among the active nodes
         local = np.full(n, -1, dtype=np.intp)
         local[act] = np.arange(act.size)
-        trees = (local[ei[keep]], local[ej[keep]], ew[keep], act, local)
+        trees = (graph_matrix(act.size, local[ei[keep]], local[ej[keep]], ew[keep]), act, local)
         d0 = _along(trees, first, n)
         u = _argmax_per_group(d0, order, bounds)
         du = _along(trees, u, n)

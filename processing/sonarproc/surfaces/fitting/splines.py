@@ -2,9 +2,9 @@
 
 The cells are averaged in bins of arc length (one cell, or the length over
 :data:`~sonarproc.surfaces.fitting.models.MAX_SPLINE_BINS` on long surfaces) and each
-coordinate gets the package's one cubic smoothing spline
-(:func:`sonarproc.fit.smoothing_spline`, :func:`scipy.interpolate.make_smoothing_spline`
-with the smoothing chosen by generalised cross-validation), weighted by the cells per bin.
+coordinate gets a cubic smoothing spline (:func:`sonarproc.fit.smoothing_spline`, the
+criterion of :func:`scipy.interpolate.make_smoothing_spline`, smoothing chosen by
+generalised cross-validation), weighted by the cells per bin.
 """
 
 from __future__ import annotations
@@ -37,11 +37,11 @@ def fit_spline(cells: SurfaceCells, *, cell: float) -> Candidate | SurfaceFailur
     yb = np.bincount(inv, weights=cells.y) / cnt
     w = cnt.astype(np.float64)
     try:
-        fx, fy = (smoothing_spline(sb, v, w) for v in (xb, yb))
+        spline = smoothing_spline(sb, np.stack((xb, yb), axis=1), w)
     except (ValueError, np.linalg.LinAlgError) as err:
         return SurfaceFailure(f"spline: {err}", cells.size)
     fine = np.linspace(sb[0], sb[-1], max(2, 4 * cnt.size))
-    dense = np.column_stack((fx(fine), fy(fine)))
+    dense = spline(fine)
     if not np.all(np.isfinite(dense)):
         return SurfaceFailure("spline: not finite", cells.size)
     poly = resample(dense, cell)

@@ -1,5 +1,5 @@
-"""The extraction's graphs: hand-made graphs with exact answers, and scipy's csgraph as the
-oracle of our spanning forest on random graphs."""
+"""The extraction's graphs (scipy's csgraph on edge lists): hand-made graphs with exact
+answers; the spanning forest's edges given back as indices into the list, whatever its order."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components as scipy_components
 from scipy.sparse.csgraph import minimum_spanning_tree
 
-from sonarproc.surfaces.extraction import graphs
 from sonarproc.surfaces.extraction.graphs import (
     components,
+    graph_matrix,
     minimum_spanning_forest,
     tree_distances,
 )
@@ -71,10 +71,8 @@ def test_bad_edges_are_refused(i: list[int], j: list[int], message: str) -> None
 @settings(max_examples=60, deadline=None)
 @given(SEEDS, st.integers(1, 80))
 def test_components_equal_scipys_labels(seed: int, n: int) -> None:
-    # the spanning forest's own hooking (its rounds join components with it) and ours
     rng = np.random.default_rng(seed)
     i, j = _random_graph(rng, n)
-    assert graphs._components(n, i, j)[1].tolist() == components(n, i, j)[1].tolist()
     k, labels = components(n, i, j)
     want_k, want = scipy_components(_scipy_graph(n, i, j, np.ones(i.size)), directed=False)
     assert k == want_k
@@ -102,6 +100,8 @@ def test_spanning_forest_refuses_bad_weights() -> None:
         minimum_spanning_forest(3, [0, 1], [1, 2], [1.0])
     with pytest.raises(ValueError, match="finite"):
         minimum_spanning_forest(3, [0, 1], [1, 2], [1.0, np.nan])
+    with pytest.raises(ValueError, match="> 0"):
+        minimum_spanning_forest(3, [0, 1], [1, 2], [1.0, 0.0])
 
 
 @settings(max_examples=60, deadline=None)
@@ -132,7 +132,8 @@ def test_distances_along_a_hand_made_forest() -> None:
     i = [3, 1, 2, 4, 5]
     j = [0, 3, 3, 2, 6]
     w = [1.0, 2.0, 0.5, 0.25, 9.0]
-    got = tree_distances(8, i, j, w, [4, 7])
+    g = graph_matrix(8, i, j, w)
+    got = tree_distances(g, [4, 7])
     assert got.tolist() == [1.75, 2.75, 0.25, 0.75, 0.0, np.inf, np.inf, 0.0]
-    assert tree_distances(8, i, j, w, [1]).tolist()[:5] == [3.0, 0.0, 2.5, 2.0, 2.75]
-    assert np.isinf(tree_distances(3, [0], [1], [1.0], [])).all()
+    assert tree_distances(g, [1]).tolist()[:5] == [3.0, 0.0, 2.5, 2.0, 2.75]
+    assert np.isinf(tree_distances(graph_matrix(3, [0], [1], [1.0]), [])).all()
