@@ -14,12 +14,12 @@ GCV score ``n * sum (y - g)^2 / (n - tr H)^2`` (unweighted residuals and ``lam``
 no per-trial Python loop and no banded solver per trial, and no import of
 :mod:`scipy.interpolate`.
 
-It is kept, for the surfaces' splines in arc length (at most 64 bins, two series), because
-it measured far faster than :func:`scipy.interpolate.make_smoothing_spline` on them: both
-series of 20 bins in 0.5 ms against scipy's 150 ms, of 64 bins in 104 ms against 551 ms
-(ratios 0.003 and 0.19, best of seven in one run on a loaded machine); the two splines
-differed by at most 0.5 mm there. The dense eigendecomposition is cubic in the knots, so
-the paper's profile spline (one knot per map column, up to thousands) stays scipy's
+It is kept, for the surfaces' splines in arc length (at most 64 bins, two series),
+because ``./scripts/bench`` (``tests/benchmarks/test_bench_surface_splines.py``) measures it
+far faster than :func:`scipy.interpolate.make_smoothing_spline` on them: ratios of 0.002 at
+20 bins and 0.003 at 64 (about 0.5 and 1.4 ms against 230 and 420 ms), the two splines at
+most 0.15 mm apart. The dense eigendecomposition is cubic in the knots, so the paper's
+profile spline (one knot per map column, up to thousands) stays scipy's
 (:func:`sonarproc.fit.fit_spline`).
 """
 

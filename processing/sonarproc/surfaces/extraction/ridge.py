@@ -9,8 +9,9 @@ a cell is kept when its smoothed count is at least the (bilinearly interpolated)
 count one cell away on both sides along that normal. Two parallel walls are two separate
 ridges, each a maximum along its own normal, so both survive, whatever their direction.
 
-The filters are :func:`scipy.ndimage.gaussian_filter`'s, run only inside the bounding box
-of the set cells (plus a margin); the comparisons are made only at set cells.
+The filters are :func:`scipy.ndimage.gaussian_filter`'s and the sampling between cells
+:func:`scipy.ndimage.map_coordinates`' (bilinear), run only inside the bounding box of the
+set cells (plus a margin); the comparisons are made only at set cells.
 """
 
 from __future__ import annotations
@@ -18,8 +19,6 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
-
-from sonarproc.surfaces.extraction.bilinear import bilinear_nearest
 
 __all__ = ["RIDGE_SIGMA_CELLS", "ridge_directions", "ridge_nms"]
 
@@ -141,8 +140,8 @@ def ridge_nms(
     smooth = ndimage.gaussian_filter(cc, sigma) if sigma > 0 else cc
     here = smooth.ravel()[flat]
     fy, fx = iy.astype(np.float64), ix.astype(np.float64)
-    ahead = bilinear_nearest(smooth, fy + ny, fx + nx)
-    behind = bilinear_nearest(smooth, fy - ny, fx - nx)
+    ahead = ndimage.map_coordinates(smooth, [fy + ny, fx + nx], order=1, mode="nearest")
+    behind = ndimage.map_coordinates(smooth, [fy - ny, fx - nx], order=1, mode="nearest")
     crest = (here >= ahead) & (here > behind)
     hits = np.zeros(mc.size, dtype=bool)
     hits[flat[crest]] = True

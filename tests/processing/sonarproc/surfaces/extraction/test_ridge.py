@@ -1,4 +1,4 @@
-"""The ridge through scipy.ndimage; our bilinear sampling against map_coordinates (to the bit)."""
+"""The ridge across each wall against the same ridge written out with scipy.ndimage."""
 
 from __future__ import annotations
 
@@ -8,48 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from sonarproc.surfaces.extraction import bilinear
-from sonarproc.surfaces.extraction.bilinear import bilinear_nearest
 from sonarproc.surfaces.extraction.ridge import HESSIAN_ORDERS, ridge_directions, ridge_nms
 
 SEEDS = st.integers(min_value=0, max_value=2**32 - 1)
-DTYPES = st.sampled_from([np.float32, np.float64, np.int64])
-
-
-def _counts(rng: np.random.Generator, ny: int, nx: int, dtype: type) -> np.ndarray:
-    """A sparse count map (zeros with a few hundred-count cells), or dense noise."""
-    if rng.random() < 0.5:
-        c = rng.integers(0, 300, (ny, nx)) * (rng.random((ny, nx)) < 0.3)
-    else:
-        c = rng.random((ny, nx)) * 50
-    return np.asarray(c).astype(dtype)
-
-
-@settings(max_examples=60, deadline=None)
-@given(SEEDS, st.integers(1, 30), st.integers(1, 30), DTYPES)
-def test_bilinear_nearest_is_map_coordinates_to_the_bit(
-    seed: int, ny: int, nx: int, dtype: type
-) -> None:
-    rng = np.random.default_rng(seed)
-    a = _counts(rng, ny, nx, dtype)
-    y = rng.uniform(-3.0, ny + 2.0, 200)
-    x = rng.uniform(-3.0, nx + 2.0, 200)
-    y[:20] = np.round(y[:20])  # on cell centres and exactly on the last row
-    x[20:40] = nx - 1
-    got = bilinear_nearest(a, y, x)
-    want = ndimage.map_coordinates(a.astype(got.dtype), [y, x], order=1, mode="nearest")
-    assert got.dtype == want.dtype
-    assert np.array_equal(got, want)
-
-
-def test_bilinear_nearest_in_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
-    rng = np.random.default_rng(3)
-    a = rng.random((20, 30)).astype(np.float32)
-    y, x = rng.uniform(0, 19, (2, 3, 50))
-    monkeypatch.setattr(bilinear, "CHUNK", 7)
-    got = bilinear_nearest(a, y, x)
-    assert got.shape == (3, 50)
-    assert np.array_equal(got, ndimage.map_coordinates(a, [y, x], order=1, mode="nearest"))
 
 
 def _ridge_nms_scipy(mask: np.ndarray, counts: np.ndarray) -> np.ndarray:
@@ -109,8 +70,6 @@ def test_ridge_directions_use_the_same_filters() -> None:
 
 def test_bad_shapes_are_refused() -> None:
     with pytest.raises(ValueError, match="2-D"):
-        bilinear_nearest(np.zeros(5), [1.0], [1.0])
-    with pytest.raises(ValueError, match="2-D"):
         ridge_nms(np.zeros(5, bool), np.zeros(5))
     with pytest.raises(ValueError, match="one shape"):
-        bilinear_nearest(np.zeros((4, 4)), [1.0, 2.0], [1.0])
+        ridge_nms(np.zeros((4, 4), bool), np.zeros((3, 4)))
