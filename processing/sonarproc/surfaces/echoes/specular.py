@@ -1,5 +1,9 @@
 """Where each reading reflected: the specular echo points of readings on surfaces.
 
+This is the package's one implementation of echo points: the surface refits use it, and
+so can ``--auto`` with a profile sampled as a polyline, its readings as
+:meth:`EchoGeometry.of_poses` (``rows`` maps the echoes back to the readings).
+
 A sonar's range arc is tangent to the surface that reflected it, at the one point where
 the surface's normal points at the sensor. For a surface and a reading:
 
@@ -118,6 +122,16 @@ class EchoGeometry:
         """From a log's transducer poses and path lengths, as the pipeline and ``--auto`` hold them.
 
         Its ``rows`` are the rows of ``poses`` (readings without a finite geometry dropped).
+
+        Examples
+        --------
+        >>> from sonarlog import TransducerPoses
+        >>> xy, one = np.array([[0.0, 0.0], [np.nan, 0.0]]), np.full(2, 0.2)
+        >>> poses = TransducerPoses(xy, np.zeros(2), xy, np.zeros(2), one, one,
+        ...                         np.zeros(2), np.full(2, 5.0))
+        >>> g = EchoGeometry.of_poses(poses, [2.0, 2.0])
+        >>> g.range_m.tolist(), g.rows.tolist()
+        ([1.0], [0])
         """
         return cls.from_beams(
             poses.tx_xy, poses.tx_heading, poses.rx_xy, poses.rx_heading, path,
