@@ -8,7 +8,7 @@ wall (a vote of :data:`SURFACE_VOTES` arcs, then the ridge across each wall's ow
 direction), and decides by :func:`sonarproc.surfaces.decide`: still one function of x,
 or several surfaces, each fitted with a line, an arc or a spline. Given the readings,
 each surface is then refitted through its readings' specular echo points
-(:mod:`sonarproc.surfaces.echoes`): the crest of the counts lies on the sensors' side of
+(:mod:`sonarproc.surfaces.echoes.refine`): the crest of the counts lies on the sensors' side of
 a surface, the echo points on it. As that refit sets the precision, the surfaces are
 then extracted on a map of :data:`EXTRACT_CELL_M` cells (the counts summed over blocks;
 on a 1 cm map, a quarter of the cells and far fewer chance ridges).
@@ -43,9 +43,9 @@ from sonarproc.surfaces import (
     surface_metrics,
     truth_points,
 )
-from sonarproc.surfaces.coarse import coarse_counts
-from sonarproc.surfaces.echoes import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
-from sonarproc.surfaces.tangents import tangent_lines
+from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
+from sonarproc.surfaces.echoes.tangents import tangent_lines
+from sonarproc.surfaces.extraction.coarse import coarse_counts
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -194,25 +194,16 @@ def choose_fit(
     return AutoFit("surfaces", str(criterion), found, detail)
 
 
-def _echo_geometry(beams: Beams) -> EchoGeometry:
-    """The readings as :class:`EchoGeometry` (its ``rows`` are rows of ``beams``)."""
-    tp = beams.poses
-    return EchoGeometry.from_beams(
-        tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
-        tx_half_beamwidth=tp.tx_half_beamwidth, rx_half_beamwidth=tp.rx_half_beamwidth,
-    )  # fmt: skip
-
-
 def _lines_first(
     counts: npt.NDArray[Any], grid: Grid, beams: Beams, spread: dict[str, float]
 ) -> AutoFit:
     """A long log's surfaces: walls from the readings' tangent votes, the rest from the map.
 
-    The walls (:func:`sonarproc.surfaces.tangents.tangent_lines`) explain most readings
+    The walls (:func:`sonarproc.surfaces.echoes.tangents.tangent_lines`) explain most readings
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """
-    echoes = _echo_geometry(beams)
+    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
     assert echoes.rows is not None  # made by from_beams
     segs, claimed = tangent_lines(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
@@ -256,7 +247,7 @@ def _lines_first(
 
 def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
     """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
-    echoes = _echo_geometry(beams)
+    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
     fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0

@@ -14,39 +14,38 @@ room sees several walls, corners, boxes and pillars; this package finds them sep
    (the crest of the counts lies on the sensors' side of a surface);
 4. :func:`surface_metrics` and :func:`seen_truth` measure fits against a multi-surface
    truth; :func:`write_surfaces_csv` and :func:`write_surfaces_geojson` write them.
+
+The subpackages, by job: :mod:`.extraction` (ridge, paths, corners), :mod:`.fitting`
+(lines, arcs, splines and the choice), :mod:`.echoes` (echo points, the one
+implementation, and the refits through them), :mod:`.evaluation` (truth, seen, writers);
+:mod:`.planar` is the plane geometry they share. Each imports only from those before it
+in the order planar, extraction, fitting, echoes, evaluation.
 """
 
-from sonarproc.surfaces.batchfit import fit_surface, fit_surfaces
-from sonarproc.surfaces.echoes import refine_fits
-from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
-from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
-from sonarproc.surfaces.models import (
-    SurfaceFailure,
-    SurfaceFit,
-    choose_model,
-    fit_arc,
-    fit_line,
-    fit_spline,
+from sonarproc.surfaces.echoes.refine import refine_fits
+from sonarproc.surfaces.echoes.specular import (
+    EchoGeometry,
+    SurfaceEchoes,
+    count_seen_through,
+    echo_points,
 )
-from sonarproc.surfaces.polylines import (
-    distance_to_polylines,
-    join_polylines,
-    resample,
-    split_polylines,
-)
-from sonarproc.surfaces.ridge import ridge_directions, ridge_nms
-from sonarproc.surfaces.specular import EchoGeometry, SurfaceEchoes, count_seen_through, echo_points
-from sonarproc.surfaces.truth import (
+from sonarproc.surfaces.evaluation.truth import (
     SurfaceMetrics,
     seen_truth,
     surface_metrics,
     truth_is_function,
     truth_points,
 )
-from sonarproc.surfaces.writers import (
-    surfaces_geojson,
-    write_surfaces_csv,
-    write_surfaces_geojson,
+from sonarproc.surfaces.evaluation.writers import write_surfaces_csv, write_surfaces_geojson
+from sonarproc.surfaces.extraction.extract import SurfaceCells, SurfaceParams, extract_surfaces
+from sonarproc.surfaces.extraction.ridge import ridge_nms
+from sonarproc.surfaces.find import Decision, SurfaceSet, decide, find_surfaces
+from sonarproc.surfaces.fitting.batch import fit_surface, fit_surfaces
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.planar.polylines import (
+    distance_to_polylines,
+    join_polylines,
+    split_polylines,
 )
 
 __all__ = [
@@ -59,28 +58,20 @@ __all__ = [
     "SurfaceMetrics",
     "SurfaceParams",
     "SurfaceSet",
-    "cells_of",
-    "choose_model",
     "count_seen_through",
     "decide",
     "distance_to_polylines",
     "echo_points",
     "extract_surfaces",
     "find_surfaces",
-    "fit_arc",
-    "fit_line",
-    "fit_spline",
     "fit_surface",
     "fit_surfaces",
     "join_polylines",
     "refine_fits",
-    "resample",
-    "ridge_directions",
     "ridge_nms",
     "seen_truth",
     "split_polylines",
     "surface_metrics",
-    "surfaces_geojson",
     "truth_is_function",
     "truth_points",
     "write_surfaces_csv",

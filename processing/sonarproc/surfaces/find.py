@@ -1,9 +1,9 @@
 """From a processed map to fitted surfaces, and the auto decision one curve / surfaces.
 
 :func:`find_surfaces` is the stage the pipeline runs after the morphological operations:
-kept cells -> :func:`~sonarproc.surfaces.extract.extract_surfaces` -> one
-:func:`~sonarproc.surfaces.models.fit_surface` per surface (all straight ones at once:
-:mod:`sonarproc.surfaces.batchfit`). Nothing kept (or nothing long
+kept cells -> :func:`~sonarproc.surfaces.extraction.extract.extract_surfaces` -> one
+:func:`~sonarproc.surfaces.fitting.models.fit_surface` per surface (all straight ones at once:
+:mod:`sonarproc.surfaces.fitting.batch`). Nothing kept (or nothing long
 enough) gives an empty :class:`SurfaceSet` with a ``reason``, never an exception.
 
 :func:`decide` says whether the kept cells are one surface that is a function of x (the
@@ -25,9 +25,14 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.grid import Grid
-from sonarproc.surfaces.batchfit import fit_surfaces
-from sonarproc.surfaces.extract import SurfaceCells, SurfaceParams, cells_of, extract_surfaces
-from sonarproc.surfaces.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.extraction.extract import (
+    SurfaceCells,
+    SurfaceParams,
+    cells_of,
+    extract_surfaces,
+)
+from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 
 __all__ = ["Decision", "SurfaceSet", "decide", "find_surfaces"]
 
@@ -88,7 +93,7 @@ def find_surfaces(
     ----------
     processed : array_like of bool, shape grid.shape
         The cells kept by the morphological stage (e.g. ``vote:auto`` then
-        :func:`~sonarproc.surfaces.ridge.ridge_nms`).
+        :func:`~sonarproc.surfaces.extraction.ridge.ridge_nms`).
     grid : Grid
         The map's grid.
     counts : array_like of int, optional

@@ -1,0 +1,252 @@
+"""Sound does not pass through walls: of two surfaces that contradict, the weaker goes.
+
+An echo travelled in a straight line from the sensor to its echo point and back, so no
+surface can stand across that path. When the echo paths of surface ``a`` cross surface
+``b``, one of them is wrong: either ``a`` is a phantom seen through ``b`` (the double
+reflections of a room's corner arrive late and map to points behind the walls), or ``b``
+is a phantom standing in free space that the sound crossed. Where at least
+:data:`MIN_CROSSINGS` paths of one surface cross another, the surface with fewer echoes
+is dropped; the strongest contradictions are settled first. A path's last
+:data:`END_MARGIN_M` are not tested, so that surfaces meeting at a corner do not
+contradict each other. A surface's ends are uncertain (a fit is stretched over its ridge
+by up to :data:`~sonarproc.surfaces.echoes.refine.MAX_STRETCH_M`): crossings within
+:data:`END_ZONE_M` of its ends do not make it lose, though they still count against the
+surface whose paths they are (a phantom seen through a wall near a corner).
+
+Walls seen from the middle of a room are found short of its corners: the readings near a
+corner echo from its double reflections, not from the walls. The late echoes of those
+reflections map to phantoms just behind the corner, and their paths pass between the
+walls' ends. So two straight surfaces at least :data:`CORNER_MIN_LENGTH_M` long that
+would meet at an angle of at least :data:`CORNER_MIN_DEG` within
+:data:`CORNER_REACH_M` of both are completed to their corner for this test
+(:func:`corner_extensions`); a path crossing such an extension counts against its own
+surface only, as crossings near an end do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.planar.feet import straight_polylines
+
+__all__ = [
+    "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
+    "MIN_CROSSINGS", "contradicted", "corner_extensions", "segment_crossings",
+]  # fmt: skip
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Echo paths of one surface that must cross another before the two contradict.
+MIN_CROSSINGS = 3
+#: The end of each echo path (m) left out of the test.
+END_MARGIN_M = 0.15
+#: Crossings this close (m) to a surface's ends do not make it lose.
+END_ZONE_M = 0.30
+#: Straight surfaces at least this long (m) are completed to the corners they would make...
+CORNER_MIN_LENGTH_M = 1.0
+#: ... with another at an angle of at least this (degrees)...
+CORNER_MIN_DEG = 45.0
+#: ... when the corner is at most this far (m) beyond the end of each.
+CORNER_REACH_M = 1.0
+#: Echo paths tested against all segments at once, at most (bounds the memory).
+_CHUNK = 4096
+
+
+def _segments(
+    polyline: FloatArray, step: int, straight: bool
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Segments of a polyline thinned to every ``step``-th vertex (ends kept), and the
+    arc length of each segment's start; a straight polyline is one segment."""
+    p = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
+    if straight:
+        return p[:1], p[-1:], np.zeros(1)
+    keep = np.unique(np.r_[np.arange(0, len(p), max(step, 1)), len(p) - 1])
+    q = p[keep]
+    s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(q, axis=0).T))))
+    return q[:-1], q[1:], s[:-1]
+
+
+def _straight(polys: list[FloatArray]) -> npt.NDArray[np.bool_]:
+    return straight_polylines(polys, np.array([len(p) >= 2 for p in polys], dtype=bool))
+
+
+def corner_extensions(
+    polylines: list[FloatArray], *, straight: npt.NDArray[np.bool_] | None = None
+) -> tuple[npt.NDArray[np.intp], FloatArray, FloatArray]:
+    """The stretches that complete long straight surfaces to their corners (module notes).
+
+    ``straight``: which polylines are straight, if known
+    (:func:`~sonarproc.surfaces.planar.feet.straight_polylines`).
+
+    Returns
+    -------
+    owner : ndarray of int, shape (X,)
+        The surface each stretch extends.
+    start, end : ndarray, shape (X, 2)
+        The stretch: from the surface's end to the corner.
+
+    Examples
+    --------
+    Two walls of a room found 0.6 m short of their corner at the origin:
+
+    >>> bottom = np.array([[0.6, 0.0], [4.0, 0.0]]); left = np.array([[0.0, 4.0], [0.0, 0.6]])
+    >>> owner, start, end = corner_extensions([bottom, left])
+    >>> owner.tolist(), start.tolist(), np.round(end, 9).tolist()
+    ([0, 1], [[0.6, 0.0], [0.0, 0.6]], [[0.0, 0.0], [0.0, 0.0]])
+    """
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    if straight is None:
+        straight = _straight(polys)
+    idx = np.array(
+        [i for i, p in enumerate(polys)
+         if straight[i] and float(np.hypot(*(p[-1] - p[0]))) >= CORNER_MIN_LENGTH_M],
+        dtype=np.intp,
+    )  # fmt: skip
+    none = (np.zeros(0, np.intp), np.zeros((0, 2)), np.zeros((0, 2)))
+    if idx.size < 2:
+        return none
+    a = np.array([polys[i][0] for i in idx])
+    b = np.array([polys[i][-1] for i in idx])
+    length = np.hypot(*(b - a).T)
+    d = (b - a) / length[:, None]
+    i, j = np.triu_indices(idx.size, k=1)
+    den = d[i, 0] * d[j, 1] - d[i, 1] * d[j, 0]
+    corner = np.abs(den) >= np.sin(np.radians(CORNER_MIN_DEG))
+    i, j, den = i[corner], j[corner], den[corner]
+    w = a[j] - a[i]
+    t = (w[:, 0] * d[j, 1] - w[:, 1] * d[j, 0]) / den  # along i, from its first point
+    u = (w[:, 0] * d[i, 1] - w[:, 1] * d[i, 0]) / den  # along j
+    gap_i = np.maximum(np.maximum(-t, t - length[i]), 0.0)
+    gap_j = np.maximum(np.maximum(-u, u - length[j]), 0.0)
+    near = (gap_i <= CORNER_REACH_M) & (gap_j <= CORNER_REACH_M)
+    owners, starts, ends = [], [], []
+    for k, along, gap in ((i, t, gap_i), (j, u, gap_j)):
+        sel = near & (gap > 0)
+        kk, tt = k[sel], along[sel]
+        end = a[kk] + d[kk] * tt[:, None]
+        start = np.where((tt < 0)[:, None], a[kk], b[kk])
+        owners.append(idx[kk])
+        starts.append(start)
+        ends.append(end)
+    return np.concatenate(owners), np.concatenate(starts), np.concatenate(ends)
+
+
+def segment_crossings(
+    a0: FloatArray, a1: FloatArray, b0: FloatArray, b1: FloatArray
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp], FloatArray]:
+    """Proper crossings of segments ``a0 a1`` (rows) with ``b0 b1`` (columns).
+
+    Returns the row and column of every crossing and how far along its ``b`` segment
+    (0 to 1) it lies.
+    """
+    # direct differences (no precomputed directions), so that touching ends give
+    # orientations of exactly 0; coordinates broadcast (rows, 1) against (1, cols)
+    ax0, ay0, ax1, ay1 = (v[:, None] for v in (a0[:, 0], a0[:, 1], a1[:, 0], a1[:, 1]))
+    bx0, by0, bx1, by1 = (v[None, :] for v in (b0[:, 0], b0[:, 1], b1[:, 0], b1[:, 1]))
+    dax, day = ax1 - ax0, ay1 - ay0
+    s1 = np.sign(dax * (by0 - ay0) - day * (bx0 - ax0))
+    s2 = np.sign(dax * (by1 - ay0) - day * (bx1 - ax0))
+    # b's ends on both sides of a's line first (few pairs), then a's ends about b's line
+    rows, cols = np.nonzero(s1 * s2 < 0)
+    p0, p1, q0 = a0[rows], a1[rows], b0[cols]
+    dq = b1[cols] - q0
+    s3 = np.sign(dq[:, 0] * (p0[:, 1] - q0[:, 1]) - dq[:, 1] * (p0[:, 0] - q0[:, 0]))
+    s4 = np.sign(dq[:, 0] * (p1[:, 1] - q0[:, 1]) - dq[:, 1] * (p1[:, 0] - q0[:, 0]))
+    both = s3 * s4 < 0
+    rows, cols = rows[both], cols[both]
+    # a0 + t da = b0 + u db  ->  u = cross(a0 - b0, da) / cross(db, da)
+    da = (a1 - a0)[rows]
+    db = (b1 - b0)[cols]
+    ab = a0[rows] - b0[cols]
+    u = (ab[:, 0] * da[:, 1] - ab[:, 1] * da[:, 0]) / (db[:, 0] * da[:, 1] - db[:, 1] * da[:, 0])
+    return rows, cols, u
+
+
+def contradicted(
+    polylines: list[FloatArray],
+    sensors: list[FloatArray],
+    points: list[FloatArray],
+    *,
+    cell: float,
+) -> list[int]:
+    """Indices of the surfaces to drop (see the module notes).
+
+    Parameters
+    ----------
+    polylines : list of ndarray, shape (K_i, 2)
+        The surfaces, sampled every cell.
+    sensors, points : list of ndarray, shape (E_i, 2)
+        Each surface's echoes: where each was sensed from and its echo point.
+    cell : float
+        Cell size (m) of the polylines' sampling; curved ones are tested on chords of
+        five samples.
+
+    Returns
+    -------
+    list of int
+        Sorted indices of the surfaces that lose a contradiction.
+
+    Examples
+    --------
+    A wall y = 1 with 30 echoes from below, and a phantom line at y = 1.5 whose five
+    echo paths pass through the wall: the phantom goes.
+
+    >>> x = np.linspace(-1, 1, 201)
+    >>> wall, phantom = np.c_[x, 1 + 0 * x], np.c_[x, 1.5 + 0 * x]
+    >>> xs = np.linspace(-0.9, 0.9, 30); xp = np.linspace(-0.5, 0.5, 5)
+    >>> contradicted([wall, phantom], [np.c_[xs, 0 * xs], np.c_[xp, 0 * xp]],
+    ...              [np.c_[xs, 1 + 0 * xs], np.c_[xp, 1.5 + 0 * xp]], cell=0.01)
+    [1]
+    """
+    m = len(polylines)
+    if m < 2:
+        return []
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in polylines]
+    straight = _straight(polys)
+    segs = [_segments(p, 5, bool(f)) for p, f in zip(polys, straight, strict=True)]
+    b0 = np.concatenate([g[0] for g in segs])
+    b1 = np.concatenate([g[1] for g in segs])
+    s0 = np.concatenate([g[2] for g in segs])
+    owner = np.repeat(np.arange(m), [len(g[0]) for g in segs])
+    # the completions to corners: crossings there count like those near an end
+    ext_owner, ext0, ext1 = corner_extensions(polys, straight=straight)
+    b0, b1 = np.concatenate((b0, ext0)), np.concatenate((b1, ext1))
+    s0 = np.concatenate((s0, np.full(ext_owner.size, -np.inf)))
+    owner = np.concatenate((owner, ext_owner))
+    total = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polylines])
+    echoes = np.array([len(p) for p in points], dtype=np.int64)
+    cross_any = np.zeros((m, m), dtype=np.int64)  # a's paths crossing b anywhere
+    cross_mid = np.zeros((m, m), dtype=np.int64)  # ... away from b's ends
+    for a in range(m):
+        s = np.asarray(sensors[a], dtype=np.float64).reshape(-1, 2)
+        e = np.asarray(points[a], dtype=np.float64).reshape(-1, 2)
+        if s.size == 0:
+            continue
+        v = e - s
+        length = np.hypot(*v.T)
+        e = s + v * (np.maximum(length - END_MARGIN_M, 0.0) / np.maximum(length, 1e-12))[:, None]
+        for c0 in range(0, len(s), _CHUNK):
+            rows, cols, u = segment_crossings(s[c0 : c0 + _CHUNK], e[c0 : c0 + _CHUNK], b0, b1)
+            crossed = owner[cols]
+            at = s0[cols] + u * np.hypot(*(b1 - b0)[cols].T)
+            mid = (at > END_ZONE_M) & (at < total[crossed] - END_ZONE_M)
+            for counts, sel in ((cross_any, slice(None)), (cross_mid, mid)):
+                # a path counts once per surface it crosses
+                pairs = np.unique(rows[sel] * m + crossed[sel])
+                np.add.at(counts[a], pairs % m, 1)
+    np.fill_diagonal(cross_any, 0)
+    np.fill_diagonal(cross_mid, 0)
+    # the pair's loser is the surface with fewer echoes; a crossed surface loses only to
+    # crossings away from its ends
+    a_loses = echoes[:, None] < echoes[None, :]
+    strength = np.where(a_loses, cross_any, cross_mid)
+    dropped: set[int] = set()
+    for flat in np.argsort(-strength, axis=None, kind="stable"):
+        owner_i, crossed_i = divmod(int(flat), m)
+        if strength[owner_i, crossed_i] < MIN_CROSSINGS:
+            break
+        if owner_i in dropped or crossed_i in dropped:
+            continue
+        dropped.add(owner_i if bool(a_loses[owner_i, crossed_i]) else crossed_i)
+    return sorted(dropped)

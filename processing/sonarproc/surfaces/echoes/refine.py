@@ -1,0 +1,236 @@
+"""Surfaces refitted through their readings' specular echo points.
+
+A sonar's range arc is tangent to the surface that reflected it, at the one point where
+the surface's normal points at the sensor, and lies on the sensor's side of the surface
+everywhere else. Where many arcs touch a surface at one point (the robot driving towards
+a wall, or round a pillar) the crest of the arc counts therefore lies on the sensors'
+side of the surface, and arcs crossing at a shallow angle (the tails of a bundle) make
+ridges where there is no surface at all. The ridge gives a first estimate of each
+surface; this module replaces it by the surface through the readings' echo points
+(:mod:`sonarproc.surfaces.echoes.specular`: the point at the measured range along the
+perpendicular from the sensor).
+
+The direction of the foot is the surface normal even when the estimate is displaced
+along it, so the echo points lie on the true surface: the refit removes the bias. Each
+surface is refitted (:func:`~sonarproc.surfaces.fitting.batch.fit_surfaces`, same criterion)
+through its echo points, twice, with the tolerances of :data:`ROUNDS_M` (a long log's
+first round scores a fixed random subset of :data:`FIRST_ROUND_READINGS` readings, with
+the fewest echoes scaled down alike: that round only weeds out the chance ridges, a
+thousand of them in an hour's log of a room, and refits the rest roughly for the last
+round, which scores every reading); a surface that
+fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
+:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point); so
+is one that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through
+(their range reaches beyond it: a chance crossing of arcs in free space, which the
+sound crossed; a real surface is seen through only by a stray long echo). The rounds
+count the readings whose arcs end near a surface; after the last, a surface fewer than
+:data:`WEAK_ECHOES` readings echo from is tested against every reading, between its
+outermost echo points (the phantoms have few echoes, and the sound that crossed them may
+end far behind; a fit's ends are stretched beyond its echoes, and sound passing the end
+of a box did not cross it).
+After every round a refitted line or open arc is stretched over the ridge cells within
+that round's tolerance of it (the ridge sees the surface further than the perpendiculars
+reach; and a fit through echo points ends at the outermost ones, whose feet would fall on
+its ends in the next round), by at most :data:`MAX_STRETCH_M` at each end. Before the
+first round the straight pieces that no reading of that round echoes from are dropped
+(:mod:`sonarproc.surfaces.echoes.screen`: half the chance ridges of an hour's log, found far
+faster than by that round) and the pieces of one wall are joined
+(:mod:`sonarproc.surfaces.fitting.merge`); after the last, of two surfaces that contradict each
+other the weaker goes (:mod:`sonarproc.surfaces.echoes.occlusion`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.occlusion import contradicted
+from sonarproc.surfaces.echoes.screen import screen_fits
+from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.extraction.extract import SurfaceCells
+from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.merge import merge_collinear
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.planar.polylines import resample
+
+__all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "ROUNDS_M", "refine_fits"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Range tolerances (m) of the refinement rounds: the first covers the ridge's bias.
+ROUNDS_M = (0.08, 0.03)
+#: Fewest echoing readings a surface needs to be kept.
+MIN_ECHOES = 5
+#: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
+#: double reflections, arriving at the corner's distance) say nothing of a direction.
+MIN_SPREAD_M = 0.10
+#: Largest share of the readings facing a surface (echoing from it or seeing through
+#: it) that may see through it; and fewer than :data:`MIN_SEEN_THROUGH` never count.
+MAX_SEEN_THROUGH = 0.25
+MIN_SEEN_THROUGH = 2
+#: Surfaces with fewer echoes are tested for readings seeing through against every reading.
+WEAK_ECHOES = 50
+#: The first round scores at most about this many readings (a random subset, the same
+#: for every run of a log); the last round scores every reading.
+FIRST_ROUND_READINGS = 20_000
+#: A refitted line or arc is stretched over nearby ridge cells by at most this (m) at
+#: each end.
+MAX_STRETCH_M = 0.25
+
+
+def _seen_through(echoing: int, through: int) -> bool:
+    """Whether too many of the readings facing a surface saw through it."""
+    return through >= MIN_SEEN_THROUGH and through > MAX_SEEN_THROUGH * (echoing + through)
+
+
+def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> SurfaceFit:
+    """Stretch a refitted line or open arc over the ridge cells within ``tol`` of it."""
+    if fit.closed or cells.size == 0:
+        return fit
+    x, y = cells.x, cells.y
+    if fit.model == "line":
+        c, t = np.asarray(fit.params["point"]), np.asarray(fit.params["direction"])
+        near = np.abs((x - c[0]) * -t[1] + (y - c[1]) * t[0]) <= tol
+        u0 = (fit.polyline - c) @ t
+        u = (np.stack((x, y), 1)[near] - c) @ t
+        u = np.clip(np.concatenate((u0, u)), u0.min() - MAX_STRETCH_M, u0.max() + MAX_STRETCH_M)
+        poly = resample(np.stack((c + t * u.min(), c + t * u.max())), cell)
+        if (fit.polyline[-1] - fit.polyline[0]) @ t < 0:
+            poly = poly[::-1]
+    elif fit.model == "arc":
+        cx, cy = fit.params["centre"]
+        r = float(fit.params["radius"])
+        near = np.abs(np.hypot(x - cx, y - cy) - r) <= tol
+        start, sweep = float(fit.params["start_rad"]), float(fit.params["sweep_rad"])
+        mid = start + 0.5 * sweep
+        ang = mid + (np.arctan2(y[near] - cy, x[near] - cx) - mid + math.pi) % (2 * math.pi)
+        ang -= math.pi
+        ends = np.array([start, start + sweep])
+        lo, hi = float(ends.min()), float(ends.max())
+        if ang.size:
+            reach = MAX_STRETCH_M / r
+            lo = max(min(lo, float(ang.min())), lo - reach)
+            hi = min(max(hi, float(ang.max())), hi + reach)
+        if hi - lo >= 2 * math.pi:
+            return fit
+        k = max(2, math.ceil((hi - lo) * r / cell) + 1)
+        phi = np.linspace(lo, hi, k)
+        poly = np.stack((cx + r * np.cos(phi), cy + r * np.sin(phi)), axis=1)
+        if sweep < 0:
+            poly = poly[::-1]
+    else:
+        return fit
+    length = float(np.hypot(*np.diff(poly, axis=0).T).sum())
+    return replace(fit, polyline=poly, length_m=length)
+
+
+def _scored(echoes: EchoGeometry, r: int, rounds: int, min_echoes: int) -> tuple[EchoGeometry, int]:
+    """The readings round ``r`` scores, and the fewest echoes it keeps a surface with.
+
+    Rounds before the last weed out chance ridges (a thousand in an hour's log): a fixed
+    subset of :data:`FIRST_ROUND_READINGS` readings does that at a fraction of the cost.
+    """
+    if r == rounds - 1 or echoes.size <= FIRST_ROUND_READINGS:
+        return echoes, min_echoes
+    frac = FIRST_ROUND_READINGS / echoes.size
+    keep = np.random.default_rng(0).random(echoes.size) < frac
+    return echoes.subset(keep), max(2, math.ceil(min_echoes * frac))
+
+
+def refine_fits(
+    fits: list[SurfaceFit],
+    cells: list[SurfaceCells],
+    echoes: EchoGeometry,
+    *,
+    cell: float,
+    rounds: tuple[float, ...] = ROUNDS_M,
+    min_echoes: int = MIN_ECHOES,
+    screen: bool = True,
+) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
+    """Refit surfaces through their readings' echo points (see the module notes).
+
+    Parameters
+    ----------
+    fits : list of SurfaceFit
+        The surfaces fitted to the ridge cells.
+    cells : list of SurfaceCells
+        Their ridge cells (same order).
+    echoes : EchoGeometry
+        The readings.
+    cell : float
+        Cell size (m): the polylines' step and the fits' unit.
+    rounds : tuple of float
+        Range tolerance (m) of each round.
+    min_echoes : int
+        A surface with fewer echoing readings is dropped.
+    screen : bool
+        Drop the straight pieces no reading echoes from before the rounds (the chance
+        ridges of a map; surfaces found from the readings themselves need no screen).
+
+    Returns
+    -------
+    fits, cells : list of SurfaceFit, list of SurfaceCells
+        The refitted surfaces (longest first) and their echo points as cells.
+    """
+    # straight pieces no reading of the first round echoes from go at once (most of the
+    # chance ridges); pieces of one wall cut apart on the ridge share its echoes: join them
+    cur, ridge = list(fits), list(cells)
+    if rounds and screen:
+        first, _ = _scored(echoes, 0, len(rounds), min_echoes)
+        cur, ridge = screen_fits(cur, ridge, first, tol=rounds[0])
+    cur, ridge = merge_collinear(cur, ridge, cell=cell)
+    pts_cells: list[SurfaceCells] = []
+    pts_idx: list[IntArray] = []
+    for r, tol in enumerate(rounds):
+        scored, need = _scored(echoes, r, len(rounds), min_echoes)
+        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
+        nxt: list[SurfaceFit] = []
+        nxt_ridge: list[SurfaceCells] = []
+        pts_cells, pts_idx = [], []
+        todo = [
+            k
+            for k, (idx, pts, _, through) in enumerate(got)
+            if idx.size >= need
+            and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
+            and not _seen_through(idx.size, through)
+        ]
+        sets = [
+            SurfaceCells(got[k][1][:, 0], got[k][1][:, 1], got[k][2] - got[k][2][0],
+                         np.ones(got[k][0].size), cur[k].closed)
+            for k in todo
+        ]  # fmt: skip
+        for k, ec, new in zip(todo, sets, fit_surfaces(sets, cell=cell), strict=True):
+            if isinstance(new, SurfaceFailure):
+                continue
+            # stretched over its ridge before the next round: a fit through echo points
+            # ends at the outermost ones, whose feet would then fall on its ends
+            nxt.append(_extend(replace(new, arcs=int(got[k][0].size)), ridge[k], tol, cell))
+            nxt_ridge.append(ridge[k])
+            pts_cells.append(ec)
+            pts_idx.append(got[k][0])
+        cur, ridge = nxt, nxt_ridge
+    weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
+    through = count_seen_through(
+        [cur[i].polyline for i in weak],
+        [cur[i].closed for i in weak],
+        echoes,
+        tol=rounds[-1],
+        confirmed=[np.stack((pts_cells[i].x, pts_cells[i].y), axis=1) for i in weak],
+    )
+    drop = {i for i, n in zip(weak, through, strict=True) if _seen_through(pts_idx[i].size, n)}
+    drop |= set(
+        contradicted(
+            [f.polyline for f in cur],
+            [echoes.xy[i] for i in pts_idx],
+            [np.stack((c.x, c.y), axis=1) for c in pts_cells],
+            cell=cell,
+        )
+    )
+    out = [f for i, f in enumerate(cur) if i not in drop]
+    pts_cells = [c for i, c in enumerate(pts_cells) if i not in drop]
+    order = sorted(range(len(out)), key=lambda i: -out[i].length_m)
+    return [out[i] for i in order], [pts_cells[i] for i in order]
