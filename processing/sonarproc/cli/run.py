@@ -23,6 +23,7 @@ from sonarproc.cli.options import (
     CellOption,
     CentreOption,
     DropCrosstalkOption,
+    FiguresOption,
     FitOption,
     OpsOption,
     OrderOption,
@@ -140,6 +141,7 @@ def run_command(
     robust: RobustOption = "none",
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
+    figures: FiguresOption = "png,svg",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
@@ -156,8 +158,10 @@ def run_command(
     from sonarproc.fit import FitFailure
     from sonarproc.pipeline import run_file
     from sonarproc.report import default_out_dir, write_report
+    from sonarproc.report.plots import parse_figure_formats
 
     with guarded():
+        formats = parse_figure_formats(figures)
         params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
@@ -181,7 +185,7 @@ def run_command(
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            doc = write_report(result, out_dir, auto=record)
+            doc = write_report(result, out_dir, auto=record, figures=formats)
         finally:
             progress.close()
         if result.surfaces is not None and not result.surfaces.surfaces:
