@@ -39,7 +39,7 @@ from sonarproc.report.plots import (
     processed_figure,
     render_figures,
 )
-from sonarproc.report.style import LINE_STYLES, SURFACE_COLOURS, surface_style, wrap_title
+from sonarproc.report.style import LINE_STYLES, SURFACE_COLOURS, surface_style
 from sonarproc.report.view import clip_polyline, view_box
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
@@ -104,7 +104,7 @@ def test_every_figure_is_a_150_dpi_png_and_an_svg(report: Path) -> None:
 
 def test_figures_are_labelled_maps_titled_with_the_log(result: RunResult) -> None:
     name = Path(result.source).name
-    x0, x1, y0, y1 = result.grid.extent
+    x0, x1, _, _ = result.grid.extent
     arc = arcmap_figure(result)
     assert len(arc.axes) == 2  # the map and its colour bar
     assert arc.axes[0].get_title().startswith(f"{name}: arc map")
