@@ -91,6 +91,7 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
+    from sonarproc.report.plots import map_label
     from sonarproc.report.units import length_cm, number, seconds
 
     m, c, g, fit = doc["metrics"], doc["counts"], doc["grid"], doc["fit"]
@@ -100,8 +101,8 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
     table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
     table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
-    table.add_row("operations", str(doc["parameters"]["ops"]))
-    fit_text = f"{fit['kind']}, order {fit['order']}"
+    table.add_row("operations", map_label(str(doc["parameters"]["ops"]), doc.get("auto")))
+    fit_text = "spline" if fit["kind"] == "spline" else f"{fit['kind']}, order {fit['order']}"
     if "surfaces" in doc:
         models = [s.get("model", "failed") for s in doc["surfaces"]]
         kinds = ", ".join(f"{models.count(k)} {k}" for k in sorted(set(models)))

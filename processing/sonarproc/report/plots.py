@@ -82,25 +82,23 @@ def parse_figure_formats(text: str) -> tuple[str, ...]:
     return tuple(f for f in FIGURE_FORMATS if f in words)
 
 
-def map_label(result: RunResult, auto: Mapping[str, Any] | None = None) -> str:
-    """What built the map: the operations (``thinning:3``) or, with ``--auto``, the method.
+def map_label(ops: str, auto: Mapping[str, Any] | None = None) -> str:
+    """What built the map: the operations ``ops`` or, with ``--auto``, the chosen method.
 
     ``auto`` is ``--auto``'s record (report.json's ``auto``): when it chose another
     method than the paper's morphology, the method is named, with its options.
 
-    >>> from types import SimpleNamespace as NS
-    >>> r = NS(params=NS(ops="thinning:3"))
-    >>> map_label(r), map_label(r, {"method": "arc-median", "options": {}})
+    >>> map_label("thinning:3"), map_label("thinning:3", {"method": "arc-median"})
     ('thinning:3', 'arc-median')
-    >>> map_label(r, {"method": "morphological", "options": {"ops": "closing"}})
+    >>> map_label("thinning:3", {"method": "morphological", "options": {"ops": "closing"}})
     'closing'
     """
     method = (auto or {}).get("method")
     options = dict((auto or {}).get("options") or {})
     if method is None:
-        return str(result.params.ops)
+        return ops
     if method == "morphological":
-        return str(options.get("ops", result.params.ops))
+        return str(options.get("ops", ops))
     opts = ", ".join(f"{k}={v}" for k, v in options.items())
     return f"{method} ({opts})" if opts else str(method)
 
@@ -185,8 +183,9 @@ def processed_figure(
 
     m = result.metrics
     extra = f", e = {number(m.e)}" if m.e is not None else ""
+    built = map_label(str(result.params.ops), auto)
     with style.drawing():
-        title = _title(result, f"after {map_label(result, auto)}: f_c = {number(m.f_c)}{extra}")
+        title = _title(result, f"after {built}: f_c = {number(m.f_c)}{extra}")
         fig, ax, _ = style.map_figure(result.grid.extent, title, legend_entries=1)
         shown = style.cells_rgba(_shown(result, cells), "black")
         ax.imshow(shown, extent=result.grid.extent, interpolation="none")

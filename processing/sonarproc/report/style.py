@@ -135,7 +135,7 @@ def wrap_title(text: str, width_in: float, size: float = TITLE_SIZE) -> str:
     ``width_in * 72 / (0.62 * size)`` characters; a long title wraps, it is never cut.
 
     >>> wrap_title("a " * 40, 3.0).count("\\n")
-    1
+    2
     """
     chars = max(int(width_in * 72.0 / (0.62 * size)), 10)
     return "\n".join(textwrap.wrap(text, chars, break_on_hyphens=False)) or text

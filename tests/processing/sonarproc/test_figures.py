@@ -224,7 +224,7 @@ def test_a_spline_is_called_a_spline(result: RunResult) -> None:
 
 def test_the_processed_title_names_the_map_auto_chose(result: RunResult) -> None:
     auto = {"method": "arc-median", "options": {}}
-    assert map_label(result) == "thinning:3"
+    assert map_label(result.params.ops) == "thinning:3"
     title = processed_figure(result, auto=auto).axes[0].get_title()
     assert "after arc-median:" in title and "thinning" not in title
     paper = {"method": "morphological", "options": {"ops": "closing,thinning:2"}}
