@@ -57,6 +57,8 @@ __all__ = [
 FIGURES = ("arcmap", "processed", "fit")
 #: The file formats a figure can be written in.
 FIGURE_FORMATS = ("png", "svg")
+#: zlib level of the PNGs (see :func:`figure_bytes`).
+PNG_COMPRESSION = 3
 
 
 def parse_figure_formats(text: str) -> tuple[str, ...]:
@@ -240,8 +242,13 @@ def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) ->
 def figure_bytes(fig: Figure, fmt: str) -> bytes:
     """``fig`` saved as ``fmt`` (``png`` at :data:`~sonarproc.report.style.DPI`, ``svg``)."""
     buf = io.BytesIO()
+    # zlib level 3 (the fast strategy): a third less time than the default 6 for a PNG
+    # about a fifth larger; the PNG's deflate is the largest single cost of a figure
+    extra: dict[str, Any] = (
+        {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
+    )
     with style.drawing():
-        fig.savefig(buf, format=fmt, dpi=style.DPI, metadata=_metadata(fmt))
+        fig.savefig(buf, format=fmt, dpi=style.DPI, metadata=_metadata(fmt), **extra)
     return buf.getvalue()
 
 
