@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.fit import FitFailure
-from sonarproc.pipeline import RunResult
+from sonarproc.pipeline.result import RunResult
 from sonarproc.report import style
 from sonarproc.report.units import length_cm, number
 from sonarproc.report.view import (
