@@ -23,6 +23,7 @@ from sonarproc.fit import FitFailure
 from sonarproc.methods.base import MethodResult
 from sonarproc.methods.compare import COLUMNS, comparison_doc
 from sonarproc.params import RunParams
+from sonarproc.pipeline.result import RunResult
 from sonarproc.report import style
 from sonarproc.report.auto_record import auto_record_html
 from sonarproc.report.plots import FIGURE_FORMATS, figure_bytes
@@ -126,11 +127,12 @@ def compare_figure(results: Sequence[MethodResult], source: str = "") -> Figure:
         handles = [
             Patch(facecolor="0.6", label="method's map (kept cells)"),
             Line2D([], [], label="true surface", **style.TRUTH_STYLE),
-            Line2D(
-                [], [], color=style.FIT_COLOUR, lw=style.FIT_WIDTH, label="fit (whole truth span)"
-            ),
         ]
-        if any(r.run.surfaces is not None and r.run.surfaces.surfaces for r in results):
+        drew = [r.run.surfaces is not None and bool(r.run.surfaces.surfaces) for r in results]
+        if not all(drew):  # some panel drew a single fit
+            fit = Line2D([], [], color=style.FIT_COLOUR, lw=style.FIT_WIDTH, label=FIT_LABEL)
+            handles.append(fit)
+        if any(drew):
             colour, dash = style.surface_style(0)
             handles.append(Line2D([], [], color=colour, ls=dash, lw=style.FIT_WIDTH,
                                   label="surfaces (one colour each)"))  # fmt: skip
@@ -169,12 +171,18 @@ def _panel(ax: Axes, r: MethodResult, view: tuple[float, float, float, float]) -
     elif not isinstance(run.fit, FitFailure):
         pts = clip_polyline(fit_curve(run.fit, run.truth, run.grid.cell), view)
         ax.plot(pts[:, 0], pts[:, 1], color=style.FIT_COLOUR, lw=style.FIT_WIDTH)
+    ax.set_title(f"{r.method}\n{_panel_note(run)}", fontsize=style.LABEL_SIZE)
+
+
+def _panel_note(run: RunResult) -> str:
+    """A panel's second title line: f_c, then E1, or the surfaces and their precision."""
     m = run.metrics
+    if run.surfaces is not None and run.surfaces.surfaces:
+        note = f"f_c {number(m.f_c)}, {len(run.surfaces.surfaces)} surfaces"
+        precision = (run.surface_metrics or {}).get("precision_m")
+        return note + (f", precision {length_cm(precision)}" if precision is not None else "")
     fit_note = "" if not isinstance(run.fit, FitFailure) else ", fit failed"
-    ax.set_title(
-        f"{r.method}\nf_c {number(m.f_c)}, E1 {length_cm(m.E1_m)}{fit_note}",
-        fontsize=style.LABEL_SIZE,
-    )
+    return f"f_c {number(m.f_c)}, E1 {length_cm(m.E1_m)}{fit_note}"
 
 
 def render_compare(

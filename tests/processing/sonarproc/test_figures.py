@@ -327,3 +327,21 @@ def test_compare_figure_is_a_labelled_grid(tmp_path: Path) -> None:
         "compare.csv", "compare.html", "compare.json"
     ]  # fmt: skip
     assert "<img" not in (tmp_path / "none" / "compare.html").read_text()
+
+
+def test_compare_panels_draw_each_methods_surfaces(result: RunResult) -> None:
+    from sonarproc.methods.base import MethodResult
+    from sonarproc.report.comparison import FIT_LABEL, compare_figure
+
+    runs = [MethodResult("a", {}, with_surfaces(result, 3)), MethodResult("b", {}, result)]
+    fig = compare_figure(runs, "room.h5")
+    first, second = (ax for ax in fig.axes if ax.axison)
+    assert first.get_title() == "a\n" + first.get_title().split("\n")[1]
+    assert "3 surfaces" in first.get_title() and "E1" in second.get_title()
+    colours = [ln.get_color() for ln in first.get_lines()[1:]]  # after the truth
+    assert colours == list(SURFACE_COLOURS[:3])
+    legend = [
+        t.get_text() for ax in fig.axes if ax.get_legend() for t in ax.get_legend().get_texts()
+    ]
+    legend += legend_labels(fig)
+    assert "surfaces (one colour each)" in legend and FIT_LABEL in legend
