@@ -143,9 +143,12 @@ def _report_s(stderr: str) -> tuple[float, float]:
     return float(wall), float(cpu)
 
 
-def _run(log: Path, out: Path, cell: float) -> tuple[float, int, dict[str, Any]]:
+def _run(
+    log: Path, out: Path, cell: float, figures: str = "png,svg"
+) -> tuple[float, int, dict[str, Any]]:
     args = ["-c", RUN, "run", str(log), "--out", str(out), "--cell", f"{cell:.6g}",
-            "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", "polar", "--json"]  # fmt: skip
+            "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", "polar", "--json",
+            "--figures", figures]  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     wall, peak, stdout, stderr = _child(args, out)
     doc = json.loads(stdout)
@@ -215,3 +218,41 @@ def test_bench_whole_run(tmp_path: Path) -> None:
         print(
             f"  {label:22s} {n:9d} {cl:10d} {w:8.2f} {tc:8.2f} {tc / base:12.2f} {p / 2**20:9.0f}"
         )
+
+
+@pytest.mark.benchmark
+def test_bench_figures(tmp_path: Path) -> None:
+    """What the figures cost: the 1-hour run with ``--figures png,svg`` and ``none``.
+
+    The two runs and the floor take turns (best of three each), so all three see the same
+    machine load; the figures' cost is the difference of the two runs' wall times, and
+    ``--figures none`` is also given as a ratio to the floor.
+    """
+    log = tmp_path / "hour.h5"
+    n = write_room_log(log, 1.0)
+    best: dict[str, float] = {"png,svg": np.inf, "none": np.inf, "floor": np.inf}
+    report: dict[str, tuple[float, float]] = {}
+    cells = arc_cells = 0
+    for _ in range(3):
+        for figures in ("png,svg", "none"):
+            wall, _, doc = _run(log, tmp_path / figures.replace(",", "-"), 0.01, figures)
+            best[figures] = min(best[figures], wall)
+            report[figures] = min(report.get(figures, (np.inf, np.inf)), doc["_report_s"])
+            cells = int(doc["grid"]["nx"]) * int(doc["grid"]["ny"])
+            arc_cells = int(doc["counts"]["arc_cells"])
+        fwall, _, _, _ = _child(["-c", FLOOR, str(log), str(arc_cells), str(cells)], tmp_path)
+        best["floor"] = min(best["floor"], fwall)
+    with_figs, none, floor = best["png,svg"], best["none"], best["floor"]
+    print(f"\nfigures on the 1-hour room run ({n} readings, {cells} cells), best of 3 in turns:")
+    print(
+        f"  wall: --figures png,svg {with_figs:.2f} s, --figures none {none:.2f} s, "
+        f"floor {floor:.2f} s"
+    )
+    print(
+        f"  figures add {with_figs - none:.2f} s (target <= 1.0 s); report writing CPU "
+        f"{report['png,svg'][1]:.2f} s with figures, {report['none'][1]:.2f} s without"
+    )
+    print(
+        f"  --figures none / floor = {none / floor:.2f} (target <= 2.5); "
+        f"png,svg / floor = {with_figs / floor:.2f}"
+    )

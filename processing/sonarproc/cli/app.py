@@ -94,6 +94,7 @@ PARAMETER_FLAGS = {
     "seed": "--seed",
     "out": "--out",
     "jobs": "--jobs",
+    "figures": "--figures",
 }
 
 

@@ -19,6 +19,7 @@ from sonarproc.cli.options import (
     BboxOption,
     CellOption,
     DropCrosstalkOption,
+    FiguresOption,
     FitOption,
     OpsOption,
     OrderOption,
@@ -112,6 +113,7 @@ def compare_command(
             help="Also export each method's map: ros-map, geojson, ply (comma-separated)."
         ),
     ] = None,
+    figures: FiguresOption = "png,svg",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print compare.json to stdout instead of a table.")
     ] = False,
@@ -128,8 +130,10 @@ def compare_command(
     from sonarproc.methods.compare import compare
     from sonarproc.pipeline import load_log
     from sonarproc.report.comparison import write_comparison
+    from sonarproc.report.plots import parse_figure_formats
 
     with guarded():
+        figure_formats = parse_figure_formats(figures)
         params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, drop_crosstalk=drop_crosstalk
         )
@@ -155,7 +159,9 @@ def compare_command(
             chosen_run, chosen, choice = run_auto(lg, params)
             results.append(replace(chosen_run, method="auto"))
             record = choice.to_json(chosen)
-        doc = write_comparison(str(log), params, results, out_dir, auto=record)
+        doc = write_comparison(
+            str(log), params, results, out_dir, auto=record, figures=figure_formats
+        )
         for r, row in zip(results, doc["methods"], strict=True):
             if formats:
                 write_exports(r, out_dir / "export", formats, log=lg)

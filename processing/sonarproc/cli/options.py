@@ -23,6 +23,7 @@ __all__ = [
     "CellOption",
     "CentreOption",
     "DropCrosstalkOption",
+    "FiguresOption",
     "FitOption",
     "OpsOption",
     "OrderOption",
@@ -91,6 +92,15 @@ SpanOption = Annotated[
     typer.Option(
         help="Metric columns: 'truth' (all the truth spans in the map, the paper) or "
         "'points' (only between the first and last column with points)."
+    ),
+]
+
+FiguresOption = Annotated[
+    str,
+    typer.Option(
+        "--figures",
+        metavar="FORMATS",
+        help="Figure files to write: png,svg, png, svg or none (no figure; fastest).",
     ),
 ]
 

@@ -23,6 +23,7 @@ from sonarproc.cli.options import (
     CellOption,
     CentreOption,
     DropCrosstalkOption,
+    FiguresOption,
     FitOption,
     OpsOption,
     OrderOption,
@@ -90,6 +91,7 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
 
+    from sonarproc.report.plots import map_label
     from sonarproc.report.units import length_cm, number, seconds
 
     m, c, g, fit = doc["metrics"], doc["counts"], doc["grid"], doc["fit"]
@@ -99,8 +101,8 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
     table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
     table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
-    table.add_row("operations", str(doc["parameters"]["ops"]))
-    fit_text = f"{fit['kind']}, order {fit['order']}"
+    table.add_row("operations", map_label(str(doc["parameters"]["ops"]), doc.get("auto")))
+    fit_text = "spline" if fit["kind"] == "spline" else f"{fit['kind']}, order {fit['order']}"
     if "surfaces" in doc:
         models = [s.get("model", "failed") for s in doc["surfaces"]]
         kinds = ", ".join(f"{models.count(k)} {k}" for k in sorted(set(models)))
@@ -140,6 +142,7 @@ def run_command(
     robust: RobustOption = "none",
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
+    figures: FiguresOption = "png,svg",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
@@ -156,8 +159,10 @@ def run_command(
     from sonarproc.fit import FitFailure
     from sonarproc.pipeline import run_file
     from sonarproc.report import default_out_dir, write_report
+    from sonarproc.report.plots import parse_figure_formats
 
     with guarded():
+        formats = parse_figure_formats(figures)
         params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
@@ -181,7 +186,7 @@ def run_command(
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            doc = write_report(result, out_dir, auto=record)
+            doc = write_report(result, out_dir, auto=record, figures=formats)
         finally:
             progress.close()
         if result.surfaces is not None and not result.surfaces.surfaces:

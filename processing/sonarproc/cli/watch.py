@@ -20,6 +20,7 @@ from sonarproc.cli.options import (
     CellOption,
     CentreOption,
     DropCrosstalkOption,
+    FiguresOption,
     FitOption,
     OpsOption,
     OrderOption,
@@ -57,13 +58,16 @@ def watch_command(
     drop_crosstalk: DropCrosstalkOption = False,
     robust: RobustOption = "none",
     span: SpanOption = "truth",
+    figures: FiguresOption = "png,svg",
 ) -> None:
     """Process a log while it is being written; keep the report directory current."""
     from sonarproc.pipeline.watch import watch
     from sonarproc.report import default_out_dir
+    from sonarproc.report.plots import parse_figure_formats
 
     stop = threading.Event()
     with guarded():
+        formats = parse_figure_formats(figures)
         if not (interval > 0):
             fail(f"--interval must be > 0 s, got {interval}")
         if not (idle >= 0):
@@ -92,6 +96,7 @@ def watch_command(
                 once=once,
                 truth=truth,
                 stop=stop,
+                figures=formats,
                 status=lambda line: typer.echo(f"sonarproc watch: {line}", err=True),
             )
         finally:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -51,6 +51,7 @@ def watch(
     truth: Path | None = None,
     stop: threading.Event | None = None,
     status: Callable[[str], None] | None = None,
+    figures: Sequence[str] = ("png", "svg"),
 ) -> WatchOutcome:
     """Follow ``log_path`` and keep ``out_dir`` up to date until told to stop.
 
@@ -75,6 +76,8 @@ def watch(
         Set it to stop (a final report is written first).
     status : callable, optional
         Called with a one-line summary after each update.
+    figures : sequence of str
+        Figure formats of each update (``png``, ``svg``); empty: no figures.
 
     Returns
     -------
@@ -154,8 +157,9 @@ def watch(
                     "final": final,
                 }
                 doc = write_report_atomic(
-                    result, out_dir, live=live, refresh_s=None if final else interval
-                )
+                    result, out_dir, live=live, refresh_s=None if final else interval,
+                    figures=figures,
+                )  # fmt: skip
                 if status is not None:
                     status(f"update {updates}: {seen} readings, {summary_line(doc)}")
         if final:

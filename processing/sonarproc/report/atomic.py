@@ -11,20 +11,23 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from sonarproc.pipeline.result import RunResult
-from sonarproc.report.run_report import REPORT_FILES
+from sonarproc.report.run_report import DEFAULT_FIGURES
 
 __all__ = ["write_report_atomic"]
 
-# report.json last: a reader that polls it sees the other files of that update already.
-_ORDER = (*(n for n in REPORT_FILES if n != "report.json"), "report.json")
-
 
 def write_report_atomic(
-    result: RunResult, out_dir: Path, *, live: dict[str, Any], refresh_s: float | None
+    result: RunResult,
+    out_dir: Path,
+    *,
+    live: dict[str, Any],
+    refresh_s: float | None,
+    figures: Sequence[str] = DEFAULT_FIGURES,
 ) -> dict[str, Any]:
     """Write a report directory with atomic per-file replacement.
 
@@ -38,6 +41,8 @@ def write_report_atomic(
         Added to ``report.json`` as ``live`` (updates, readings seen, writer state).
     refresh_s : float or None
         ``report.html`` reloads itself after this many seconds; None: no reload.
+    figures : sequence of str
+        Figure formats (``png``, ``svg``); empty: no figures.
 
     Returns
     -------
@@ -49,7 +54,7 @@ def write_report_atomic(
     out_dir.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=".watch-", dir=out_dir))
     try:
-        doc = write_report(result, tmp)
+        doc = write_report(result, tmp, figures=figures)
         doc["live"] = live
         (tmp / "report.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
         if refresh_s is not None:
@@ -57,7 +62,8 @@ def write_report_atomic(
             meta = f'<meta http-equiv="refresh" content="{max(1, round(refresh_s))}">'
             page = page.replace("<head>", "<head>" + meta, 1)
             (tmp / "report.html").write_text(page, encoding="utf-8")
-        for name in _ORDER:
+        # report.json last: a reader that polls it sees the other files of that update
+        for name in sorted(os.listdir(tmp), key=lambda n: (n == "report.json", n)):
             os.replace(tmp / name, out_dir / name)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -11,7 +11,6 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from sonarproc.auto.record import chosen_note, refit_row
 from sonarproc.report.units import MISSING
 
 __all__ = ["auto_record_html"]
@@ -35,6 +34,9 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
     >>> "0.4 cm" in page and "<td>b</td>" in page and "hull" in page
     True
     """
+    # imported here: a report without an --auto record need not load the --auto machinery
+    from sonarproc.auto.record import chosen_note, refit_row
+
     rows = [
         (f"<b>{html.escape(str(record['choice']))}</b>", record.get("fit_short"),
          record.get("residual_m"), chosen_note(record)),

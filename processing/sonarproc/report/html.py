@@ -1,6 +1,7 @@
-"""A self-contained ``report.html``: the three figures as data URIs, parameters, counts,
-fit and metrics tables. No scripts, no external resources; any browser or none (the
-tables read fine as text)."""
+"""A self-contained ``report.html``: the figures as data URIs, parameters, counts, fit and
+metrics tables. No scripts, no external resources; any browser or none (the tables read
+fine as text). The PNGs are embedded; a report with SVG figures only embeds those, and a
+report without figures (``--figures none``) says so instead of showing broken images."""
 
 from __future__ import annotations
 
@@ -15,7 +16,8 @@ from sonarproc.report.units import MISSING, length_cm, metric, seconds
 
 __all__ = ["render_html"]
 
-_SVGS = ("arcmap.svg", "processed.svg", "fit.svg")
+_STEMS = ("arcmap", "processed", "fit")
+_MIME = {"png": "image/png", "svg": "image/svg+xml"}
 
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:2em auto;max-width:1100px;color:#222}
@@ -82,7 +84,8 @@ def _grid_rows(grid: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _figure(name: str, data: bytes, caption: str) -> str:
-    uri = "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+    mime = _MIME[name.rsplit(".", 1)[-1]]
+    uri = f"data:{mime};base64," + base64.b64encode(data).decode("ascii")
     return (
         f'<figure><img src="{uri}" alt="{html.escape(name)}">'
         f"<figcaption>{html.escape(caption)} (<code>{html.escape(name)}</code>)"
@@ -98,7 +101,8 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
     doc : mapping
         :func:`sonarproc.report.report_dict` output.
     images : mapping of str to bytes
-        ``arcmap.png``, ``processed.png``, ``fit.png`` contents.
+        The figure files written (``arcmap.png``, ``fit.svg``...) and their contents:
+        each figure is shown once, as its PNG if there is one, else its SVG.
     """
     fit = dict(doc["fit"])
     fit_rows: dict[str, Any] = {"kind": fit.get("kind"), "order": fit.get("order")}
@@ -113,11 +117,24 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
             + _table(fit_rows)
         )
     captions = {
-        "arcmap.png": "Arc map: number of arcs through each cell",
-        "processed.png": "After the morphological operations",
-        "fit.png": "Processed map (grey), true surface (dashed), fit or surfaces (solid)",
+        "arcmap": "Arc map: number of arcs through each cell",
+        "processed": "The processed map",
+        "fit": "Processed map (grey), true surface (dashed), fit or surfaces (solid)",
     }
-    figures = "".join(_figure(n, images[n], captions.get(n, n)) for n in images)
+    shown = [
+        next(f"{stem}.{ext}" for ext in ("png", "svg") if f"{stem}.{ext}" in images)
+        for stem in _STEMS
+        if f"{stem}.png" in images or f"{stem}.svg" in images
+    ]
+    figures = "".join(_figure(n, images[n], captions[n.split(".")[0]]) for n in shown)
+    if not figures:
+        figures = "<p>No figures were written (<code>--figures none</code>).</p>"
+    svgs = [f"{stem}.svg" for stem in _STEMS if f"{stem}.svg" in images]
+    svg_links = (
+        "<p>Figures as vector graphics: " + ", ".join(f'<a href="{n}">{n}</a>' for n in svgs) + ". "
+        if svgs
+        else "<p>"
+    )
     title = f"sonarproc report: {doc['source']}"
     return (
         '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
@@ -140,8 +157,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         + _table(_grid_rows(doc["grid"]))
         + "<h2>Timings (wall)</h2>"
         + _table({k: seconds(v) for k, v in doc["timings_s"].items()})
-        + "<p>Figures as vector graphics: "
-        + ", ".join(f'<a href="{n}">{n}</a>' for n in _SVGS)
-        + ". Every number in SI units: <code>report.json</code>.</p>"
+        + svg_links
+        + "Every number in SI units: <code>report.json</code>.</p>"
         + "</body></html>\n"
     )

@@ -1,7 +1,8 @@
 """Write a run's report directory: report.json, profile.csv, three figures and report.html.
 
-Each figure is written twice: a 150 dpi PNG (embedded in ``report.html``) and a vector
-SVG beside it, for print.
+Each figure is written as a 150 dpi PNG (embedded in ``report.html``) and/or a vector SVG
+beside it, for print, as ``figures`` asks (``--figures``); with none, no figure is drawn
+and matplotlib is not imported.
 
 :func:`report_dict` is the single source of every number the files show; the writers only
 format it. The file set is documented in docs/formats.md.
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +26,12 @@ from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
 
 __all__ = [
+    "DEFAULT_FIGURES",
     "REPORT_FILES",
     "default_out_dir",
     "profile_points",
     "report_dict",
+    "report_files",
     "write_profile_csv",
     "write_report",
 ]
@@ -45,6 +49,19 @@ REPORT_FILES = (
     "fit.svg",
     "report.html",
 )
+#: The figure formats written when none are named (``--figures png,svg``).
+DEFAULT_FIGURES = ("png", "svg")
+
+
+def report_files(figures: Sequence[str] = DEFAULT_FIGURES) -> tuple[str, ...]:
+    """The files of :data:`REPORT_FILES` a report with figures in ``figures`` has.
+
+    >>> report_files(())
+    ('report.json', 'profile.csv', 'report.html')
+    """
+    return tuple(
+        n for n in REPORT_FILES if not n.endswith((".png", ".svg")) or n.rsplit(".")[1] in figures
+    )
 
 
 def default_out_dir(log_path: str | Path) -> Path:
@@ -130,11 +147,16 @@ def write_profile_csv(path: Path, points: npt.NDArray[np.float64]) -> None:
 
 
 def write_report(
-    result: RunResult, out_dir: str | Path, *, auto: dict[str, Any] | None = None
+    result: RunResult,
+    out_dir: str | Path,
+    *,
+    auto: dict[str, Any] | None = None,
+    figures: Sequence[str] = DEFAULT_FIGURES,
 ) -> dict[str, Any]:
-    """Write every file of :data:`REPORT_FILES` into ``out_dir``; return the report dict.
+    """Write the files of :func:`report_files` into ``out_dir``; return the report dict.
 
-    ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html).
+    ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html);
+    ``figures``: the figure formats (``png``, ``svg``; empty: no figures).
     """
     from sonarproc.report import plots
     from sonarproc.report.html import render_html
@@ -149,10 +171,9 @@ def write_report(
 
         write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
         write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
-    figures = plots.render_all(result)
-    for name, data in figures.items():
+    drawn = plots.render_figures(result, figures, auto=auto)
+    for name, data in drawn.items():
         (out / name).write_bytes(data)
-    pngs = {name: data for name, data in figures.items() if name.endswith(".png")}
-    (out / "report.html").write_text(render_html(doc, pngs), encoding="utf-8")
+    (out / "report.html").write_text(render_html(doc, drawn), encoding="utf-8")
     log.info("wrote report to %s", out)
     return doc
