@@ -26,7 +26,7 @@ from sonarlog.schema import (
 )
 from sonarlog.sources.errors import SourceError
 from sonarlog.sources.poses import PoseTrack
-from sonarlog.sources.stale import stale_mask
+from sonarlog.sources.stale import refired_mask, stale_mask
 from sonarlog.sources.summary import ImportCounts
 
 __all__ = [
@@ -113,7 +113,10 @@ def assemble(
     by_id = sensors[np.argsort(sensors["id"], kind="stable")]
     max_range = by_id["max_range"][np.minimum(rows, max(len(by_id) - 1, 0))]
 
-    stale = stale_mask(raw.sensor, raw.key) if drop_stale else np.zeros(raw.t.size, dtype=bool)
+    stale = np.zeros(raw.t.size, dtype=bool)
+    if drop_stale:
+        stale = stale_mask(raw.sensor, raw.key)
+        stale &= ~refired_mask(raw.sensor, raw.t, stale)
     invalid = ~stale & (np.isnan(raw.range) | (raw.range < 0) | ~np.isfinite(raw.t))
     keep = ~stale & ~invalid
     x, y, theta, inside = track.at(np.where(keep, raw.t, np.nan))
