@@ -7,15 +7,43 @@ every map goes through: select, grid, build, fit, measure; live processing),
 :mod:`sonarproc.methods` (other ways to build the map), :mod:`sonarproc.report`
 (files and figures), :mod:`sonarproc.sweep` and :mod:`sonarproc.cli`.
 Errors: :mod:`sonarproc.errors`.
+
+The Python API (:mod:`sonarproc.api`, imported on first use so that ``import sonarproc``
+stays cheap)::
+
+    import sonarproc
+    r = sonarproc.run("fig12.h5")       # sonarproc run's options by name: fit="poly", ...
+    r.metrics, r.profile, r.surfaces, r.figure("fit")
+    sonarproc.compare("room.h5", methods=["morphological", "arc-median"])
+    sonarproc.read_log("readings.csv", sensors="sensors.yaml")
 """
 
 from __future__ import annotations
 
 from importlib import metadata
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from sonarproc.api import RunResult, compare, read_log, run
 
 try:
     __version__ = metadata.version("sonarmorph")
 except metadata.PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
     __version__ = "0+unknown"
 
-__all__ = ["__version__"]
+__all__ = ["RunResult", "__version__", "compare", "read_log", "run"]
+
+_API = frozenset({"RunResult", "compare", "read_log", "run"})
+
+
+def __getattr__(name: str) -> Any:
+    """The API names, imported from :mod:`sonarproc.api` when first asked for."""
+    if name in _API:
+        from sonarproc import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'sonarproc' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | _API)

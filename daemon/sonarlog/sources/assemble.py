@@ -26,14 +26,37 @@ from sonarlog.schema import (
 )
 from sonarlog.sources.errors import SourceError
 from sonarlog.sources.poses import PoseTrack
-from sonarlog.sources.stale import stale_mask
+from sonarlog.sources.stale import refired_mask, stale_mask
 from sonarlog.sources.summary import ImportCounts
 
-__all__ = ["NO_ECHO_TOLERANCE", "Assembled", "RawValues", "assemble", "speed_of_sound_for"]
+__all__ = [
+    "NO_ECHO_TOLERANCE",
+    "Assembled",
+    "RawValues",
+    "assemble",
+    "no_echo_mask",
+    "speed_of_sound_for",
+]
 
 #: A value within this of ``max_range`` (m) counts as no echo: drivers that report the
 #: maximum as an end point lose a little of it to float32 rounding.
 NO_ECHO_TOLERANCE = 5e-4
+
+
+def no_echo_mask(range_m: npt.ArrayLike, max_range: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """True where a range means "no echo": at or beyond its sensor's ``max_range``.
+
+    Drivers (RosAria, p2os, most CSV exports) write the maximum range, or ``+inf``
+    (REP 117), when the receiver heard nothing before it stopped listening; a real echo
+    from exactly the end of the listening window cannot be told apart from that, so it is
+    treated the same way. Within :data:`NO_ECHO_TOLERANCE` of the maximum counts too
+    (float32 rounding). NaN is not "no echo" (it is an invalid value).
+
+    >>> no_echo_mask([1.0, 3.9999, 4.0, 7.0, np.inf, np.nan], 4.0).tolist()
+    [False, True, True, True, True, False]
+    """
+    r = np.asarray(range_m, dtype=np.float64)
+    return np.asarray(r >= np.asarray(max_range, dtype=np.float64) - NO_ECHO_TOLERANCE)
 
 
 @dataclass(frozen=True)
@@ -90,7 +113,10 @@ def assemble(
     by_id = sensors[np.argsort(sensors["id"], kind="stable")]
     max_range = by_id["max_range"][np.minimum(rows, max(len(by_id) - 1, 0))]
 
-    stale = stale_mask(raw.sensor, raw.key) if drop_stale else np.zeros(raw.t.size, dtype=bool)
+    stale = np.zeros(raw.t.size, dtype=bool)
+    if drop_stale:
+        stale = stale_mask(raw.sensor, raw.key)
+        stale &= ~refired_mask(raw.sensor, raw.t, stale)
     invalid = ~stale & (np.isnan(raw.range) | (raw.range < 0) | ~np.isfinite(raw.t))
     keep = ~stale & ~invalid
     x, y, theta, inside = track.at(np.where(keep, raw.t, np.nan))
@@ -98,7 +124,7 @@ def assemble(
     keep &= inside
 
     rng = raw.range[keep]
-    no_echo = rng >= max_range[keep] - NO_ECHO_TOLERANCE
+    no_echo = no_echo_mask(rng, max_range[keep])
     rng = np.where(no_echo, max_range[keep], rng)
     out = np.zeros(int(keep.sum()), dtype=READING_DTYPE)
     out["t"] = raw.t[keep]

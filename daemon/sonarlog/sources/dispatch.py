@@ -5,7 +5,7 @@ Each :class:`SourceFormat` says how to recognise a path (``detect``), how to rea
 registry is tried in order; :func:`register_format` adds one (a CSV reader, say):
 
 >>> [f.name for f in source_formats()]
-['sonarlog', 'ros1', 'ros2', 'player']
+['sonarlog', 'ros1', 'ros2', 'player', 'csv']
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import json
 import logging
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -120,6 +120,51 @@ def _read_sonarlog(path: Path, opts: ImportOptions) -> tuple[SonarLog, ImportSum
     return lg, summary
 
 
+def _is_csv(path: Path) -> bool:
+    return path.is_file() and path.suffix.lower() == ".csv"
+
+
+def _read_csv(path: Path, opts: ImportOptions) -> tuple[SonarLog, ImportSummary]:
+    from sonarlog.csvlog import NO_ECHO_ATTR, read_csv_log
+
+    mounts = opts.sensors if opts.sensors is not None else opts.robot
+    if mounts is None:
+        raise SourceError(
+            f"{path}: a readings CSV needs its mounts: a sensors YAML (--sensors) or a "
+            "robot preset (--robot)"
+        )
+    c = None if opts.temperature_c is None else speed_of_sound_for(opts.temperature_c, None)
+    lg = read_csv_log(path, mounts, degrees=opts.degrees, speed_of_sound=c)
+    if opts.temperature_c is not None:
+        lg.attrs["temperature_c"] = float(opts.temperature_c)
+    r = lg.readings
+    counts = ImportCounts(
+        values=len(r), readings=len(r),
+        no_echo_flagged=int(((r["flags"] & FLAG_NO_ECHO) != 0).sum()),
+    )  # fmt: skip
+    notes = (f"no echo at or beyond max_range: {lg.attrs[NO_ECHO_ATTR]} reading(s) flagged",)
+    summary = ImportSummary(
+        str(path), "csv", "csv", ("readings",), "readings", str(mounts),
+        counts=counts, speed_of_sound=lg.speed_of_sound, notes=notes,
+    )  # fmt: skip
+    return lg, summary
+
+
+def _list_csv(path: Path) -> list[TopicRow]:
+    from sonarlog.csvlog import CSV_OPTIONAL, CSV_REQUIRED
+
+    with path.open(encoding="utf-8", errors="replace") as fh:
+        lines = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise SourceError(f"{path}: empty file, expected a header row")
+    known = {*CSV_REQUIRED, *CSV_OPTIONAL, "tof", "range"}
+    return [
+        TopicRow(name, "column", len(lines) - 1, "" if name not in known else "readings",
+                 "read" if name in known else "not a readings column")
+        for name in (c.strip().lower() for c in lines[0].split(","))
+    ]  # fmt: skip
+
+
 def _list_sonarlog(path: Path) -> list[TopicRow]:
     lg = read_log(path)
     rows = [
@@ -136,6 +181,7 @@ _FORMATS: list[SourceFormat] = [
     SourceFormat("ros1", "ROS 1 bag (.bag)", is_ros1_bag, _read_bag, list_bag),
     SourceFormat("ros2", "ROS 2 bag directory (sqlite3 or mcap)", is_ros2_bag, _read_bag, list_bag),
     SourceFormat("player", "Player/Stage text log", is_player_log, _read_player, list_player),
+    SourceFormat("csv", "readings CSV (+ a sensors YAML)", _is_csv, _read_csv, _list_csv),
 ]
 
 
@@ -184,13 +230,16 @@ def read_source(
     sensors: str | os.PathLike[str] | None = None,
     temperature_c: float | None = None,
     drop_stale: bool = True,
+    degrees: bool = False,
+    truth: str | os.PathLike[str] | None = None,
 ) -> tuple[SonarLog, ImportSummary]:
     """Read any supported log into an in-memory sonarlog.
 
     Parameters
     ----------
     path : path-like
-        A sonarlog ``.h5``, a ROS 1 ``.bag``, a ROS 2 bag directory, or a Player log.
+        A sonarlog ``.h5``, a ROS 1 ``.bag``, a ROS 2 bag directory, a Player log, or a
+        readings CSV (which needs ``sensors`` or ``robot``; :mod:`sonarlog.csvlog`).
     sonar_topic, odom_topic : str, optional
         Override the automatic choice (see :mod:`sonarlog.sources.rosbag`); for a Player
         log, devices such as ``sonar:0`` and ``position2d:0``.
@@ -203,6 +252,11 @@ def read_source(
         Air temperature (°C) for the speed of sound.
     drop_stale : bool
         Drop values that repeat their sensor's previous value (default).
+    degrees : bool
+        A readings CSV's ``theta`` and ``turret`` are in degrees.
+    truth : path-like, optional
+        A truth CSV (:func:`sonarlog.csvlog.read_truth_csv`: one or several polylines)
+        replacing the log's ``/truth/profile``.
 
     Returns
     -------
@@ -221,9 +275,13 @@ def read_source(
     fmt = detect_format(p)
     opts = ImportOptions(
         sonar_topic, odom_topic, robot, None if sensors is None else str(sensors),
-        temperature_c, drop_stale,
+        temperature_c, drop_stale, degrees,
     )  # fmt: skip
     lg, summary = fmt.read(p, opts)
+    if truth is not None:
+        from sonarlog.csvlog import read_truth_csv
+
+        lg = replace(lg, truth=read_truth_csv(Path(truth)))
     log.info("%s", "; ".join(summary.lines()))
     return lg, summary
 

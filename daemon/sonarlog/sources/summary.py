@@ -137,6 +137,8 @@ class ImportOptions:
         Air temperature; sets the speed of sound.
     drop_stale : bool
         Drop values that repeat their sensor's previous value (default True).
+    degrees : bool
+        A readings CSV's angle columns (``theta``, ``turret``) are in degrees.
     """
 
     sonar_topic: str | None = None
@@ -145,3 +147,4 @@ class ImportOptions:
     sensors: str | None = None
     temperature_c: float | None = None
     drop_stale: bool = True
+    degrees: bool = False

@@ -99,7 +99,9 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_column(style="bold")
     table.add_column()
     table.add_row("readings used", f"{c['readings_used']} of {c['readings_total']}")
-    table.add_row("skipped out of range", str(c["skipped_out_of_range"]))
+    no_echo = c.get("flagged_no_echo", 0)
+    skipped = str(c["skipped_out_of_range"]) + (f" ({no_echo} no echo)" if no_echo else "")
+    table.add_row("skipped out of range", skipped)
     table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
     table.add_row("operations", map_label(str(doc["parameters"]["ops"]), doc.get("auto")))
     fit_text = "spline" if fit["kind"] == "spline" else f"{fit['kind']}, order {fit['order']}"
@@ -143,6 +145,9 @@ def run_command(
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
     figures: FiguresOption = "png,svg",
+    degrees: Annotated[
+        bool, typer.Option("--degrees", help="A readings CSV's theta and turret are in degrees.")
+    ] = False,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print report.json to stdout instead of a table.")
     ] = False,
@@ -176,13 +181,14 @@ def run_command(
                 from sonarproc.auto import run_auto
                 from sonarproc.pipeline import load_log
 
-                lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
+                lg = load_log(log, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
                 chosen_run, chosen, choice = run_auto(lg, params)
                 result, record = chosen_run.run, choice.to_json(chosen)
             else:
                 result = run_file(
-                    log, params, sensors=sensors, truth=truth, robot=robot, progress=progress
-                )
+                    log, params, sensors=sensors, truth=truth, robot=robot, progress=progress,
+                    degrees=degrees,
+                )  # fmt: skip
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")

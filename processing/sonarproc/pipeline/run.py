@@ -75,13 +75,15 @@ def load_log(
     sensors: str | Path | None = None,
     truth: str | Path | None = None,
     robot: str | None = None,
+    degrees: bool = False,
 ) -> SonarLog:
     """Read any log this tool reads, in memory.
 
     A sonarlog (``.h5``); with ``sensors``, a readings CSV; or, through
     :func:`sonarlog.sources.read_source`, a ROS 1 bag, a ROS 2 bag directory or a Player
     log (``sensors``, a YAML, or ``robot``, a shipped preset such as ``pioneer3-dx``, then
-    gives the mounts). ``truth``: a truth CSV replacing the log's.
+    gives the mounts). ``truth``: a truth CSV replacing the log's. ``degrees``: a readings
+    CSV's ``theta`` and ``turret`` are in degrees.
 
     Raises
     ------
@@ -111,7 +113,7 @@ def load_log(
             raise ParameterError("sensors", f"is required for a CSV log ({p})")
         from sonarlog.csvlog import read_csv_log
 
-        return read_csv_log(p, sensors, truth=truth_xy)
+        return read_csv_log(p, sensors, truth=truth_xy, degrees=degrees)
     if p.is_dir() and not (p / "metadata.yaml").is_file():
         raise InputError(
             f"{p}: is a directory, not a log (a sonarlog .h5, a readings CSV, a ROS 1 bag, "
@@ -134,6 +136,7 @@ def run_file(
     truth: str | Path | None = None,
     robot: str | None = None,
     progress: Progress | None = None,
+    degrees: bool = False,
 ) -> RunResult:
     """Read a log (:func:`load_log`) and :func:`process` it; ``t_cpu_s`` includes reading.
 
@@ -147,7 +150,7 @@ def run_file(
     wall0 = time.perf_counter()
     if progress is not None:
         progress("read")
-    lg = load_log(path, sensors=sensors, truth=truth, robot=robot)
+    lg = load_log(path, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
     read_s = time.perf_counter() - wall0
     result = process(lg, params, progress=progress, cpu_start=cpu0)
     result.timings_s = {"read": read_s, **result.timings_s}

@@ -11,13 +11,13 @@ import html
 from collections.abc import Mapping
 from typing import Any
 
-from sonarproc.report.units import MISSING
+from sonarproc.report.units import MISSING, length_cm
 
 __all__ = ["auto_record_html"]
 
 
 def _cm(v: Any) -> str:
-    return MISSING if not isinstance(v, (int, float)) else f"{100 * float(v):.3g} cm"
+    return MISSING if not isinstance(v, (int, float)) else length_cm(float(v))
 
 
 def auto_record_html(record: Mapping[str, Any]) -> str:
@@ -31,7 +31,7 @@ def auto_record_html(record: Mapping[str, Any]) -> str:
     ...        "residual_m": 0.004, "folds": 4, "runners_up": [
     ...        {"name": "b", "fit_short": "spline", "residual_m": None, "excluded": "hull"}]}
     >>> page = auto_record_html(rec)
-    >>> "0.4 cm" in page and "<td>b</td>" in page and "hull" in page
+    >>> "0.400 cm" in page and "<td>b</td>" in page and "hull" in page
     True
     """
     # imported here: a report without an --auto record need not load the --auto machinery

@@ -8,6 +8,8 @@ never shows as a bare float or in two units.
 '3.30 cm'
 >>> length_cm(None)
 '—'
+>>> length_cm(1.31e8)
+'unbounded'
 >>> number(0.86123)
 '0.861'
 >>> seconds(0.2567)
@@ -19,10 +21,26 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["MISSING", "length_cm", "metric", "number", "seconds", "sig3"]
+__all__ = [
+    "MAX_LENGTH_M",
+    "MISSING",
+    "UNBOUNDED",
+    "length_cm",
+    "metric",
+    "number",
+    "seconds",
+    "sig3",
+]
 
 #: Shown where a value is absent (no truth, a failed fit).
 MISSING = "—"
+#: Shown instead of a length that is not one: infinite, NaN, or beyond :data:`MAX_LENGTH_M`.
+UNBOUNDED = "unbounded"
+#: The longest length (m) shown as a number. Sonar transducers hear a few metres (the
+#: Polaroid 6500 at most 10.7 m) and a log maps at most a building, so no distance, error
+#: or residual of a map reaches a kilometre; a larger value is a fit that diverges (a
+#: polynomial far outside its points), and printing "1.31e+10 cm" would read as a measure.
+MAX_LENGTH_M = 1000.0
 
 
 def sig3(value: float) -> str:
@@ -42,8 +60,19 @@ def sig3(value: float) -> str:
 
 
 def length_cm(metres: float | None) -> str:
-    """A length given in metres, shown in cm: ``'3.30 cm'``."""
-    return MISSING if metres is None else f"{sig3(100.0 * metres)} cm"
+    """A length given in metres, shown in cm: ``'3.30 cm'``.
+
+    ``None`` is :data:`MISSING`; a non-finite length, or one beyond :data:`MAX_LENGTH_M`,
+    is :data:`UNBOUNDED`.
+
+    >>> length_cm(float("inf")), length_cm(-2e3), length_cm(12.5)
+    ('unbounded', 'unbounded', '1250 cm')
+    """
+    if metres is None:
+        return MISSING
+    if not math.isfinite(metres) or abs(metres) > MAX_LENGTH_M:
+        return UNBOUNDED
+    return f"{sig3(100.0 * metres)} cm"
 
 
 def seconds(value: float | None) -> str:
