@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from sonarlog import SonarLog
     from sonarproc.params import RunParams
     from sonarproc.pipeline import RunResult as RunRecord
-    from sonarproc.surfaces.models import SurfaceFit
+    from sonarproc.surfaces import SurfaceFit
 
 __all__ = ["FIGURES", "RUN_OPTIONS", "RunResult", "compare", "read_log", "run"]
 
@@ -104,28 +104,8 @@ class RunResult:
             raise ParameterError("figure", f"must be one of {', '.join(FIGURES)}, got {name!r}")
         from sonarproc.report import plots
 
-        drawn = getattr(plots, f"{name}_figure")(self.record)
-        if hasattr(drawn, "savefig"):
-            return drawn  # a matplotlib Figure already
-        return _as_matplotlib(plots.render(drawn)[0])
-
-
-def _as_matplotlib(png: bytes) -> Figure:
-    """A Figure showing a rendered PNG at its own size (for figures not yet in matplotlib)."""
-    import io
-
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.image import imread
-
-    img = imread(io.BytesIO(png), format="png")
-    dpi = 150.0
-    fig = Figure(figsize=(img.shape[1] / dpi, img.shape[0] / dpi), dpi=dpi)
-    FigureCanvasAgg(fig)
-    ax = fig.add_axes((0.0, 0.0, 1.0, 1.0))
-    ax.imshow(img)
-    ax.set_axis_off()
-    return fig
+        fig: Figure = getattr(plots, f"{name}_figure")(self.record)
+        return fig
 
 
 def _cli_defaults() -> dict[str, Any]:
