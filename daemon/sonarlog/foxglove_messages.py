@@ -1,0 +1,293 @@
+"""A log's rows as Foxglove messages: beams, pose, path, frame transforms, raw readings.
+
+Both ``sonard --foxglove`` (live, from the acquisition process) and ``sonarproc`` (watch,
+run and the MCAP export) publish the robot's side of the picture with this module, so a
+recording and a live view look the same. It needs the optional ``foxglove-sdk`` package
+(``pip install sonarmorph[live]``), imported when a :class:`RobotPublisher` is made.
+
+Topics and frames
+-----------------
+* ``/sonar/readings`` (``foxglove.SceneUpdate``): one message per reading, the beam as a
+  wedge (transmitter, the echo's arc across the receiver's beam, back), in ``map``. Entity
+  ``beam/<tx>-<rx>`` replaces that pair's previous beam; it expires after
+  :data:`BEAM_LIFETIME_S`. Metadata: ``t``, ``tx``, ``rx``, ``range_m``, ``flags``.
+* ``/sonar/raw`` (JSON): one message per reading, its sonarlog fields plus ``range_m``
+  (the Table panel shows it).
+* ``/robot/pose`` (``foxglove.PoseInFrame``) and ``/robot/path`` (``foxglove.PosesInFrame``)
+  in ``odom``; the path keeps a pose every :data:`PATH_STEP_M` of travel or
+  :data:`PATH_TURN_RAD` of turn.
+* ``/tf`` (``foxglove.FrameTransforms``): ``map`` → ``odom`` (identity: the log's poses are
+  odometry and nothing corrects them yet), ``odom`` → ``base_link`` (the robot's pose), and
+  ``base_link`` → ``sonar_<id>`` for every transducer (its mount on the turret, turned by
+  the turret's heading relative to the base).
+
+Every message's log time is the reading's own firing time (UNIX ns), so a recording
+replays at the pace of the run and a live client can measure its delay.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sonarlog.schema import FLAG_CROSSTALK, FLAG_NO_ECHO
+
+if TYPE_CHECKING:
+    import foxglove
+
+__all__ = [
+    "BEAM_LIFETIME_S",
+    "FRAME_BASE",
+    "FRAME_MAP",
+    "FRAME_ODOM",
+    "PATH_STEP_M",
+    "PATH_TURN_RAD",
+    "ROBOT_TOPICS",
+    "RobotPublisher",
+    "beam_outline",
+    "sonar_frame",
+]
+
+FRAME_MAP, FRAME_ODOM, FRAME_BASE = "map", "odom", "base_link"
+TOPIC_READINGS, TOPIC_RAW = "/sonar/readings", "/sonar/raw"
+TOPIC_POSE, TOPIC_PATH, TOPIC_TF = "/robot/pose", "/robot/path", "/tf"
+ROBOT_TOPICS = (TOPIC_READINGS, TOPIC_RAW, TOPIC_POSE, TOPIC_PATH, TOPIC_TF)
+
+#: A beam stays on screen this long: a full ring of 16 sonars fires in well under a
+#: second, so each sensor's last beam is shown until it fires again.
+BEAM_LIFETIME_S = 1.0
+#: Path decimation: a pose every centimetre of travel (the finest map cell used) or
+#: every degree of turn; a stop-and-fire run repeats its pose for every firing.
+PATH_STEP_M = 0.01
+PATH_TURN_RAD = math.radians(1.0)
+#: Points along a beam's arc (the arc spans at most 25 degrees: 3 degrees a segment).
+ARC_POINTS = 9
+_NS = 1_000_000_000
+
+
+def sonar_frame(sensor_id: int) -> str:
+    """The frame of transducer ``sensor_id`` (``sonar_<id>``)."""
+    return f"sonar_{int(sensor_id)}"
+
+
+def beam_outline(
+    tx_xy: np.ndarray, rx_xy: np.ndarray, rx_heading: float, half_beam: float, path_m: float
+) -> np.ndarray:
+    """The wedge of one echo: transmitter, the echo's arc across the receiver's beam, back.
+
+    A path length ``L`` from transmitter to receiver puts the reflector on the ellipse of
+    foci tx and rx with ``|p - tx| + |p - rx| = L``; along a unit direction ``u`` from rx
+    the point is at ``d = (L² - |w|²) / (2 (L + u·w))`` with ``w = rx - tx`` (a circle of
+    radius ``L/2`` when tx = rx).
+
+    Returns
+    -------
+    ndarray, shape (ARC_POINTS + 2, 2)
+
+    Examples
+    --------
+    >>> p = beam_outline(np.zeros(2), np.zeros(2), 0.0, 0.2, 2.0)
+    >>> p.shape, np.round(np.hypot(*p[1:-1].T), 6).tolist() == [1.0] * 9
+    ((11, 2), True)
+    """
+    ang = rx_heading + np.linspace(-half_beam, half_beam, ARC_POINTS)
+    u = np.column_stack([np.cos(ang), np.sin(ang)])
+    w = np.asarray(rx_xy, dtype=np.float64) - np.asarray(tx_xy, dtype=np.float64)
+    denom = np.maximum(2.0 * (path_m + u @ w), 1e-9)
+    d = np.maximum((path_m**2 - float(w @ w)) / denom, 0.0)
+    arc = rx_xy + u * d[:, None]
+    return np.vstack([tx_xy, arc, rx_xy])
+
+
+def _yaw(fg: Any, yaw: float) -> Any:
+    return fg.Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
+
+
+def _stamp(fg: Any, t: float) -> Any:
+    ns = round(t * _NS)
+    return fg.Timestamp(ns // _NS, ns % _NS)
+
+
+class RobotPublisher:
+    """Publish readings, pose, path and transforms on a Foxglove context's channels.
+
+    Parameters
+    ----------
+    sensors : numpy.ndarray
+        The ``/sensors`` table (SENSOR_DTYPE).
+    speed_of_sound : float
+        m/s, to turn times of flight into path lengths.
+    context : foxglove.Context, optional
+        Where the channels live (a server's or an MCAP file's); default the global one.
+
+    Raises
+    ------
+    ImportError
+        ``foxglove-sdk`` is not installed.
+    """
+
+    def __init__(
+        self,
+        sensors: np.ndarray,
+        speed_of_sound: float,
+        *,
+        context: foxglove.Context | None = None,
+    ) -> None:
+        import foxglove
+        import foxglove.channels as fc
+        import foxglove.messages as fg
+
+        self._fg = fg
+        self.sensors = np.asarray(sensors)
+        self.speed_of_sound = float(speed_of_sound)
+        self._row = {int(s["id"]): i for i, s in enumerate(self.sensors)}
+        self.readings_channel = fc.SceneUpdateChannel(TOPIC_READINGS, context=context)
+        self.raw_channel = foxglove.Channel(TOPIC_RAW, context=context)
+        self.pose_channel = fc.PoseInFrameChannel(TOPIC_POSE, context=context)
+        self.path_channel = fc.PosesInFrameChannel(TOPIC_PATH, context=context)
+        self.tf_channel = fc.FrameTransformsChannel(TOPIC_TF, context=context)
+        self._path: list[Any] = []
+        self._last_path_pose: tuple[float, float, float] | None = None
+        self._lifetime = fg.Duration.from_secs(BEAM_LIFETIME_S)
+        self.published = 0
+
+    # ---- one reading ---------------------------------------------------------------------
+
+    def _place(self, sid: int, r: np.void) -> tuple[np.ndarray, float, float]:
+        s = self.sensors[self._row[sid]]
+        c, sn = math.cos(r["turret"]), math.sin(r["turret"])
+        xy = np.array([r["x"] + c * s["x"] - sn * s["y"], r["y"] + sn * s["x"] + c * s["y"]])
+        return xy, float(r["turret"] + s["heading"]), float(s["half_beamwidth"])
+
+    def _beam(self, r: np.void, path_m: float) -> Any:
+        fg = self._fg
+        tx, rx = int(r["tx"]), int(r["rx"])
+        if tx not in self._row or rx not in self._row:
+            return None
+        tx_xy, _, _ = self._place(tx, r)
+        rx_xy, heading, half = self._place(rx, r)
+        flags = int(r["flags"])
+        outline = beam_outline(tx_xy, rx_xy, heading, half, path_m)
+        if flags & FLAG_NO_ECHO:
+            color = fg.Color(r=0.6, g=0.6, b=0.6, a=0.5)
+        elif flags & FLAG_CROSSTALK:
+            color = fg.Color(r=1.0, g=0.5, b=0.0, a=0.8)
+        else:
+            color = fg.Color(r=0.1, g=0.8, b=1.0, a=0.8)
+        line = fg.LinePrimitive(
+            type=fg.LinePrimitiveLineType.LineStrip,
+            thickness=2.0,
+            scale_invariant=True,
+            points=[fg.Point3(x=float(x), y=float(y), z=0.0) for x, y in outline],
+            color=color,
+        )
+        meta = {
+            "t": f"{float(r['t']):.6f}",
+            "tx": str(tx),
+            "rx": str(rx),
+            "range_m": f"{path_m / 2.0:.4f}",
+            "flags": str(flags),
+        }
+        return fg.SceneUpdate(
+            entities=[
+                fg.SceneEntity(
+                    timestamp=_stamp(fg, float(r["t"])),
+                    frame_id=FRAME_MAP,
+                    id=f"beam/{tx}-{rx}",
+                    lifetime=self._lifetime,
+                    metadata=[fg.KeyValuePair(key=k, value=v) for k, v in meta.items()],
+                    lines=[line],
+                )
+            ]
+        )
+
+    def readings(self, rows: np.ndarray) -> None:
+        """Publish each row's beam and raw fields, then the last row's pose, path and tf."""
+        if len(rows) == 0:
+            return
+        paths = np.asarray(rows["tof"], dtype=np.float64) * self.speed_of_sound
+        for r, path_m in zip(rows, paths.tolist(), strict=True):
+            t_ns = round(float(r["t"]) * _NS)
+            beam = self._beam(r, path_m)
+            if beam is not None:
+                self.readings_channel.log(beam, log_time=t_ns)
+            raw = {name: r[name].item() for name in rows.dtype.names or ()}
+            raw["range_m"] = path_m / 2.0
+            self.raw_channel.log(json.dumps(raw).encode(), log_time=t_ns)
+            self.published += 1
+        self.poses(rows[-1:])
+
+    # ---- pose, path, transforms ----------------------------------------------------------
+
+    def poses(self, rows: np.ndarray) -> None:
+        """Publish the pose, path and transforms at the last of ``rows`` (t, x, y, theta, turret).
+
+        Every row may extend the path; the pose and the transforms go out once.
+        """
+        if len(rows) == 0:
+            return
+        fg = self._fg
+        grew = False
+        for r in rows:
+            grew |= self._extend_path(float(r["x"]), float(r["y"]), float(r["theta"]))
+        last = rows[-1]
+        t = float(last["t"])
+        t_ns, stamp = round(t * _NS), _stamp(fg, t)
+        pose = self._pose(float(last["x"]), float(last["y"]), float(last["theta"]))
+        self.pose_channel.log(
+            fg.PoseInFrame(timestamp=stamp, frame_id=FRAME_ODOM, pose=pose), log_time=t_ns
+        )
+        if grew:
+            self.path_channel.log(
+                fg.PosesInFrame(timestamp=stamp, frame_id=FRAME_ODOM, poses=list(self._path)),
+                log_time=t_ns,
+            )
+        self.tf_channel.log(self._transforms(last, stamp), log_time=t_ns)
+
+    def _pose(self, x: float, y: float, theta: float) -> Any:
+        fg = self._fg
+        return fg.Pose(position=fg.Vector3(x=x, y=y, z=0.0), orientation=_yaw(fg, theta))
+
+    def _extend_path(self, x: float, y: float, theta: float) -> bool:
+        last = self._last_path_pose
+        if last is not None:
+            turn = abs(math.remainder(theta - last[2], math.tau))
+            if math.hypot(x - last[0], y - last[1]) < PATH_STEP_M and turn < PATH_TURN_RAD:
+                return False
+        self._last_path_pose = (x, y, theta)
+        self._path.append(self._pose(x, y, theta))
+        return True
+
+    def _transforms(self, r: np.void, stamp: Any) -> Any:
+        fg = self._fg
+
+        def tf(parent: str, child: str, x: float, y: float, yaw: float) -> Any:
+            return fg.FrameTransform(
+                timestamp=stamp,
+                parent_frame_id=parent,
+                child_frame_id=child,
+                translation=fg.Vector3(x=x, y=y, z=0.0),
+                rotation=_yaw(fg, yaw),
+            )
+
+        rel = float(r["turret"] - r["theta"])  # turret heading relative to the base
+        c, s = math.cos(rel), math.sin(rel)
+        transforms = [
+            tf(FRAME_MAP, FRAME_ODOM, 0.0, 0.0, 0.0),
+            tf(FRAME_ODOM, FRAME_BASE, float(r["x"]), float(r["y"]), float(r["theta"])),
+        ]
+        for sn in self.sensors:
+            sx, sy = float(sn["x"]), float(sn["y"])
+            transforms.append(
+                tf(
+                    FRAME_BASE,
+                    sonar_frame(int(sn["id"])),
+                    c * sx - s * sy,
+                    s * sx + c * sy,
+                    rel + float(sn["heading"]),
+                )
+            )
+        return fg.FrameTransforms(transforms=transforms)
