@@ -66,6 +66,25 @@ PATH_TURN_RAD = math.radians(1.0)
 #: Points along a beam's arc (the arc spans at most 25 degrees: 3 degrees a segment).
 ARC_POINTS = 9
 _NS = 1_000_000_000
+_NUMBER = {"type": "number"}
+#: JSON schema of ``/sonar/raw``: a sonarlog reading row (SI units) and its range.
+RAW_SCHEMA: dict[str, Any] = {
+    "title": "sonarmorph.Reading",
+    "type": "object",
+    "properties": {
+        "t": {"type": "number", "description": "firing time, UNIX s"},
+        "tx": {"type": "integer"},
+        "rx": {"type": "integer"},
+        "echo": {"type": "integer"},
+        "tof": {"type": "number", "description": "round-trip time of flight, s"},
+        "x": _NUMBER,
+        "y": _NUMBER,
+        "theta": _NUMBER,
+        "turret": _NUMBER,
+        "flags": {"type": "integer"},
+        "range_m": {"type": "number", "description": "half the path length, m"},
+    },
+}
 
 
 def sonar_frame(sensor_id: int) -> str:
@@ -145,7 +164,16 @@ class RobotPublisher:
         self.speed_of_sound = float(speed_of_sound)
         self._row = {int(s["id"]): i for i, s in enumerate(self.sensors)}
         self.readings_channel = fc.SceneUpdateChannel(TOPIC_READINGS, context=context)
-        self.raw_channel = foxglove.Channel(TOPIC_RAW, context=context)
+        self.raw_channel = foxglove.Channel(
+            TOPIC_RAW,
+            schema=foxglove.Schema(
+                name="sonarmorph.Reading",
+                encoding="jsonschema",
+                data=json.dumps(RAW_SCHEMA).encode(),
+            ),
+            message_encoding="json",
+            context=context,
+        )
         self.pose_channel = fc.PoseInFrameChannel(TOPIC_POSE, context=context)
         self.path_channel = fc.PosesInFrameChannel(TOPIC_PATH, context=context)
         self.tf_channel = fc.FrameTransformsChannel(TOPIC_TF, context=context)
@@ -153,6 +181,13 @@ class RobotPublisher:
         self._last_path_pose: tuple[float, float, float] | None = None
         self._lifetime = fg.Duration.from_secs(BEAM_LIFETIME_S)
         self.published = 0
+
+    def resend_path(self, t: float) -> None:
+        """Send the path so far again (for a client that just subscribed)."""
+        if self._path:
+            fg = self._fg
+            msg = fg.PosesInFrame(timestamp=_stamp(fg, t), frame_id=FRAME_ODOM, poses=self._path)
+            self.path_channel.log(msg, log_time=round(t * _NS))
 
     # ---- one reading ---------------------------------------------------------------------
 

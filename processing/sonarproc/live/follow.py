@@ -156,6 +156,7 @@ def _serve(
                 if len(new):
                     pending |= _take(server, acc, new)
                     last_new = time.monotonic()
+            server.catch_up()
             final = once or stop.is_set() or (closed and time.monotonic() - last_new >= idle)
             if pending and (final or time.monotonic() - last_snapshot >= gap):
                 cpu0 = time.process_time()

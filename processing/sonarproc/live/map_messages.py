@@ -59,6 +59,17 @@ POINT_KINDS = ("corner", "edge")
 SURFACE_WIDTH_M = 0.02
 POINT_DIAMETER_M = 0.06
 _COUNT_MAX = np.iinfo(np.uint16).max
+#: JSON schema of ``/map/quality`` (the Plot panel lists its numeric fields).
+QUALITY_SCHEMA: dict[str, Any] = {
+    "title": "sonarmorph.Quality",
+    "type": "object",
+    "properties": {
+        "surfaces": {"type": "integer", "description": "surfaces fitted"},
+        "counts": {"type": "object", "description": "readings, arcs and cells counted"},
+        "quality": {"type": "object", "description": "truth-free quality figures"},
+        "metrics": {"type": "object", "description": "the paper's measures (m)"},
+    },
+}
 
 
 def surface_kind(s: SurfaceFit) -> str:
@@ -110,9 +121,21 @@ class MapPublisher:
         self.arcs_channel = fc.GridChannel(TOPIC_ARCS, context=context)
         self.processed_channel = fc.GridChannel(TOPIC_PROCESSED, context=context)
         self.surfaces_channel = fc.SceneUpdateChannel(TOPIC_SURFACES, context=context)
-        self.quality_channel = foxglove.Channel(TOPIC_QUALITY, context=context)
+        self.quality_channel = foxglove.Channel(
+            TOPIC_QUALITY,
+            schema=foxglove.Schema(
+                name="sonarmorph.Quality",
+                encoding="jsonschema",
+                data=json.dumps(QUALITY_SCHEMA).encode(),
+            ),
+            message_encoding="json",
+            context=context,
+        )
         self._grid_digest: dict[str, str] = {}
         self._surface_digest: dict[str, str] = {}
+        self._last_grid: dict[str, tuple[Any, Any]] = {}  # topic -> (channel, message)
+        self._entities: dict[str, Any] = {}  # entity id -> the entity last sent
+        self._last_quality = b""
         self.updates = 0
 
     def publish(
@@ -149,15 +172,34 @@ class MapPublisher:
             if self._grid_digest.get(key) != digest:
                 self._grid_digest[key] = digest
                 field = "count" if key == "arcs" else "kept"
-                channel.log(self._grid(result.grid, raw, data, field, numeric, t), log_time=t_ns)
+                msg = self._grid(result.grid, raw, data, field, numeric, t)
+                channel.log(msg, log_time=t_ns)
+                self._last_grid[channel.topic()] = (channel, msg)
                 sent["grids"] += 1
         update, n, gone = self._surfaces(result, t, readings, last_reading_t)
         if n or gone:
             self.surfaces_channel.log(update, log_time=t_ns)
         sent["surfaces"], sent["deleted"] = n, gone
-        self.quality_channel.log(json.dumps(quality_figures(result)).encode(), log_time=t_ns)
+        self._last_quality = json.dumps(quality_figures(result)).encode()
+        self.quality_channel.log(self._last_quality, log_time=t_ns)
         self.updates += 1
         return sent
+
+    def resend(self, topics: set[str], *, t: float) -> None:
+        """Send the current state again on ``topics`` (for clients that just subscribed).
+
+        The protocol keeps no message for late subscribers: without this a viewer that
+        connects after the map last changed would see no map until it changes again.
+        """
+        t_ns = round(t * 1e9)
+        for topic, (channel, msg) in self._last_grid.items():
+            if topic in topics:
+                channel.log(msg, log_time=t_ns)
+        if TOPIC_SURFACES in topics and self._entities:
+            update = self._fg.SceneUpdate(entities=list(self._entities.values()))
+            self.surfaces_channel.log(update, log_time=t_ns)
+        if TOPIC_QUALITY in topics and self._last_quality:
+            self.quality_channel.log(self._last_quality, log_time=t_ns)
 
     # ---- grids ---------------------------------------------------------------------------
 
@@ -187,7 +229,7 @@ class MapPublisher:
         self, result: RunResult, t: float, readings: int, last_reading_t: float
     ) -> tuple[Any, int, int]:
         fg = self._fg
-        fits = list(result.surfaces.surfaces) if result.surfaces is not None else []
+        fits = surfaces_of(result)
         stamp = fg.Timestamp.from_epoch_secs(t)
         entities = []
         now: dict[str, str] = {}
@@ -208,8 +250,12 @@ class MapPublisher:
                 "readings": str(int(readings)),
                 "last_reading_t": f"{last_reading_t:.6f}",
             }
-            entities.append(self._entity(eid, s, poly, meta, stamp))
+            entity = self._entity(eid, s, poly, meta, stamp)
+            self._entities[eid] = entity
+            entities.append(entity)
         gone = sorted(set(self._surface_digest) - set(now))
+        for eid in gone:
+            self._entities.pop(eid, None)
         deletions = [
             fg.SceneEntityDeletion(
                 timestamp=stamp, type=fg.SceneEntityDeletionType.MatchingId, id=eid
@@ -273,6 +319,32 @@ class MapPublisher:
             spheres=spheres,
             cylinders=cylinders,
         )
+
+
+def surfaces_of(result: RunResult) -> list[SurfaceFit]:
+    """The run's surfaces; a single-profile run's fitted profile as one curve; or none."""
+    from sonarproc.fit import FitFailure
+    from sonarproc.surfaces import SurfaceFit
+
+    if result.surfaces is not None and result.surfaces.surfaces:
+        return list(result.surfaces.surfaces)
+    if isinstance(result.fit, FitFailure):
+        return []
+    poly = np.asarray(result.fit.sample(result.grid.cell), dtype=np.float64)
+    if len(poly) == 0:
+        return []
+    length = float(np.hypot(*np.diff(poly, axis=0).T).sum()) if len(poly) > 1 else 0.0
+    rms = result.metrics.sigma_y_m
+    return [
+        SurfaceFit(
+            model=f"profile-{result.fit.kind}",
+            polyline=poly,
+            length_m=length,
+            rms_m=float(rms) if rms is not None else math.nan,
+            support=int(result.points_x.size),
+            arcs=int(result.counts_map.sum()),
+        )
+    ]
 
 
 def quality_figures(result: RunResult) -> dict[str, Any]:

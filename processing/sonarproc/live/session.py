@@ -11,6 +11,9 @@ never holds up the publisher.
 from __future__ import annotations
 
 import math
+import threading
+import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -64,6 +67,8 @@ class LiveServer:
         self.context = foxglove.Context()
         self.robot = RobotPublisher(sensors, speed_of_sound, context=self.context)
         self.map = MapPublisher(context=self.context)
+        self._lock = threading.Lock()
+        self._subscribed: set[str] = set()
         try:
             self._server: Any = foxglove.start_server(
                 name=name,
@@ -71,6 +76,7 @@ class LiveServer:
                 port=port,
                 context=self.context,
                 message_backlog_size=BACKLOG_MESSAGES,
+                server_listener=_listener(self._note_subscription),
             )
         except Exception as exc:  # the SDK raises its own error type for a bind failure
             raise OSError(f"cannot listen on {host}:{port}: {exc}") from exc
@@ -81,8 +87,24 @@ class LiveServer:
         """The port the server listens on (the chosen one when asked for 0)."""
         return int(self._server.port)
 
+    def _note_subscription(self, topic: str) -> None:
+        """Server callback (an SDK thread): note the topic, :meth:`catch_up` resends it."""
+        with self._lock:
+            self._subscribed.add(topic)
+
+    def catch_up(self) -> None:
+        """Resend the map's and the path's current state on newly subscribed topics."""
+        with self._lock:
+            topics, self._subscribed = self._subscribed, set()
+        if topics:
+            now = time.time()
+            self.map.resend(topics, t=now)
+            if self.robot.path_channel.topic() in topics:
+                self.robot.resend_path(now)
+
     def readings(self, rows: np.ndarray) -> None:
         """Publish new readings (beams, raw rows, pose, path, transforms)."""
+        self.catch_up()
         self.robot.readings(rows)
 
     def result(
@@ -94,3 +116,14 @@ class LiveServer:
     def close(self) -> None:
         """Stop the server (clients are disconnected)."""
         self._server.stop()
+
+
+def _listener(note: Callable[[str], None]) -> Any:
+    """A :class:`foxglove.websocket.ServerListener` calling ``note(topic)`` on subscribe."""
+    from foxglove.websocket import ChannelView, Client, ServerListener
+
+    class Subscriptions(ServerListener):
+        def on_subscribe(self, client: Client, channel: ChannelView) -> None:
+            note(str(channel.topic))
+
+    return Subscriptions()
