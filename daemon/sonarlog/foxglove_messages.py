@@ -48,6 +48,7 @@ __all__ = [
     "ROBOT_TOPICS",
     "RobotPublisher",
     "beam_outline",
+    "parse_endpoint",
     "sonar_frame",
 ]
 
@@ -87,6 +88,34 @@ RAW_SCHEMA: dict[str, Any] = {
 }
 
 
+def parse_endpoint(text: str, *, default_host: str = "127.0.0.1") -> tuple[str, int]:
+    """``"HOST:PORT"`` or ``"PORT"`` as ``(host, port)``; port 0 means a free port.
+
+    The host defaults to loopback: serving a network is an explicit choice.
+
+    Raises
+    ------
+    ValueError
+        Not a port in 0..65535, or an empty host before ``:``.
+
+    Examples
+    --------
+    >>> parse_endpoint("8765"), parse_endpoint("0.0.0.0:0"), parse_endpoint("[::1]:9000")
+    (('127.0.0.1', 8765), ('0.0.0.0', 0), ('::1', 9000))
+    """
+    host, sep, port_text = text.strip().rpartition(":")
+    host = host.strip("[]") if sep else default_host
+    if not host:
+        raise ValueError(f"needs a host before ':', got {text!r}")
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ValueError(f"must be [HOST:]PORT with PORT 0..65535, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise ValueError(f"port must be 0..65535 (0: a free one), got {port}")
+    return host, port
+
+
 def sonar_frame(sensor_id: int) -> str:
     """The frame of transducer ``sensor_id`` (``sonar_<id>``)."""
     return f"sonar_{int(sensor_id)}"
@@ -119,6 +148,11 @@ def beam_outline(
     d = np.maximum((path_m**2 - float(w @ w)) / denom, 0.0)
     arc = rx_xy + u * d[:, None]
     return np.vstack([tx_xy, arc, rx_xy])
+
+
+def _finite(v: Any) -> Any:
+    """JSON has no NaN: a reading without an echo has ``null`` for its tof and range."""
+    return None if isinstance(v, float) and not math.isfinite(v) else v
 
 
 def _yaw(fg: Any, yaw: float) -> Any:
@@ -249,8 +283,8 @@ class RobotPublisher:
             beam = self._beam(r, path_m)
             if beam is not None:
                 self.readings_channel.log(beam, log_time=t_ns)
-            raw = {name: r[name].item() for name in rows.dtype.names or ()}
-            raw["range_m"] = path_m / 2.0
+            raw = {name: _finite(r[name].item()) for name in rows.dtype.names or ()}
+            raw["range_m"] = _finite(path_m / 2.0)
             self.raw_channel.log(json.dumps(raw).encode(), log_time=t_ns)
             self.published += 1
         self.poses(rows[-1:])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 
+from sonarlog.foxglove_messages import parse_endpoint as _parse
 from sonarproc.errors import ParameterError
 
 __all__ = ["DEFAULT_HOST", "DEFAULT_PORT", "INSTALL_HINT", "foxglove_missing", "parse_endpoint"]
@@ -32,24 +33,10 @@ def parse_endpoint(text: str, *, option: str = "--foxglove") -> tuple[str, int]:
     --------
     >>> parse_endpoint("8765"), parse_endpoint("0.0.0.0:0"), parse_endpoint("")
     (('127.0.0.1', 8765), ('0.0.0.0', 0), ('127.0.0.1', 8765))
-    >>> parse_endpoint("[::1]:9000")
-    ('::1', 9000)
     """
-    text = text.strip()
-    if not text:
+    if not text.strip():
         return DEFAULT_HOST, DEFAULT_PORT
-    host, sep, port_text = text.rpartition(":")
-    if not sep:
-        host = DEFAULT_HOST
-    host = host.strip("[]")
-    if sep and not host:
-        raise ParameterError(option, f"needs a host before ':', got {text!r}")
     try:
-        port = int(port_text)
-    except ValueError:
-        raise ParameterError(
-            option, f"must be [HOST:]PORT with PORT 0..65535, got {text!r}"
-        ) from None
-    if not 0 <= port <= 65535:
-        raise ParameterError(option, f"port must be 0..65535 (0: a free one), got {port}")
-    return host, port
+        return _parse(text, default_host=DEFAULT_HOST)
+    except ValueError as err:
+        raise ParameterError(option, str(err)) from None
