@@ -97,8 +97,7 @@ class LiveView:
             self.dropped_batches += 1
 
     def _on_subscribe(self, topic: str) -> None:
-        if topic == self.robot.path_channel.topic():
-            self.offer("path", np.zeros(0))
+        self.offer(topic, np.zeros(0))  # the view's thread resends that topic's state
 
     def _run(self) -> None:
         while True:
@@ -112,7 +111,7 @@ class LiveView:
                 elif kind == "p":
                     self.robot.poses(rows)
                 else:
-                    self.robot.resend_path(time.time())
+                    self.robot.resend(frozenset([kind]), time.time())
             except Exception as exc:  # a view problem must never reach acquisition
                 log.warning("live view: %s: %s", type(exc).__name__, exc)
 

@@ -212,16 +212,27 @@ class RobotPublisher:
         self.path_channel = fc.PosesInFrameChannel(TOPIC_PATH, context=context)
         self.tf_channel = fc.FrameTransformsChannel(TOPIC_TF, context=context)
         self._path: list[Any] = []
+        self._last_pose: Any = None
+        self._last_tf: Any = None
         self._last_path_pose: tuple[float, float, float] | None = None
         self._lifetime = fg.Duration.from_secs(BEAM_LIFETIME_S)
         self.published = 0
 
-    def resend_path(self, t: float) -> None:
-        """Send the path so far again (for a client that just subscribed)."""
-        if self._path:
-            fg = self._fg
+    def resend(self, topics: set[str] | frozenset[str], t: float) -> None:
+        """Send the path, the last pose and the last transforms again on ``topics``.
+
+        For a client that just subscribed: the protocol keeps nothing for late
+        subscribers, and without the transforms its 3-D view cannot place anything.
+        """
+        fg = self._fg
+        t_ns = round(t * _NS)
+        if TOPIC_PATH in topics and self._path:
             msg = fg.PosesInFrame(timestamp=_stamp(fg, t), frame_id=FRAME_ODOM, poses=self._path)
-            self.path_channel.log(msg, log_time=round(t * _NS))
+            self.path_channel.log(msg, log_time=t_ns)
+        if TOPIC_POSE in topics and self._last_pose is not None:
+            self.pose_channel.log(self._last_pose, log_time=t_ns)
+        if TOPIC_TF in topics and self._last_tf is not None:
+            self.tf_channel.log(self._last_tf, log_time=t_ns)
 
     # ---- one reading ---------------------------------------------------------------------
 
@@ -273,9 +284,15 @@ class RobotPublisher:
             ]
         )
 
-    def readings(self, rows: np.ndarray) -> None:
-        """Publish each row's beam and raw fields, then the last row's pose, path and tf."""
+    def readings(self, rows: np.ndarray, *, beams: bool = True) -> None:
+        """Publish each row's beam and raw fields, then the last row's pose, path and tf.
+
+        ``beams=False`` publishes only the pose, path and transforms (a finished run).
+        """
         if len(rows) == 0:
+            return
+        if not beams:
+            self.poses(rows)
             return
         paths = np.asarray(rows["tof"], dtype=np.float64) * self.speed_of_sound
         for r, path_m in zip(rows, paths.tolist(), strict=True):
@@ -306,15 +323,15 @@ class RobotPublisher:
         t = float(last["t"])
         t_ns, stamp = round(t * _NS), _stamp(fg, t)
         pose = self._pose(float(last["x"]), float(last["y"]), float(last["theta"]))
-        self.pose_channel.log(
-            fg.PoseInFrame(timestamp=stamp, frame_id=FRAME_ODOM, pose=pose), log_time=t_ns
-        )
+        self._last_pose = fg.PoseInFrame(timestamp=stamp, frame_id=FRAME_ODOM, pose=pose)
+        self.pose_channel.log(self._last_pose, log_time=t_ns)
         if grew:
             self.path_channel.log(
                 fg.PosesInFrame(timestamp=stamp, frame_id=FRAME_ODOM, poses=list(self._path)),
                 log_time=t_ns,
             )
-        self.tf_channel.log(self._transforms(last, stamp), log_time=t_ns)
+        self._last_tf = self._transforms(last, stamp)
+        self.tf_channel.log(self._last_tf, log_time=t_ns)
 
     def _pose(self, x: float, y: float, theta: float) -> Any:
         fg = self._fg

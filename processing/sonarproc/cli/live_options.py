@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import signal
+import threading
 from collections.abc import Callable
-from typing import Annotated
+from pathlib import Path
+from types import FrameType
+from typing import Annotated, Any
 
 import typer
 
-from sonarproc.cli.app import fail
+from sonarproc.cli.app import fail, guarded
 
-__all__ = ["FoxgloveOption", "foxglove_endpoint", "listening", "require_foxglove"]
+__all__ = ["FoxgloveOption", "foxglove_endpoint", "listening", "require_foxglove", "serve_run"]
 
 FoxgloveOption = Annotated[
     str | None,
@@ -50,3 +54,38 @@ def listening(command: str) -> Callable[[str, int], None]:
         typer.echo(f"sonarproc {command}: Foxglove live view on ws://{shown}:{port}")
 
     return say
+
+
+def serve_run(
+    log: Path,
+    result: Any,
+    endpoint: tuple[str, int],
+    *,
+    sensors: Path | None = None,
+    truth: Path | None = None,
+    robot: str | None = None,
+) -> None:
+    """``run --foxglove``: publish the finished run once, serve it until SIGINT/SIGTERM."""
+    from sonarproc.live.session import LiveServer, serve_result
+    from sonarproc.pipeline import load_log
+
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    with guarded():
+        lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
+        server = LiveServer(*endpoint, sensors=lg.sensors, speed_of_sound=lg.speed_of_sound)
+        previous = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, on_signal)
+        try:
+            listening("run")(endpoint[0], server.port)
+            typer.echo("sonarproc run: serving the result; Ctrl-C to stop")
+            serve_result(server, lg.readings, result, stop)
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+            server.close()

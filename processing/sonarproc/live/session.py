@@ -24,11 +24,13 @@ from sonarproc.live.map_messages import MapPublisher
 if TYPE_CHECKING:
     from sonarproc.pipeline import RunResult
 
-__all__ = ["BACKLOG_MESSAGES", "LiveServer"]
+__all__ = ["BACKLOG_MESSAGES", "LiveServer", "serve_result"]
 
 #: Messages queued per client before the oldest are dropped: about 40 s of readings at
 #: 25 readings/s with two messages each; a map update adds a few.
 BACKLOG_MESSAGES = 2048
+#: How often a served, finished run checks for new subscribers (s).
+CATCH_UP_POLL_S = 0.1
 
 
 class LiveServer:
@@ -99,8 +101,7 @@ class LiveServer:
         if topics:
             now = time.time()
             self.map.resend(topics, t=now)
-            if self.robot.path_channel.topic() in topics:
-                self.robot.resend_path(now)
+            self.robot.resend(topics, now)
 
     def readings(self, rows: np.ndarray) -> None:
         """Publish new readings (beams, raw rows, pose, path, transforms)."""
@@ -127,3 +128,18 @@ def _listener(note: Callable[[str], None]) -> Any:
             note(str(channel.topic))
 
     return Subscriptions()
+
+
+def serve_result(
+    server: LiveServer, readings: np.ndarray, result: RunResult, stop: threading.Event
+) -> None:
+    """Publish a finished run once (path, last pose, transforms, map), then serve it.
+
+    Every client that subscribes later is sent the same state (:meth:`LiveServer.catch_up`)
+    until ``stop`` is set.
+    """
+    server.robot.readings(readings, beams=False)
+    t_last = float(readings["t"][-1]) if len(readings) else time.time()
+    server.result(result, t=t_last, readings=len(readings), last_reading_t=t_last)
+    while not stop.wait(CATCH_UP_POLL_S):
+        server.catch_up()
