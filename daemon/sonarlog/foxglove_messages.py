@@ -64,6 +64,8 @@ BEAM_LIFETIME_S = 1.0
 #: every degree of turn; a stop-and-fire run repeats its pose for every firing.
 PATH_STEP_M = 0.01
 PATH_TURN_RAD = math.radians(1.0)
+#: Pose and transforms at most this often (s of log time): 20 Hz looks smooth in a viewer.
+POSE_PERIOD_S = 0.05
 #: Points along a beam's arc (the arc spans at most 25 degrees: 3 degrees a segment).
 ARC_POINTS = 9
 _NS = 1_000_000_000
@@ -214,6 +216,7 @@ class RobotPublisher:
         self._path: list[Any] = []
         self._last_pose: Any = None
         self._last_tf: Any = None
+        self._last_pose_t = -math.inf
         self._last_path_pose: tuple[float, float, float] | None = None
         self._lifetime = fg.Duration.from_secs(BEAM_LIFETIME_S)
         self.published = 0
@@ -304,34 +307,43 @@ class RobotPublisher:
             raw["range_m"] = _finite(path_m / 2.0)
             self.raw_channel.log(json.dumps(raw).encode(), log_time=t_ns)
             self.published += 1
-        self.poses(rows[-1:])
+        self.poses(rows)
 
     # ---- pose, path, transforms ----------------------------------------------------------
 
     def poses(self, rows: np.ndarray) -> None:
-        """Publish the pose, path and transforms at the last of ``rows`` (t, x, y, theta, turret).
+        """Publish pose and transforms along ``rows`` (fields t, x, y, theta, turret).
 
-        Every row may extend the path; the pose and the transforms go out once.
+        Every row may extend the path (published once, if it grew); the pose and the
+        transforms go out at most every :data:`POSE_PERIOD_S` of log time, and at the
+        last row.
         """
         if len(rows) == 0:
             return
         fg = self._fg
         grew = False
-        for r in rows:
+        last = len(rows) - 1
+        for i, r in enumerate(rows):
             grew |= self._extend_path(float(r["x"]), float(r["y"]), float(r["theta"]))
-        last = rows[-1]
-        t = float(last["t"])
+            t = float(r["t"])
+            if i == last or t - self._last_pose_t >= POSE_PERIOD_S:
+                self._publish_pose(r, t)
+        if grew:
+            t = float(rows[last]["t"])
+            self.path_channel.log(
+                fg.PosesInFrame(timestamp=_stamp(fg, t), frame_id=FRAME_ODOM, poses=self._path),
+                log_time=round(t * _NS),
+            )
+
+    def _publish_pose(self, r: np.void, t: float) -> None:
+        fg = self._fg
         t_ns, stamp = round(t * _NS), _stamp(fg, t)
-        pose = self._pose(float(last["x"]), float(last["y"]), float(last["theta"]))
+        pose = self._pose(float(r["x"]), float(r["y"]), float(r["theta"]))
         self._last_pose = fg.PoseInFrame(timestamp=stamp, frame_id=FRAME_ODOM, pose=pose)
         self.pose_channel.log(self._last_pose, log_time=t_ns)
-        if grew:
-            self.path_channel.log(
-                fg.PosesInFrame(timestamp=stamp, frame_id=FRAME_ODOM, poses=list(self._path)),
-                log_time=t_ns,
-            )
-        self._last_tf = self._transforms(last, stamp)
+        self._last_tf = self._transforms(r, stamp)
         self.tf_channel.log(self._last_tf, log_time=t_ns)
+        self._last_pose_t = t
 
     def _pose(self, x: float, y: float, theta: float) -> Any:
         fg = self._fg

@@ -13,7 +13,15 @@ import typer
 
 from sonarproc.cli.app import fail, guarded
 
-__all__ = ["FoxgloveOption", "foxglove_endpoint", "listening", "require_foxglove", "serve_run"]
+__all__ = [
+    "FoxgloveOption",
+    "export_mcap",
+    "foxglove_endpoint",
+    "listening",
+    "require_foxglove",
+    "serve_run",
+    "split_mcap",
+]
 
 FoxgloveOption = Annotated[
     str | None,
@@ -89,3 +97,26 @@ def serve_run(
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
             server.close()
+
+
+def split_mcap(formats: str) -> tuple[list[str], bool]:
+    """The ``--format`` list without ``mcap``, and whether ``mcap`` was in it.
+
+    Examples
+    --------
+    >>> split_mcap("ros-map, mcap"), split_mcap("geojson")
+    ((['ros-map'], True), (['geojson'], False))
+    """
+    names = [f.strip() for f in formats.split(",") if f.strip()]
+    return [f for f in names if f != "mcap"], "mcap" in names
+
+
+def export_mcap(result: Any, lg: Any, params: Any, out_dir: Path, *, force: bool = False) -> Path:
+    """``export --format mcap``: ``OUT/<method>.mcap`` (exit 2 without the SDK)."""
+    require_foxglove()
+    from sonarproc.live.mcap_export import write_mcap
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    live_params = params if result.method == "morphological" else None
+    path = out_dir / f"{result.method}.mcap"
+    return write_mcap(lg, result.run, path, params=live_params, force=force)
