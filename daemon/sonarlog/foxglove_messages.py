@@ -268,7 +268,7 @@ class RobotPublisher:
             color=color,
         )
         meta = {
-            "t": f"{float(r['t']):.6f}",
+            "t": repr(float(r["t"])),  # exact: clients match it to the log time
             "tx": str(tx),
             "rx": str(rx),
             "range_m": f"{path_m / 2.0:.4f}",

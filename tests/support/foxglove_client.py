@@ -15,6 +15,8 @@ from __future__ import annotations
 import asyncio
 import base64
 import json
+import os
+import socket
 import struct
 import time
 from dataclasses import dataclass, field
@@ -85,6 +87,7 @@ async def collect(
     subscribed to as they come; ``expect_topics`` waits (within ``seconds``) for that many.
     """
     import websockets
+    from websockets.exceptions import ConnectionClosed
 
     session = Session()
     decoders: dict[int, Any] = {}
@@ -97,7 +100,7 @@ async def collect(
         while time.monotonic() < deadline:
             try:
                 frame = await asyncio.wait_for(ws.recv(), timeout=deadline - time.monotonic())
-            except TimeoutError:
+            except (TimeoutError, ConnectionClosed):  # time is up, or the server stopped
                 break
             if isinstance(frame, str):
                 msg = json.loads(frame)
@@ -129,3 +132,75 @@ async def collect(
 def collect_sync(url: str, **kwargs: Any) -> Session:
     """:func:`collect` from synchronous code."""
     return asyncio.run(collect(url, **kwargs))
+
+
+def stalled_client(url: str) -> socket.socket:
+    """Connect, subscribe to every channel advertised at once, then never read again.
+
+    A bare socket speaking just enough WebSocket (RFC 6455: the upgrade request, the
+    server's unmasked frames, one masked text frame): the server's queue for it fills,
+    and the server must drop messages or the client, not wait for it. Close it at the
+    end of the test.
+    """
+    host, port = url.removeprefix("ws://").rsplit(":", 1)
+    sock = socket.create_connection((host, int(port)), timeout=10.0)
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(
+        (
+            f"GET / HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+            f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+            f"Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: {', '.join(SUBPROTOCOLS)}"
+            "\r\n\r\n"
+        ).encode()
+    )
+    buf = b""
+    while b"\r\n\r\n" not in buf:
+        buf += sock.recv(4096)
+    head, buf = buf.split(b"\r\n\r\n", 1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    channels: list[dict[str, Any]] = []
+    while not channels:
+        while True:
+            frame = _frame(buf)
+            if frame is not None:
+                break
+            buf += sock.recv(65536)
+        opcode, payload, buf = frame
+        if opcode == 1 and json.loads(payload)["op"] == "advertise":
+            channels = json.loads(payload)["channels"]
+    subs = [{"id": i + 1, "channelId": ch["id"]} for i, ch in enumerate(channels)]
+    sock.sendall(_masked_text(json.dumps({"op": "subscribe", "subscriptions": subs}).encode()))
+    return sock
+
+
+def _frame(buf: bytes) -> tuple[int, bytes, bytes] | None:
+    """``(opcode, payload, rest)`` of the first complete server frame in ``buf``, or None."""
+    if len(buf) < 2:
+        return None
+    n, at = buf[1] & 0x7F, 2
+    if n == 126:
+        if len(buf) < 4:
+            return None
+        n, at = struct.unpack_from(">H", buf, 2)[0], 4
+    elif n == 127:
+        if len(buf) < 10:
+            return None
+        n, at = struct.unpack_from(">Q", buf, 2)[0], 10
+    if len(buf) < at + n:
+        return None
+    return buf[0] & 0x0F, buf[at : at + n], buf[at + n :]
+
+
+def _masked_text(payload: bytes) -> bytes:
+    mask = os.urandom(4)
+    n = len(payload)
+    head = bytes([0x81]) + (
+        bytes([0x80 | n]) if n < 126 else bytes([0x80 | 126]) + struct.pack(">H", n)
+    )
+    return head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+
+
+if __name__ == "__main__":  # a client process a test can kill: python foxglove_client.py URL
+    import sys
+
+    collect_sync(sys.argv[1], seconds=float(sys.argv[2]) if len(sys.argv) > 2 else 60.0)

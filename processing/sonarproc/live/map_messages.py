@@ -248,7 +248,7 @@ class MapPublisher:
                 "rms_m": f"{s.rms_m:.5f}",
                 "arcs": str(int(s.arcs)),
                 "readings": str(int(readings)),
-                "last_reading_t": f"{last_reading_t:.6f}",
+                "last_reading_t": repr(float(last_reading_t)),  # exact, as the beam's "t"
             }
             entity = self._entity(eid, s, poly, meta, stamp)
             self._entities[eid] = entity
