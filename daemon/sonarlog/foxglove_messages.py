@@ -50,6 +50,7 @@ __all__ = [
     "beam_outline",
     "parse_endpoint",
     "sonar_frame",
+    "timestamp_of",
 ]
 
 FRAME_MAP, FRAME_ODOM, FRAME_BASE = "map", "odom", "base_link"
@@ -161,7 +162,8 @@ def _yaw(fg: Any, yaw: float) -> Any:
     return fg.Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2.0), w=math.cos(yaw / 2.0))
 
 
-def _stamp(fg: Any, t: float) -> Any:
+def timestamp_of(fg: Any, t: float) -> Any:
+    """``t`` (UNIX s) as a ``foxglove.Timestamp``, rounded to the nanosecond as log times are."""
     ns = round(t * _NS)
     return fg.Timestamp(ns // _NS, ns % _NS)
 
@@ -230,7 +232,9 @@ class RobotPublisher:
         fg = self._fg
         t_ns = round(t * _NS)
         if TOPIC_PATH in topics and self._path:
-            msg = fg.PosesInFrame(timestamp=_stamp(fg, t), frame_id=FRAME_ODOM, poses=self._path)
+            msg = fg.PosesInFrame(
+                timestamp=timestamp_of(fg, t), frame_id=FRAME_ODOM, poses=self._path
+            )
             self.path_channel.log(msg, log_time=t_ns)
         if TOPIC_POSE in topics and self._last_pose is not None:
             self.pose_channel.log(self._last_pose, log_time=t_ns)
@@ -277,7 +281,7 @@ class RobotPublisher:
         return fg.SceneUpdate(
             entities=[
                 fg.SceneEntity(
-                    timestamp=_stamp(fg, float(r["t"])),
+                    timestamp=timestamp_of(fg, float(r["t"])),
                     frame_id=FRAME_MAP,
                     id=f"beam/{tx}-{rx}",
                     lifetime=self._lifetime,
@@ -331,13 +335,15 @@ class RobotPublisher:
         if grew:
             t = float(rows[last]["t"])
             self.path_channel.log(
-                fg.PosesInFrame(timestamp=_stamp(fg, t), frame_id=FRAME_ODOM, poses=self._path),
+                fg.PosesInFrame(
+                    timestamp=timestamp_of(fg, t), frame_id=FRAME_ODOM, poses=self._path
+                ),
                 log_time=round(t * _NS),
             )
 
     def _publish_pose(self, r: np.void, t: float) -> None:
         fg = self._fg
-        t_ns, stamp = round(t * _NS), _stamp(fg, t)
+        t_ns, stamp = round(t * _NS), timestamp_of(fg, t)
         pose = self._pose(float(r["x"]), float(r["y"]), float(r["theta"]))
         self._last_pose = fg.PoseInFrame(timestamp=stamp, frame_id=FRAME_ODOM, pose=pose)
         self.pose_channel.log(self._last_pose, log_time=t_ns)

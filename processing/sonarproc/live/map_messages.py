@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sonarlog.foxglove_messages import FRAME_MAP
+from sonarlog.foxglove_messages import FRAME_MAP, timestamp_of
 
 if TYPE_CHECKING:
     import foxglove
@@ -209,7 +209,7 @@ class MapPublisher:
         fg = self._fg
         half = grid.cell / 2.0
         return fg.Grid(
-            timestamp=fg.Timestamp.from_epoch_secs(t),
+            timestamp=timestamp_of(fg, t),
             frame_id=FRAME_MAP,
             pose=fg.Pose(
                 position=fg.Vector3(x=grid.x0 - half, y=grid.y0 - half, z=0.0),
@@ -230,7 +230,7 @@ class MapPublisher:
     ) -> tuple[Any, int, int]:
         fg = self._fg
         fits = surfaces_of(result)
-        stamp = fg.Timestamp.from_epoch_secs(t)
+        stamp = timestamp_of(fg, t)
         entities = []
         now: dict[str, str] = {}
         for i, s in enumerate(fits):
