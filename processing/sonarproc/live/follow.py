@@ -105,6 +105,10 @@ def follow_live(
 
     stop = stop or threading.Event()
     first = None
+    if _recorded(log_path):  # a bag, CSV or Player log: no writer appends to it
+        from sonarproc.pipeline import load_log
+
+        first = load_log(log_path)
     while first is None:
         try:
             first = read_log(log_path)
@@ -138,6 +142,7 @@ def _serve(
 
     acc = LiveAccumulator(first, params)
     tail = LogTail(log_path, start=len(first.readings))
+    recorded = _recorded(log_path)
     pending = _take(server, acc, first.readings)
     result: RunResult | None = None
     updates = 0
@@ -146,8 +151,8 @@ def _serve(
     reason = "once"
     try:
         while True:
-            closed = writer_closed(log_path)
-            if not once:
+            closed = recorded or writer_closed(log_path)
+            if not once and not recorded:
                 try:
                     new = tail.new_rows()
                 except OSError as err:  # a write in flight; try again at the next poll
@@ -181,6 +186,11 @@ def _serve(
         live = {"updates": updates, "readings_seen": acc.n_readings, "final": True}
         doc = write_report_atomic(result, out_dir, live=live, refresh_s=None)
     return WatchOutcome(reason, updates, acc.n_readings, doc)
+
+
+def _recorded(path: Path) -> bool:
+    """Whether ``path`` is a recording no writer appends to (not a sonarlog ``.h5``)."""
+    return path.is_dir() or path.suffix.lower() not in (".h5", ".hdf5")
 
 
 def _take(server: LiveServer, acc: LiveAccumulator, rows: np.ndarray) -> bool:

@@ -210,3 +210,43 @@ def _check_session(session: Session, log: Path) -> None:
     assert len(g["data"]) == g["row_stride"] * (len(g["data"]) // g["row_stride"])
     quality = session.on("/map/quality")[-1].data
     assert quality["counts"]["readings_total"] > 0
+
+
+def test_run_serves_the_result_until_interrupted(tmp_path: Path) -> None:
+    from sonarproc.simulate import simulate_to_log
+
+    log = tmp_path / "room.h5"
+    simulate_to_log(ROOT / "configs" / "scenarios" / "room-box.yaml", log)
+    run = subprocess.Popen(
+        [*SONARPROC, "run", str(log), "--foxglove", "127.0.0.1:0", "--out", str(tmp_path / "r")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(),
+    )  # fmt: skip
+    try:
+        out: list[str] = []
+        port = _port(_wait_for_line(run.stdout, r"Foxglove live view", 120, out))
+        time.sleep(0.5)  # connect after the result went out: it is sent again on subscribe
+        session = collect_sync(
+            f"ws://127.0.0.1:{port}",
+            seconds=30,
+            until=lambda s: (
+                {"/map/surfaces", "/tf", "/robot/path"} <= {m.topic for m in s.messages}
+            ),
+            expect_topics=len(EXPECTED),
+        )
+        run.send_signal(signal.SIGINT)
+        rc = run.wait(30)
+        assert run.stderr is not None
+        err = run.stderr.read()
+    finally:
+        stop_process(run)
+    assert rc == 0 and "Traceback" not in err, err
+    (update,) = [m.data for m in session.on("/map/surfaces")][:1]
+    kinds = [{kv["key"]: kv["value"] for kv in e["metadata"]}["kind"] for e in update["entities"]]
+    assert len(kinds) >= 3 and set(kinds) == {"plane"}
+    assert session.on("/robot/path")[-1].data["poses"]
+    assert session.on("/map/arcs") and session.on("/map/quality")
+    assert not session.on("/sonar/readings")  # a finished run: no beams
+
+
+def _topic(message: Any) -> str:
+    return str(message.topic)
