@@ -212,6 +212,10 @@ def _check_session(session: Session, log: Path) -> None:
     assert quality["counts"]["readings_total"] > 0
 
 
+#: What ``run --foxglove`` sends a client that subscribes after the result went out.
+SERVED = ("/map/arcs", "/map/processed", "/map/surfaces", "/map/quality", "/tf", "/robot/path")
+
+
 def test_run_serves_the_result_until_interrupted(tmp_path: Path) -> None:
     from sonarproc.simulate import simulate_to_log
 
@@ -228,9 +232,7 @@ def test_run_serves_the_result_until_interrupted(tmp_path: Path) -> None:
         session = collect_sync(
             f"ws://127.0.0.1:{port}",
             seconds=30,
-            until=lambda s: (
-                {"/map/surfaces", "/tf", "/robot/path"} <= {m.topic for m in s.messages}
-            ),
+            until=lambda s: set(SERVED) <= set(map(_topic, s.messages)),
             expect_topics=len(EXPECTED),
         )
         run.send_signal(signal.SIGINT)
