@@ -14,7 +14,7 @@ import typer
 
 from sonarproc.cli.app import app, guarded, warn_if_damaged
 from sonarproc.cli.compare import SetOption, build_methods
-from sonarproc.cli.live_options import export_mcap, split_mcap
+from sonarproc.cli.live_options import export_mcap, require_foxglove, split_mcap
 from sonarproc.cli.options import (
     BboxOption,
     CellOption,
@@ -76,6 +76,8 @@ def export_command(
         (instance,) = build_methods(names, settings)
         formats, mcap = split_mcap(fmt)
         formats = parse_formats(",".join(formats)) if formats else []
+        if mcap:
+            require_foxglove()  # before any file is written
         lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
         warn_if_damaged(lg)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
