@@ -10,8 +10,8 @@ if [ ! -x "$VENV/bin/python" ]; then
     "$VENV/bin/python" -m pip install --quiet --upgrade pip >&2
 fi
 # Reinstall only when pyproject.toml changed or an extra we need is missing, so that
-# ./scripts/bench (test,bench) and ./scripts/test (test) do not undo each other.
-want_extras="${EXTRAS:-test}"
+# ./scripts/bench (test,bench) and ./scripts/test (test,live) do not undo each other.
+want_extras="${EXTRAS:-test,live}"
 hash="$(sha256sum "$ROOT/pyproject.toml" | cut -d' ' -f1)"
 have_hash="" have_extras=""
 [ -f "$STAMP" ] && read -r have_hash have_extras < "$STAMP" || true

@@ -20,6 +20,7 @@ import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from sonard.plan import BAUD_RATES, PlanError, load_plan
 from sonarsim.shipped import resolve_shipped
@@ -69,6 +70,12 @@ def _parser() -> argparse.ArgumentParser:
         metavar="WORLD.yaml",
         help="store this sonarsim world's truth profile in the log (emulator runs: lets "
         "sonarproc report E1/E2)",
+    )
+    p.add_argument(
+        "--foxglove",
+        metavar="[HOST:]PORT",
+        help="serve readings, pose and path live to the Foxglove app (host default "
+        "127.0.0.1; port 0 picks a free one; needs: pip install 'sonarmorph[live]')",
     )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv debug)")
     p.add_argument("--version", action="version", version=f"sonard {_version()}")
@@ -139,6 +146,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"sonard: --truth: {exc}", file=sys.stderr)
             return 2
 
+    live = None
+    if args.foxglove is not None:
+        live = _live_view(args.foxglove, plan.speed_of_sound)
+        if isinstance(live, int):
+            return live
+
     # imports h5py and the driver: keep --help fast
     from sonard.daemon import run
     from sonard.log_lock import LockBusy, LogExists
@@ -153,6 +166,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             baud=args.baud,
             fault_timeout_s=args.fault_timeout,
             truth=truth,
+            live=live,
         )
     except LogExists as exc:
         print(f"sonard: --out: {exc}", file=sys.stderr)
@@ -163,9 +177,40 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as exc:  # the log file could not be created
         log.error("cannot create %s: %s", out, exc.strerror or exc)
         return 1
+    finally:
+        if live is not None:
+            live.close()
     if result.code:
         log.error("%s", result.reason)
     return result.code
+
+
+def _live_view(endpoint: str, speed_of_sound: float) -> Any:
+    """Start ``--foxglove``'s server; an exit code (2 usage, 1 runtime) when it cannot."""
+    import importlib.util
+
+    from sonarlog.foxglove_messages import parse_endpoint
+
+    if importlib.util.find_spec("foxglove") is None:
+        print("sonard: --foxglove needs the Foxglove SDK: pip install 'sonarmorph[live]'",
+              file=sys.stderr)  # fmt: skip
+        return 2
+    try:
+        host, port = parse_endpoint(endpoint)
+    except ValueError as exc:
+        print(f"sonard: --foxglove: {exc}", file=sys.stderr)
+        return 2
+    from sonard.live_view import LiveView
+    from sonard.ring import ring_sensors
+
+    try:
+        view = LiveView(host, port, ring_sensors(), speed_of_sound)
+    except OSError as exc:
+        log.error("--foxglove: %s", exc)
+        return 1
+    shown = f"[{host}]" if ":" in host else host
+    log.info("Foxglove live view on ws://%s:%d", shown, view.port)
+    return view
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,6 +35,9 @@ from sonard.ring import ring_sensors
 from sonard.steps import run_plan
 from sonard.writer_thread import LogSink
 from sonarlog import LogWriter
+
+if TYPE_CHECKING:
+    from sonard.live_view import LiveView
 
 __all__ = ["RunResult", "run"]
 
@@ -74,6 +77,7 @@ def run(
     notifier: Notifier | None = None,
     install_signals: bool = True,
     truth: np.ndarray | None = None,
+    live: LiveView | None = None,
 ) -> RunResult:
     """Run ``plan`` on the robot at ``port`` and log to ``out``.
 
@@ -99,6 +103,8 @@ def run(
         Install SIGTERM/SIGINT handlers (main thread only).
     truth : ndarray, optional
         (N, 2) true surface profile to store (simulated runs).
+    live : sonard.live_view.LiveView, optional
+        A Foxglove live view shown every reading and pose written to the log.
 
     Returns
     -------
@@ -131,6 +137,7 @@ def run(
             stop=stop,
             notifier=notifier,
             truth=truth,
+            live=live,
         )
     finally:
         for signum, handler in old_handlers.items():
@@ -156,6 +163,7 @@ def _run_with_locks(
     stop: threading.Event,
     notifier: Notifier | None,
     truth: np.ndarray | None,
+    live: LiveView | None = None,
 ) -> RunResult:
     log_lock = LogLock(out)
     try:
@@ -180,6 +188,7 @@ def _run_with_locks(
             stop=stop,
             notifier=notifier,
             truth=truth,
+            live=live,
         )
     except Stopped:
         pass  # stopped during start-up: nothing was written
@@ -202,6 +211,7 @@ def _run_locked(
     stop: threading.Event,
     notifier: Notifier | None,
     truth: np.ndarray | None,
+    live: LiveView | None = None,
 ) -> RunResult:
     notifier = notifier or Notifier()
     baud = baud or plan.baud
@@ -228,7 +238,7 @@ def _run_locked(
         flush_interval=FLUSH_INTERVAL_S,
         truth=truth,
     )
-    sink = LogSink(writer)
+    sink = LogSink(writer if live is None else live.tee(writer))
     acq = Acquisition(
         client, plan, sink, stop=stop, notifier=notifier, fault_timeout_s=fault_timeout_s
     )

@@ -14,6 +14,7 @@ import typer
 
 from sonarproc.cli.app import app, guarded, warn_if_damaged
 from sonarproc.cli.compare import SetOption, build_methods
+from sonarproc.cli.live_options import export_mcap, require_foxglove, split_mcap
 from sonarproc.cli.options import (
     BboxOption,
     CellOption,
@@ -36,7 +37,7 @@ def export_command(
     log: Annotated[Path, typer.Argument(help="sonarlog v1 file (.h5), or a readings CSV.")],
     fmt: Annotated[
         str,
-        typer.Option("--format", help="ros-map, geojson, ply, rosbag2 (comma-separated)."),
+        typer.Option("--format", help="ros-map, geojson, ply, rosbag2, mcap (comma-separated)."),
     ] = "ros-map,geojson",
     method: Annotated[str, typer.Option(help="Map-building method.")] = "morphological",
     out: Annotated[
@@ -54,7 +55,9 @@ def export_command(
     ] = None,
     drop_crosstalk: DropCrosstalkOption = False,
     settings: SetOption = None,
-    force: Annotated[bool, typer.Option("--force", help="Replace an existing rosbag2.")] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace an existing rosbag2 or mcap.")
+    ] = False,
 ) -> None:
     """Export one method's map of a log: ROS map, GeoJSON profile, PLY cloud, ROS 2 bag."""
     from sonarproc.export import parse_formats, write_exports
@@ -71,12 +74,17 @@ def export_command(
                 "method", "takes one method (use sonarproc compare --export for more)"
             )
         (instance,) = build_methods(names, settings)
-        formats = parse_formats(fmt)
+        formats, mcap = split_mcap(fmt)
+        formats = parse_formats(",".join(formats)) if formats else []
+        if mcap:
+            require_foxglove()  # before any file is written
         lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
         warn_if_damaged(lg)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_export")
         check_output_dir(out_dir)
         result = instance.run(lg, params)
         paths = write_exports(result, out_dir, formats, log=lg, force=force)
+        if mcap:
+            paths.append(export_mcap(result, lg, params, out_dir, force=force))
     for p in paths:
         typer.echo(str(p))

@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 
 from sonarproc.cli.app import app, guarded
+from sonarproc.cli.live_options import FoxgloveOption, foxglove_endpoint, serve_run
 from sonarproc.cli.options import (
     ArcStepOption,
     BboxOption,
@@ -159,8 +160,12 @@ def run_command(
             "ground truth); --ops, --fit, --order, --smooth, --robust, --span are then ignored.",
         ),
     ] = False,
+    foxglove: FoxgloveOption = None,
 ) -> None:
-    """Turn a sonar log into an arc map, a processed map, a fitted profile and a report."""
+    """Turn a sonar log into an arc map, a processed map, a fitted profile and a report.
+
+    With --foxglove the result is then served to the Foxglove app until Ctrl-C.
+    """
     from sonarproc.fit import FitFailure
     from sonarproc.pipeline import run_file
     from sonarproc.report import default_out_dir, write_report
@@ -172,6 +177,7 @@ def run_command(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
         )  # fmt: skip
+        endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
@@ -210,3 +216,5 @@ def run_command(
             from sonarproc.auto import record_table
 
             Console().print(record_table(record))
+    if endpoint is not None:
+        serve_run(log, result, endpoint, sensors=sensors, truth=truth, robot=robot)

@@ -15,6 +15,7 @@ from typing import Annotated
 import typer
 
 from sonarproc.cli.app import app, fail, guarded
+from sonarproc.cli.live_options import FoxgloveOption, foxglove_endpoint, listening
 from sonarproc.cli.options import (
     BboxOption,
     CellOption,
@@ -59,8 +60,13 @@ def watch_command(
     robust: RobustOption = "none",
     span: SpanOption = "truth",
     figures: FiguresOption = "png,svg",
+    foxglove: FoxgloveOption = None,
 ) -> None:
-    """Process a log while it is being written; keep the report directory current."""
+    """Process a log while it is being written; keep the report directory current.
+
+    With --foxglove the log is published live to the Foxglove app instead, and the report
+    is written once, when the watch ends.
+    """
     from sonarproc.pipeline.watch import watch
     from sonarproc.report import default_out_dir
     from sonarproc.report.plots import parse_figure_formats
@@ -76,6 +82,10 @@ def watch_command(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust=robust, span=span,
         )  # fmt: skip
+        if foxglove is not None:
+            from sonarproc.live.follow import live_watch
+
+            watch = live_watch(*foxglove_endpoint(foxglove), on_listen=listening("watch"))
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
 
