@@ -171,7 +171,9 @@ def test_sigterm_stops_robot_and_exits_zero(tmp_path: Path) -> None:
         took = time.monotonic() - t0
         time.sleep(0.6)  # let the emulator log firings of the stopped robot
     assert rc == 0, err
-    assert took < 2.0
+    # sonard stops within 2 s on a machine with a core to spare (ST, drain, close: tens of
+    # ms); beside two busy loops on 2 cores its threads wait for the CPU, so 5 s here
+    assert took < 5.0
     trace = load_trace(trace_path)
     cmds = commands(trace)
     assert cmds[-1]["cmd"] == "ST"
