@@ -28,8 +28,13 @@ import yaml
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
-#: examples per input kind: 300 in CI (the fixed, derandomized profile of tests/conftest.py)
-FUZZ_EXAMPLES = int(os.environ.get("FUZZ_EXAMPLES", "300"))
+#: examples per input kind: 300 under the CI profile (``HYPOTHESIS_PROFILE=ci``, fixed and
+#: derandomized like every profile of tests/conftest.py), 100 otherwise; FUZZ_EXAMPLES wins
+FUZZ_EXAMPLES = int(
+    os.environ.get(
+        "FUZZ_EXAMPLES", "300" if os.environ.get("HYPOTHESIS_PROFILE") == "ci" else "100"
+    )
+)
 
 FUZZ = settings(
     max_examples=FUZZ_EXAMPLES,
