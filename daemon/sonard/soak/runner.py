@@ -161,9 +161,13 @@ def _resources(samples: list[Sample], duration: float, result: SoakResult) -> No
 
 
 def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
-    from sonarlog import read_log
+    from sonarlog import SonarLogError, read_log
 
-    log = read_log(out)
+    try:
+        log = read_log(out)
+    except (OSError, SonarLogError) as exc:
+        result.failures.append(f"the soak log cannot be read: {exc}")
+        return
     fire_t, fire_sonar = load_firings(procs.trace)
     acc = account_firings(fire_t, fire_sonar, log, interval=INTERVAL)
     kinds = [bytes(k).decode() for k in log.events["kind"]] if log.events is not None else []

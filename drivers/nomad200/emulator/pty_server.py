@@ -75,6 +75,11 @@ class PtyServer:
         self._last_rx = -float("inf")  # monotonic time of the last bytes from the host
         self._first_rx = float("inf")  # ... and of the first
 
+    @property
+    def host_seen(self) -> bool:
+        """Whether the host has sent anything yet (fault schedules start from there)."""
+        return self._first_rx != float("inf")
+
     # ------------------------------------------------------------ pty lifecycle
     def open(self) -> str:
         """Create the pty (and link); return the slave's path."""
