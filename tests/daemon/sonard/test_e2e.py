@@ -66,6 +66,11 @@ def test_shipped_plan_runs_to_completion_under_load(name: str, tmp_path: Path) -
     kinds = [e["kind"].decode() for e in log.events]
     assert kinds[0] == "start" and kinds[-1] == "stop"
     assert "step" in kinds and "error" not in kinds and "late" not in kinds
+    if name == "wallfollow-ring":  # every sonar fires; the robot went round the room
+        r = log.readings
+        assert r.size > 1000 and np.unique(r["tx"]).tolist() == list(range(16))
+        assert np.ptp(r["x"]) > 3.5 and np.ptp(r["y"]) > 2.5
+        assert 0.2 < np.isfinite(r["tof"]).mean() < 1.0
     if name == "translate":  # Fig. 16: stops every 2.5 cm from x = -0.75 to 0.75 m on y = 0
         r = log.readings
         xs = np.unique(np.round(r["x"] / 0.025))
