@@ -33,9 +33,8 @@ __all__ = [
 
 TRANS_TOL = 0.003
 ANGLE_TOL = math.radians(0.15)
-#: after a move command, how long (robot time) a robot may stand still before the move is
-#: re-issued (s): longer than a reply's way back at 4800 baud with attachments, so a move
-#: whose acknowledgement is still on the line is not sent twice
+#: after a move command, how long a robot may stand still before the move is re-issued
+#: (s, robot time)
 GRACE_S = 0.3
 #: a motion fails when its remaining error has not shrunk by one tolerance for this long
 #: (robot time, s). The slowest move a plan may ask for (0.01 m/s, 1 deg/s) covers a
@@ -45,7 +44,7 @@ NO_PROGRESS_S = 5.0
 
 
 class MotionError(RuntimeError):
-    """The robot did not reach a target in time."""
+    """The robot stopped making progress towards a target (or its clock stood still)."""
 
 
 def wrap(a: float) -> float:
