@@ -31,7 +31,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sonard.cli import main as sonard_main
-from sonarproc.cli.main import main as sonarproc_main
+from sonarproc.cli import main as sonarproc_main
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ROOT / "configs"
