@@ -305,6 +305,11 @@ class LogWriter:
         except OSError as exc:
             self.error = exc
             raise
+        # events first: a kill between two datasets then leaves an event (a gap, say)
+        # without the readings after it, never readings whose gap event is lost
+        if self._pending_events:
+            self._extend(self._file["events"], np.concatenate(self._pending_events))
+            self._pending_events.clear()
         if self._pending:
             batch = seal(np.concatenate(self._pending), self._n_written + 1)
             self._pending.clear()
@@ -314,9 +319,6 @@ class LogWriter:
         if self._pending_poses:
             self._extend(self._file["poses"], np.concatenate(self._pending_poses))
             self._pending_poses.clear()
-        if self._pending_events:
-            self._extend(self._file["events"], np.concatenate(self._pending_events))
-            self._pending_events.clear()
 
     def _bytes_needed(self) -> int:
         """File space the pending rows take: HDF5 allocates whole chunks as datasets grow."""
