@@ -9,5 +9,8 @@ from hypothesis import settings
 # Seeded like every other random draw in the suite: a failure found once is found again,
 # and a run never depends on an example database left by an earlier one.
 settings.register_profile("repeatable", derandomize=True, database=None)
+# CI (.ci/run): the same fixed examples, and the fuzz tests draw 300 per input kind
+# instead of 100 (tests/support/fuzzing.py)
+settings.register_profile("ci", derandomize=True, database=None)
 settings.register_profile("explore", derandomize=False, max_examples=1000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))

@@ -41,6 +41,7 @@ from sonard.link_faults import (
     is_link_error,
     reconnect,
 )
+from sonard.logclock import CLOCK_STEP_S
 from sonard.notify import Notifier
 from sonard.plan import Plan
 from sonard.recording import ReplyRecorder
@@ -54,6 +55,9 @@ log = logging.getLogger(__name__)
 CONFIG_TRIES = 20
 #: motor status bits: translating, steering, turret
 MOVING = 0b111
+#: replies in a row whose robot clock stands still before a robot-time wait gives up (a
+#: real robot's millisecond clock moves between two replies: each takes > 1 ms on the line)
+FROZEN_CLOCK_REPLIES = 200
 
 
 class ClientLike(Protocol):
@@ -116,6 +120,9 @@ class Acquisition:
         self._next_poll = 0.0
         self._last_good = time.monotonic()
         self.n_faults = 0
+        #: the log's UNIX time (never jumps with the system clock, see sonard.logclock)
+        self.clock: Callable[[], float] = getattr(sink, "clock", time.time)
+        self._wall_step = self._system_clock_step()
         #: True when the robot clock runs ahead of real time (emulator --fast): no pacing
         self.virtual_time = False
         self._fast_votes = 0
@@ -176,7 +183,7 @@ class Acquisition:
         """Tag a state reply, queue its readings and pose, and remember it."""
         if state is None:
             return None
-        rows = self.recorder.record(state, time.time())
+        rows = self.recorder.record(state, self.clock())
         if rows is None:
             return None
         self.latest = rows
@@ -186,9 +193,16 @@ class Acquisition:
         return state
 
     def check_stop(self) -> None:
-        """Raise :class:`Stopped` when a stop was requested."""
+        """Raise :class:`Stopped` when a stop was requested, LogWriteError when the log failed.
+
+        A log that cannot be written (the disk is full) ends the run at once: every later
+        reading would be lost, and the log is closed while it still can be.
+        """
         if self.stop_event.is_set():
             raise Stopped
+        check = getattr(self.sink, "check", None)
+        if check is not None:
+            check()
 
     # -- robot commands (typed; every reply is a state and is fed like a poll) -------------
     def set_speed(self, trans: float, steer: float, turret: float) -> Any:
@@ -274,7 +288,28 @@ class Acquisition:
                 self.recover(exc)
         except LINK_ERRORS as exc:
             self.recover(exc)
+        self._note_clock_step()
         return self.state
+
+    def _system_clock_step(self) -> float:
+        step = getattr(self.clock, "step", None)
+        return float(step()) if step is not None else 0.0
+
+    def _note_clock_step(self) -> None:
+        """Record a ``clock_step`` event when the system clock was stepped since the last poll.
+
+        The log's times follow the robot's clock and the monotonic clock, so nothing in the
+        log moves; the event says by how much the wall clock now differs from ``t``.
+        """
+        step = self._system_clock_step()
+        if abs(step - self._wall_step) > CLOCK_STEP_S:
+            d, self._wall_step = step - self._wall_step, step
+            log.warning("system clock stepped by %+.3f s; the log keeps the robot's time", d)
+            self.sink.event(
+                "clock_step",
+                f"system clock stepped by {d:+.3f} s (now {step:+.3f} s from t); "
+                "t follows the robot clock",
+            )
 
     def _learn_clock_rate(self, d_robot: float, d_host: float) -> None:
         """Detect a robot clock that runs ahead of real time (an emulator in fast mode).
@@ -290,12 +325,19 @@ class Acquisition:
             self.virtual_time = virtual
 
     def wait_robot_time(self, seconds: float) -> None:
-        """Poll until the robot clock advanced by ``seconds`` (fast emulators run it faster)."""
-        start = self.poll().clock
-        guard = time.monotonic() + seconds + 5.0
+        """Poll until the robot clock advanced by ``seconds`` (fast emulators run it faster).
+
+        Robot time only: a host slowed by other work polls less often but waits the same
+        robot time. A clock that stands still for ``FROZEN_CLOCK_REPLIES`` replies in a row
+        (no real robot's does) ends the wait with a warning rather than hanging the plan.
+        """
+        start = last = self.poll().clock
+        frozen = 0
         while self.state.clock - start < seconds:
             self.poll()
-            if time.monotonic() > guard:  # a stalled robot clock must not hang the plan
+            frozen = frozen + 1 if self.state.clock <= last else 0
+            last = self.state.clock
+            if frozen >= FROZEN_CLOCK_REPLIES:
                 log.warning("robot clock stalled at %.3f s", self.state.clock)
                 return
 

@@ -9,6 +9,8 @@ mark ``crashed_run`` so readers still report it. A log whose ``flock`` is held b
 a live sonard and is left alone; a crashed log without a single reading is removed (a run
 that failed before its first reading leaves no log), and so is an unreadable stub smaller
 than :data:`STUB_BYTES` (a sonard killed between creating the file and writing its layout).
+The space reserves killed sonards left beside their logs (:mod:`sonarlog.space`) are
+deleted first, so the finalising copies have room.
 """
 
 from __future__ import annotations
@@ -90,6 +92,7 @@ def finalise_crashed_logs(directory: Path, *, skip: Path | None = None) -> list[
     list of Finalised
         One entry per log acted on (finalised, removed, or found unreadable).
     """
+    _remove_stale_reserves(directory, skip)
     done: list[Finalised] = []
     for path in sorted(directory.glob("*.h5")):
         if skip is not None and path.resolve() == skip.resolve():
@@ -104,6 +107,22 @@ def finalise_crashed_logs(directory: Path, *, skip: Path | None = None) -> list[
         if result is not None:
             done.append(result)
     return done
+
+
+def _remove_stale_reserves(directory: Path, skip: Path | None) -> None:
+    """Delete the space reserves (:mod:`sonarlog.space`) that killed sonards left behind."""
+    for reserve in sorted(directory.glob(".*.h5.reserve")):
+        owner = reserve.with_name(reserve.name[1 : -len(".reserve")])
+        if skip is not None and owner.resolve() == skip.resolve():
+            continue
+        if owner.exists():
+            with _locked(owner) as mine:
+                if not mine:
+                    continue  # a live sonard's
+                reserve.unlink(missing_ok=True)
+        else:
+            reserve.unlink(missing_ok=True)
+        log.info("removed the stale space reserve %s", reserve)
 
 
 def _finalise_one(path: Path) -> Finalised | None:

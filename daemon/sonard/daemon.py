@@ -33,8 +33,9 @@ from sonard.plan import Plan
 from sonard.port_lock import ExclusiveClient, PortLock
 from sonard.ring import ring_sensors
 from sonard.steps import run_plan
-from sonard.writer_thread import LogSink
+from sonard.writer_thread import LogSink, LogWriteError
 from sonarlog import LogWriter
+from sonarlog.space import RESERVE_BYTES
 
 if TYPE_CHECKING:
     from sonard.live_view import LiveView
@@ -236,6 +237,7 @@ def _run_locked(
         robot="nomad200",
         attrs=attrs,
         flush_interval=FLUSH_INTERVAL_S,
+        reserve_bytes=RESERVE_BYTES,  # room to close the log when the disk fills
         truth=truth,
     )
     sink = LogSink(writer if live is None else live.tee(writer))
@@ -265,6 +267,9 @@ def _run_locked(
     except MotionError as exc:
         code, reason = 1, f"motion failed: {exc}"
         sink.event("error", reason[:200])
+    except LogWriteError as exc:
+        code, reason = 1, f"cannot write the log {out}: {exc.reason}"
+        sink.event("error", reason[:200])
     except Exception as exc:  # a driver or programming error: still stop the robot
         if not _is_nomad_error(exc):
             log.exception("unexpected error")
@@ -282,7 +287,8 @@ def _run_locked(
         try:
             sink.close()
         except Exception as exc:
-            code, reason = 1, f"log write failed: {exc}"
+            if code == 0:  # otherwise the first failure is the reason (a full disk, say)
+                code, reason = 1, f"log write failed: {exc}"
         notifier.close()
     if code == 0 or sink.n_readings:
         log.info(

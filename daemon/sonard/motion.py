@@ -5,16 +5,21 @@ turret heading in the odometry frame) and re-issues a relative move (PR) from th
 polls whenever the robot is standing still short of the target. So a move command whose
 reply was garbled, a move interrupted by ST during a fault, or a resumed step all end at
 the same place. Tolerances sit just above the protocol resolution (0.1 in, 0.1 deg).
+
+Time is the robot's: every wait here is measured on the clock in the robot's replies (the
+emulator's virtual clock in fast mode), never on the host's. A host slowed by other work
+polls less often, but the robot's clock and motion go on at their own pace, so a motion is
+waited for as long as the robot keeps reporting progress; one that makes none for
+``NO_PROGRESS_S`` of robot time fails with :class:`MotionError`.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from sonard.acquisition import Acquisition
+from sonard.acquisition import FROZEN_CLOCK_REPLIES, Acquisition
 
 __all__ = [
     "ANGLE_TOL",
@@ -28,12 +33,18 @@ __all__ = [
 
 TRANS_TOL = 0.003
 ANGLE_TOL = math.radians(0.15)
-#: after a move command, how long a robot may stand still before the move is re-issued (s)
+#: after a move command, how long a robot may stand still before the move is re-issued
+#: (s, robot time)
 GRACE_S = 0.3
+#: a motion fails when its remaining error has not shrunk by one tolerance for this long
+#: (robot time, s). The slowest move a plan may ask for (0.01 m/s, 1 deg/s) covers a
+#: tolerance (3 mm, 0.15 deg) in 0.3 s once under way, and the Nomad accelerates to it in
+#: well under a second; 5 s without progress is a robot that is blocked, not a slow one.
+NO_PROGRESS_S = 5.0
 
 
 class MotionError(RuntimeError):
-    """The robot did not reach a target in time."""
+    """The robot stopped making progress towards a target (or its clock stood still)."""
 
 
 def wrap(a: float) -> float:
@@ -52,9 +63,12 @@ def settle(
     errors: Callable[[Any], Sequence[float]],
     *,
     tol: Sequence[float],
-    timeout_s: float,
+    no_progress_s: float = NO_PROGRESS_S,
 ) -> None:
     """Move until every axis error is within ``tol`` and the robot stands still.
+
+    Every wait is in robot time (the clock in the replies), so a host slowed by other
+    work never fails a motion the robot is still carrying out.
 
     Parameters
     ----------
@@ -64,29 +78,52 @@ def settle(
         State -> (translation m, steering rad, turret rad) still to go.
     tol : sequence of float
         Per-axis tolerance.
-    timeout_s : float
-        Wall-clock limit.
+    no_progress_s : float
+        Robot seconds without progress (no axis error shrinking by its tolerance below
+        the best seen) after which the motion fails.
 
     Raises
     ------
     MotionError
-        When the target is not reached in ``timeout_s``.
+        When the robot made no progress for ``no_progress_s`` of robot time, or its clock
+        stood still for ``FROZEN_CLOCK_REPLIES`` replies.
     """
     last_cmd = -math.inf
-    deadline = time.monotonic() + timeout_s
+    best: list[float] | None = None
+    progress_at: float | None = None
+    last_clock, frozen = -math.inf, 0
     while True:
         st = acq.poll()
+        now = float(st.clock)
         err = list(errors(st))
         done = all(abs(e) <= t for e, t in zip(err, tol, strict=True))
+        if best is None or progress_at is None:
+            best, progress_at = [abs(e) for e in err], now
+        elif any(abs(e) < b - t for e, b, t in zip(err, best, tol, strict=True)):
+            best = [min(b, abs(e)) for e, b in zip(err, best, strict=True)]
+            progress_at = now
         if not acq.moving():
             if done:
                 return
-            if time.monotonic() - last_cmd > GRACE_S:
+            if now - last_cmd > GRACE_S or now < last_cmd:
                 cmd = [e if abs(e) > t else 0.0 for e, t in zip(err, tol, strict=True)]
                 acq.move_relative(*cmd)
-                last_cmd = time.monotonic()
-        if time.monotonic() > deadline:
-            raise MotionError(f"target not reached in {timeout_s:.0f} s (still {err})")
+                last_cmd = float(acq.state.clock) if acq.state is not None else now
+        frozen = frozen + 1 if now <= last_clock else 0
+        if now < last_clock:  # a robot that restarted its clock: measure from here
+            progress_at = now
+        last_clock = now
+        if frozen >= FROZEN_CLOCK_REPLIES:
+            raise MotionError(f"robot clock stands still at {now:.3f} s (still {_fmt(err)})")
+        if now - progress_at > no_progress_s:
+            raise MotionError(
+                f"no progress for {no_progress_s:g} s of robot time (still {_fmt(err)} to go)"
+            )
+
+
+def _fmt(err: Sequence[float]) -> str:
+    """Remaining (translation, steering, turret) error in m and degrees."""
+    return f"{err[0]:.3f} m, {math.degrees(err[1]):.1f} deg, {math.degrees(err[2]):.1f} deg"
 
 
 def translate_to(
@@ -99,8 +136,7 @@ def translate_to(
         done = (st.x - origin[0]) * c + (st.y - origin[1]) * s
         return (along - done, 0.0, 0.0)
 
-    dist = abs(errors(acq.state)[0]) if acq.state is not None else abs(along)
-    settle(acq, errors, tol=(TRANS_TOL, 1.0, 1.0), timeout_s=3 * dist / speed + 10.0)
+    settle(acq, errors, tol=(TRANS_TOL, 1.0, 1.0))
 
 
 def turn_to(
@@ -116,6 +152,4 @@ def turn_to(
         et = 0.0 if turret is None else wrap(turret - st.turret)
         return (0.0, es, et)
 
-    e = errors(acq.state) if acq.state is not None else (0.0, math.pi, math.pi)
-    span = max(abs(e[1]), abs(e[2]))
-    settle(acq, errors, tol=(1.0, ANGLE_TOL, ANGLE_TOL), timeout_s=3 * span / speed + 10.0)
+    settle(acq, errors, tol=(1.0, ANGLE_TOL, ANGLE_TOL))

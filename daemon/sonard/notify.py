@@ -83,7 +83,9 @@ class Notifier:
         try:
             if self._sock is None:
                 self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM | socket.SOCK_CLOEXEC)
-            self._sock.sendto("\n".join(assignments).encode(), self._address)
+            # never wait: a notify socket nobody drains (a hung manager) must not stall the
+            # poll loop; a full queue drops this datagram (the next ping comes soon)
+            self._sock.sendto("\n".join(assignments).encode(), socket.MSG_DONTWAIT, self._address)
         except OSError as exc:
             log.warning("sd_notify failed: %s", exc)
             return False

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from sonard.acquisition import Acquisition
-from sonard.motion import turn_to, wrap
+from sonard.motion import NO_PROGRESS_S, MotionError, turn_to, wrap
 from sonard.plan import Plan
 from sonard.plan_steps import FRONT_SONAR, WallFollow
 from sonard.ring import RING_RADIUS
@@ -37,6 +37,9 @@ MAX_CUT = math.radians(20.0)
 HEADING_GAIN = 1.5  # rad/s per rad of heading error
 CORNER_MARGIN = 0.25
 RESEND_S = 0.5
+#: path length that counts as progress (m): the driving speed is at least 0.02 m/s, so the
+#: robot covers it in under a second of robot time (see sonard.motion.NO_PROGRESS_S)
+PROGRESS_M = 0.01
 _FRONT_SET = (FRONT_SONAR, 1, 15)
 
 
@@ -115,9 +118,17 @@ class WallFollower:
         self.points.clear()
         last_cmd: tuple[float, float] | None = None
         last_sent = -math.inf
+        mark = (self.travelled, float(st.clock))  # progress: path length at a robot time
         while self.travelled < s.length:
             st = acq.poll()
             self._update_path(st)
+            if self.travelled > mark[0] + PROGRESS_M or st.clock < mark[1]:
+                mark = (self.travelled, float(st.clock))
+            elif st.clock - mark[1] > NO_PROGRESS_S:
+                raise MotionError(
+                    f"wall following made no progress for {NO_PROGRESS_S:g} s of robot time "
+                    f"({self.travelled:.2f} of {s.length:g} m done)"
+                )
             self._add_wall_points(acq)
             self._update_front(acq)
             if self.wall_dir is None:
@@ -132,6 +143,7 @@ class WallFollower:
                 self.wall_dir = turn
                 self._last_xy = None
                 last_cmd = None
+                mark = (self.travelled, float(acq.state.clock))  # the turn was progress
                 continue
             est = self._wall_estimate(st)
             err = 0.0

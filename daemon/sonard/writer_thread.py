@@ -13,16 +13,29 @@ from __future__ import annotations
 import logging
 import queue
 import threading
-import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["LogSink", "Writer"]
+from sonard.logclock import LogClock
+
+__all__ = ["LogSink", "LogWriteError", "Writer"]
 
 log = logging.getLogger(__name__)
 
 _STOP = object()
+
+
+class LogWriteError(RuntimeError):
+    """The log cannot be written any more (disk full, I/O error): the run must stop.
+
+    ``reason`` is the operating system's words (``No space left on device``).
+    """
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"cannot write the log: {reason}")
+        self.reason = reason
 
 
 class Writer(Protocol):
@@ -42,20 +55,31 @@ class LogSink:
     ----------
     writer : Writer
         Usually a :class:`sonarlog.LogWriter`; the sink closes it in :meth:`close`.
+    clock : callable, optional
+        The log's UNIX time (default a :class:`sonard.logclock.LogClock`: it never jumps
+        when the system clock is stepped); events are stamped with it.
     """
 
-    def __init__(self, writer: Writer) -> None:
+    def __init__(self, writer: Writer, clock: Callable[[], float] | None = None) -> None:
         self._writer = writer
+        self.clock: Callable[[], float] = clock or LogClock()
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._error: BaseException | None = None
         self.n_readings = 0
         self._thread = threading.Thread(target=self._run, name="sonard-writer", daemon=True)
         self._thread.start()
 
+    def check(self) -> None:
+        """Raise :class:`LogWriteError` once the writer failed."""
+        err = self.error
+        if err is not None:
+            reason = err.strerror if isinstance(err, OSError) and err.strerror else str(err)
+            raise LogWriteError(reason) from err
+
     @property
     def error(self) -> BaseException | None:
-        """The exception that stopped the writer thread, if any."""
-        return self._error
+        """The exception that stopped the writer, if any (its own or the writer's threads')."""
+        return self._error or getattr(self._writer, "error", None)
 
     def readings(self, rows: np.ndarray) -> None:
         """Queue readings (READING_DTYPE); empty arrays are ignored."""
@@ -69,8 +93,8 @@ class LogSink:
             self._queue.put(("p", rows))
 
     def event(self, kind: str, detail: str = "", t: float | None = None) -> None:
-        """Queue an event, stamped now (UNIX s) unless ``t`` is given."""
-        self._queue.put(("e", (kind, detail, time.time() if t is None else t)))
+        """Queue an event, stamped now (the log's UNIX time) unless ``t`` is given."""
+        self._queue.put(("e", (kind, detail, self.clock() if t is None else t)))
 
     def _run(self) -> None:
         w = self._writer
@@ -78,9 +102,9 @@ class LogSink:
             item = self._queue.get()
             if item is _STOP:
                 return
-            if self._error is not None:
-                continue  # keep draining so producers never block
             kind, payload = item
+            if self._error is not None and kind != "e":
+                continue  # keep draining so producers never block; events still explain
             try:
                 if kind == "r":
                     w.append(payload)
@@ -89,8 +113,9 @@ class LogSink:
                 else:
                     w.event(*payload)
             except Exception as exc:  # disk full, I/O error: report once, keep the loop alive
-                log.error("log writer failed: %s", exc)
-                self._error = exc
+                if self._error is None:
+                    log.debug("log writer failed: %s", exc)
+                    self._error = exc
 
     def close(self, timeout: float = 1.5) -> None:
         """Drain the queue, then flush and close the writer (waits at most ``timeout`` s).

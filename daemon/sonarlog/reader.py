@@ -246,7 +246,17 @@ def _dataset(path: Path, f: h5py.File, name: str, fields: tuple[str, ...]) -> h5
     missing = [fld for fld in fields if fld not in have]
     if missing:
         raise InvalidLogError(f"{path}: missing required field {name}.{missing[0]}")
+    for fld in fields:
+        if not _numeric(ds.dtype[fld]):
+            raise InvalidLogError(
+                f"{path}: field {name}.{fld} must be a number, got type {ds.dtype[fld]}"
+            )
     return ds
+
+
+def _numeric(dtype: np.dtype) -> bool:
+    """A scalar number (bool, integer or float): what every field of the contract is."""
+    return dtype.shape == () and dtype.kind in "biuf"
 
 
 def _read_prefix(ds: h5py.Dataset) -> np.ndarray:
@@ -287,8 +297,11 @@ def _optional_rows(f: h5py.File, name: str, dtype: np.dtype) -> np.ndarray | Non
     if name not in f or not isinstance(f[name], h5py.Dataset):
         return None
     rows = _read_prefix(f[name])
-    if not set(dtype.names or ()) <= set(rows.dtype.names or ()):
+    if not set(dtype.names or ()) <= set(rows.dtype.names or ()) or rows.ndim != 1:
         return None
+    wanted = dtype.names or ()
+    if not all(_numeric(rows.dtype[n]) or dtype[n].kind == "S" for n in wanted):
+        return None  # an optional table of the wrong types is ignored, like a missing one
     good = np.isfinite(rows["t"])
     return _project(rows[: int(np.argmin(good)) if not good.all() else len(rows)], dtype)
 

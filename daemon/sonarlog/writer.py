@@ -30,6 +30,7 @@ readers refuse it, :func:`sonarlog.read_log` opens it in SWMR-read mode, and
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import logging
 import os
@@ -53,6 +54,7 @@ from sonarlog.schema import (
     STORED_READING_DTYPE,
     as_sensor_table,
 )
+from sonarlog.space import SpaceGuard
 
 log = logging.getLogger(__name__)
 
@@ -98,6 +100,12 @@ class LogWriter:
     flush_interval : float, optional
         Seconds between background pushes to the file (each followed by an fsync in a
         thread of its own); 0 disables both threads (call :meth:`flush` yourself).
+    reserve_bytes : int, optional
+        Space held in a reserve file beside the log for closing it when the file system
+        fills up (see :mod:`sonarlog.space`); 0 keeps none. Every batch is checked against
+        the free space either way: one that does not fit is refused with
+        ``OSError(ENOSPC)`` before HDF5 writes a byte, and the file closes cleanly with
+        the rows written before it.
 
     Notes
     -----
@@ -126,6 +134,7 @@ class LogWriter:
         attrs: Mapping[str, AttrValue] | None = None,
         truth: np.ndarray | None = None,
         flush_interval: float = 0.5,
+        reserve_bytes: int = 0,
     ) -> None:
         if not np.isfinite(speed_of_sound) or speed_of_sound <= 0:
             raise ValueError(f"speed_of_sound must be a positive number, got {speed_of_sound}")
@@ -138,6 +147,10 @@ class LogWriter:
         self._pending_events: list[np.ndarray] = []
         self._n_written = 0
         self._closed = False
+        #: the first write failure (disk full, I/O error); later writes are not attempted
+        self.error: OSError | None = None
+        #: rows refused for want of space and never written (counted on close)
+        self.dropped_on_close = 0
 
         # HDF5's own file lock would clash with the flock sonard holds on the log for the
         # whole run (flock locks belong to open files, not processes): the owner locks.
@@ -151,6 +164,12 @@ class LogWriter:
         self._fd = os.open(self.path, os.O_RDONLY)
         self._file.flush()
         os.fsync(self._fd)
+        try:
+            self._space = SpaceGuard(self.path, reserve_bytes)
+        except BaseException:
+            self._file.close()
+            os.close(self._fd)
+            raise
 
         self._stop = threading.Event()
         self._sync_wanted = threading.Event()
@@ -279,6 +298,18 @@ class LogWriter:
             os.fsync(self._fd)
 
     def _write_pending(self) -> None:
+        if self.error is not None:
+            raise self.error
+        try:
+            self._space.check(self._bytes_needed())
+        except OSError as exc:
+            self.error = exc
+            raise
+        # events first: a kill between two datasets then leaves an event (a gap, say)
+        # without the readings after it, never readings whose gap event is lost
+        if self._pending_events:
+            self._extend(self._file["events"], np.concatenate(self._pending_events))
+            self._pending_events.clear()
         if self._pending:
             batch = seal(np.concatenate(self._pending), self._n_written + 1)
             self._pending.clear()
@@ -288,9 +319,24 @@ class LogWriter:
         if self._pending_poses:
             self._extend(self._file["poses"], np.concatenate(self._pending_poses))
             self._pending_poses.clear()
-        if self._pending_events:
-            self._extend(self._file["events"], np.concatenate(self._pending_events))
-            self._pending_events.clear()
+
+    def _bytes_needed(self) -> int:
+        """File space the pending rows take: HDF5 allocates whole chunks as datasets grow."""
+        need = 0
+        for name, parts in (
+            ("readings", self._pending),
+            ("poses", self._pending_poses),
+            ("events", self._pending_events),
+        ):
+            n_new = sum(len(p) for p in parts)
+            if not n_new:
+                continue
+            ds = self._file[name]
+            chunk = int((ds.chunks or (1,))[0])
+            before = int(ds.shape[0])
+            new_chunks = -(-(before + n_new) // chunk) - (-(-before // chunk))
+            need += new_chunks * chunk * ds.dtype.itemsize
+        return need
 
     @staticmethod
     def _extend(dataset: h5py.Dataset, rows: np.ndarray) -> None:
@@ -314,6 +360,10 @@ class LogWriter:
             due = max(due + interval, time.monotonic())
             try:
                 self._push()
+            except OSError as exc:  # disk full: the file stays as it was; close reports it
+                if self.error is None:
+                    self.error = exc
+                    log.error("sonarlog: cannot write %s: %s", self.path, exc.strerror or exc)
             except Exception:  # keep pushing later; the next append or close reports it
                 log.exception("sonarlog: background flush of %s failed", self.path)
             self._sync_wanted.set()
@@ -334,7 +384,13 @@ class LogWriter:
             raise ValueError(f"{self.path}: log writer is closed")
 
     def close(self) -> None:
-        """Flush everything and close the file (idempotent)."""
+        """Flush everything and close the file (idempotent).
+
+        After a write failure (:attr:`error`) the reserve is freed first and the rows still
+        pending are written if they fit, else dropped and counted in
+        :attr:`dropped_on_close`; the file is closed cleanly either way and the failure
+        raised.
+        """
         if self._threads:
             self._stop.set()
             self._sync_wanted.set()
@@ -344,13 +400,35 @@ class LogWriter:
         with self._lock:
             if self._closed:
                 return
+            failure = self.error
             try:
-                self.flush()
+                if failure is None:
+                    self.flush()
+                else:
+                    self._close_after_failure()
             finally:
                 self._closed = True
+                self._space.release()
                 self._file.close()
                 os.fsync(self._fd)
                 os.close(self._fd)
+            if failure is not None:
+                raise failure
+
+    def _close_after_failure(self) -> None:
+        """Free the reserve and write what still fits (events first: they explain the end)."""
+        self._space.release()
+        self._space.refused = self.error = None
+        try:
+            self._write_pending()
+        except OSError:  # still no room: keep the events, drop the rows
+            self._space.refused = self.error = None
+            self.dropped_on_close = self._pending_rows
+            self._pending, self._pending_poses, self._pending_rows = [], [], 0
+            with contextlib.suppress(OSError):
+                self._write_pending()
+        self._pending_events.clear()
+        self._file.flush()
 
     def __enter__(self) -> LogWriter:
         return self

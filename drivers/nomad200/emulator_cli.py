@@ -116,7 +116,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--stall", type=float, default=0.0, metavar="RATE", help="per reply")
     p.add_argument("--stall-for", type=float, default=2.0, metavar="S", help="stall length")
-    p.add_argument("--unplug-at", type=float, metavar="S", help="vanish S seconds after start")
+    p.add_argument(
+        "--unplug-at", type=float, metavar="S", help="vanish S seconds after the host's first bytes"
+    )
     p.add_argument("--unplug-for", type=float, default=2.0, metavar="S", help="outage length")
     p.add_argument("--seed", type=int, default=0, help="fault generator seed (both directions)")
     p.add_argument("-v", "--verbose", action="store_true", help="log to stderr")

@@ -15,11 +15,17 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from nomad200 import ring
 
-Point = tuple[float, float]
+#: farthest a coordinate or length may reach (m): far beyond any building a robot maps,
+#: and small enough that squared distances stay finite in float64
+MAX_COORD = 1e5
+#: most stops or sweep angles a scenario may ask for (a run is held in memory)
+MAX_STEPS = 100_000
+Coord = Annotated[float, Field(ge=-MAX_COORD, le=MAX_COORD)]
+Point = tuple[Coord, Coord]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class SensorDefaults(_Model):
@@ -41,7 +47,7 @@ class LinearArray(_Model):
 
     type: Literal["linear"]
     count: int = Field(ge=1, le=10_000)
-    spacing: float = Field(gt=0)
+    spacing: float = Field(gt=0, le=MAX_COORD / 10_000)
     origin: Point = (0.0, 0.0)
     direction_deg: float = 0.0
     heading_deg: float = 90.0
@@ -52,7 +58,7 @@ class CircularArray(_Model):
 
     type: Literal["circular"]
     count: int = Field(default=ring.N_SONARS, ge=1, le=360)
-    radius: float = Field(default=ring.RADIUS, gt=0)
+    radius: float = Field(default=ring.RADIUS, gt=0, le=MAX_COORD)
     step_deg: float | None = None
 
 
@@ -78,8 +84,8 @@ class RandomArray(_Model):
 class SensorRow(_Model):
     """One explicitly placed sensor."""
 
-    x: float
-    y: float
+    x: Coord
+    y: Coord
     heading_deg: float
     id: int | None = Field(default=None, ge=0, le=32767)
 
@@ -122,6 +128,8 @@ class Sweep(_Model):
     def _order(self) -> Sweep:
         if not self.stop >= self.start:
             raise ValueError("sweep needs stop >= start")
+        if (self.stop - self.start) / self.step > MAX_STEPS:
+            raise ValueError(f"sweep has more than {MAX_STEPS} angles: raise step")
         return self
 
 
@@ -140,6 +148,9 @@ class Line(_Model):
     def _one(self) -> Line:
         if (self.count is None) == (self.step is None):
             raise ValueError("give exactly one of count and step")
+        span = math.dist(self.start, self.end)
+        if self.step is not None and span / self.step > MAX_STEPS:
+            raise ValueError(f"line has more than {MAX_STEPS} locations: raise step")
         return self
 
 
@@ -148,6 +159,14 @@ class Route(_Model):
 
     waypoints: list[Point] = Field(min_length=2)
     step: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _stops(self) -> Route:
+        legs = zip(self.waypoints[:-1], self.waypoints[1:], strict=True)
+        length = sum(math.dist(a, b) for a, b in legs)
+        if length / self.step > MAX_STEPS:
+            raise ValueError(f"route has more than {MAX_STEPS} stops: raise step")
+        return self
 
 
 class PathSpec(_Model):

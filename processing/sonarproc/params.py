@@ -20,6 +20,8 @@ ROBUST_KINDS = ("none", "huber")
 SPANS = ("truth", "points")
 #: Highest order ``--order auto`` tries.
 MAX_AUTO_ORDER = 15
+#: finest --arc-step (rad): see RunParams.validate
+MIN_ARC_STEP = math.radians(0.01)
 
 
 @dataclass(frozen=True)
@@ -104,6 +106,14 @@ class RunParams:
         if self.arc_step is not None and not (math.isfinite(self.arc_step) and self.arc_step > 0):
             raise ParameterError(
                 "arc_step", f"must be > 0, got {math.degrees(self.arc_step):g} deg"
+            )
+        # 0.01 deg puts a 10.7 m arc's samples 1.9 mm apart, finer than any map cell: a finer
+        # step changes no cell and only multiplies the samples (1e-9 deg: 10^10 per arc)
+        if self.arc_step is not None and self.arc_step < MIN_ARC_STEP:
+            raise ParameterError(
+                "arc_step",
+                f"must be >= {math.degrees(MIN_ARC_STEP):g} deg, "
+                f"got {math.degrees(self.arc_step):g} deg",
             )
         if self.span not in SPANS:
             raise ParameterError("span", f"must be one of {', '.join(SPANS)}, got {self.span!r}")

@@ -16,7 +16,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 from nomad200.emulator.device import EmulatorOptions, build_link
@@ -66,8 +66,14 @@ class FaultSchedule:
             self.log.write(json.dumps({"kind": kind, "start": start, "end": end}) + "\n")
             self.log.flush()
 
-    def run(self, stop: threading.Event) -> None:
-        """Loop until ``stop``: wait, inject, wait, inject..."""
+    def run(self, stop: threading.Event, started: Callable[[], bool] = lambda: True) -> None:
+        """Loop until ``stop``: wait, inject, wait, inject...
+
+        The first wait starts once ``started()`` (the host's first bytes): a sonard slow to
+        start on a loaded machine meets its first fault mid-run, not while configuring.
+        """
+        while not started() and not stop.wait(0.05):
+            pass
         while not stop.wait(self.every):
             if self.paused.is_set():
                 continue
@@ -148,7 +154,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         signal.signal(signal.SIGUSR1, lambda signum, frame: schedule.paused.set())
         server.open()
         print(args.link, flush=True)
-        injector = threading.Thread(target=schedule.run, args=(stop,), daemon=True)
+        injector = threading.Thread(
+            target=schedule.run, args=(stop, lambda: server.host_seen), daemon=True
+        )
         injector.start()
         try:
             _serve(server, schedule, stop)

@@ -66,6 +66,14 @@ class _Device:
     geometry: list[float] | None = None
 
 
+def _count(payload: list[float]) -> int | None:
+    """The element count a message starts with, or None when it is not a count."""
+    if not payload or not math.isfinite(payload[0]) or payload[0] < 0:
+        return None
+    n = payload[0]
+    return int(n) if n == int(n) else None
+
+
 def _parse(path: Path) -> tuple[dict[str, _Device], int]:
     devices: dict[str, _Device] = {}
     bad = 0
@@ -86,12 +94,12 @@ def _parse(path: Path) -> tuple[dict[str, _Device], int]:
         dev = devices.setdefault(f"{iface}:{index}", _Device())
         dev.count += 1
         if iface == "sonar" and ((mtype, sub) in ((1, 2), (4, 1))):
-            n = int(payload[0]) if payload else 0
-            if len(payload) >= 1 + 3 * n:
+            n = _count(payload)
+            if n is not None and len(payload) >= 1 + 3 * n:
                 dev.geometry = payload[1 : 1 + 3 * n]
         elif iface == "sonar" and (mtype, sub) == (1, 1):
-            n = int(payload[0]) if payload else -1
-            if n < 0 or len(payload) < 1 + n:
+            n = _count(payload)
+            if n is None or len(payload) < 1 + n:
                 bad += 1
                 continue
             dev.t.append(t)

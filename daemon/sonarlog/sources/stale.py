@@ -39,7 +39,8 @@ def value_key(*values: npt.ArrayLike) -> npt.NDArray[np.int64]:
     Each column is compared as float32, the width of every ROS and Player range field, so
     a value that went through float64 and back compares equal to itself.
     """
-    cols = [np.asarray(v, dtype=np.float32).view(np.uint32).astype(np.int64) for v in values]
+    with np.errstate(over="ignore"):  # a value beyond float32 compares as its infinity
+        cols = [np.asarray(v, dtype=np.float32).view(np.uint32).astype(np.int64) for v in values]
     if len(cols) == 1:
         return cols[0]
     if len(cols) == 2:

@@ -44,7 +44,9 @@ class PtyServer:
     link_path : str, optional
         Keep a symlink here pointing to the current pty.
     unplug_at, unplug_for : float, optional
-        Seconds after :meth:`serve` starts, vanish for ``unplug_for`` seconds.
+        Seconds after the host's first bytes, vanish for ``unplug_for`` seconds (counted
+        from the host's first bytes, not from start-up: a host slow to start, on a loaded
+        machine, still meets the unplug in the middle of its run).
     on_replug : callable, optional
         Called with the new pty path after a replug.
     """
@@ -71,6 +73,12 @@ class PtyServer:
         self._slave = -1
         self._out: list[_Out] = []
         self._last_rx = -float("inf")  # monotonic time of the last bytes from the host
+        self._first_rx = float("inf")  # ... and of the first
+
+    @property
+    def host_seen(self) -> bool:
+        """Whether the host has sent anything yet (fault schedules start from there)."""
+        return self._first_rx != float("inf")
 
     # ------------------------------------------------------------ pty lifecycle
     def open(self) -> str:
@@ -111,13 +119,12 @@ class PtyServer:
     # ------------------------------------------------------------ loop
     def serve(self, stop: threading.Event) -> None:
         """Answer the host until ``stop`` is set."""
-        start = time.monotonic()
         unplug_done = self.unplug_at is None
         clock = self.model.clock
         last_tick = 0.0
         while not stop.is_set():
             now = time.monotonic()
-            if not unplug_done and now - start >= (self.unplug_at or 0.0):
+            if not unplug_done and now - self._first_rx >= (self.unplug_at or 0.0):
                 unplug_done = True
                 self._outage(stop)
                 continue
@@ -149,6 +156,7 @@ class PtyServer:
         # the line's real silence: in fast mode the link clock does not see the host wait
         quiet = now_real - self._last_rx
         self._last_rx = now_real
+        self._first_rx = min(self._first_rx, now_real)
         for d in self.link.receive(data, clock(), quiet=quiet):
             if self.fast:
                 extra = self.link.faults.stall_s if d.stalled else 0.0

@@ -147,13 +147,14 @@ def make_grid(params: RunParams, bounds: tuple[float, float, float, float], sour
             )
     else:
         xmin, xmax, ymin, ymax = bounds
-    nx = int(np.ceil((xmax - xmin) / params.cell)) + 1
-    ny = int(np.ceil((ymax - ymin) / params.cell)) + 1
-    if nx * ny > params.max_cells:
+    # in floats first: a bbox spanning 1e308 m has no integer cell count
+    nx = float(np.ceil((xmax - xmin) / params.cell)) + 1
+    ny = float(np.ceil((ymax - ymin) / params.cell)) + 1
+    if not nx * ny <= params.max_cells:
         raise ParameterError(
             "cell",
-            f"{params.cell:g} m makes a map of {nx} x {ny} cells for {source} (at most "
-            f"{params.max_cells} allowed); choose a bbox or a larger cell",
+            f"{params.cell:g} m makes a map of {nx:.0f} x {ny:.0f} cells for {source} (at "
+            f"most {params.max_cells} allowed); choose a bbox or a larger cell",
         )
     return Grid.covering(xmin, xmax, ymin, ymax, cell=params.cell)
 

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import socket
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -45,16 +48,23 @@ def test_run_in_process_with_notify(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     monkeypatch.setenv("JOURNAL_STREAM", "8:1234")
     plan = _plan(tmp_path, [{"translate": {"distance": 0.1, "step": 0.05, "speed": 0.2}}])
     out = tmp_path / "a.h5"
+    msgs: list[str] = []
+    done = threading.Event()
+
+    def drain() -> None:  # like systemd: read as they come (the queue holds a few only)
+        while not done.is_set():
+            with contextlib.suppress(TimeoutError):
+                msgs.append(sock.recv(4096).decode())
+
+    reader = threading.Thread(target=drain)
+    reader.start()
     try:
         argv = ["--port", _url("cli-a"), "--plan", str(plan), "--out", str(out)]
         assert main([*argv, "--truth", str(WORLD)]) == 0
-        msgs = []
-        while True:
-            try:
-                msgs.append(sock.recv(4096).decode())
-            except TimeoutError:
-                break
     finally:
+        time.sleep(0.3)  # the last datagrams
+        done.set()
+        reader.join()
         sock.close()
     assert msgs[0].startswith("READY=1")
     assert "WATCHDOG=1" in msgs

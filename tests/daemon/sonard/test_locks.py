@@ -6,6 +6,7 @@ import errno
 import fcntl
 import json
 import os
+import signal
 import struct
 import subprocess
 import sys
@@ -54,7 +55,9 @@ def _one_line(proc: subprocess.Popen[str]) -> str:
 def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path: Path) -> None:
     locks = tmp_path / "lock"
     locks.mkdir()
-    plan = write_plan(tmp_path, [{"dwell": {"seconds": 4.0}}])
+    # the first runs until stopped: the other two may take seconds to start on a loaded
+    # machine, and must find it still running
+    plan = write_plan(tmp_path, [{"dwell": {"seconds": 120.0}}])
     out = tmp_path / "same.h5"
     with emulator_pty(tmp_path) as (pty, _trace):
         first = start_sonard(pty, plan, out, locks)
@@ -74,6 +77,8 @@ def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path
             assert f"PID {first.pid}" in log_line and "same.h5" in log_line
             assert f"PID {first.pid}" in port_line and pty in port_line
             assert not (tmp_path / "other.h5").exists()
+            time.sleep(1.0)  # some readings for the check below
+            first.send_signal(signal.SIGTERM)
             _, err = first.communicate(timeout=60)
         finally:
             stop_process(first)

@@ -17,7 +17,11 @@ from sonarlog.schema import EVENT_DTYPE
 @pytest.mark.timeout(240)
 def test_short_soak_passes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     work = tmp_path / "soak"
-    rc = main(["45s", "--fault-every", "9", "--kill-trials", "2", "--dir", str(work)])
+    # A kill loses at most 1 s on a machine with a core to spare (0.38 s worst in the hour
+    # soak); the suite shares 2 cores with two busy loops and other tests, and a starved
+    # writer thread flushes late by the scheduler's delay: 1 s more is allowed for it.
+    argv = ["45s", "--fault-every", "9", "--kill-trials", "2", "--dir", str(work)]
+    rc = main([*argv, "--max-loss", "2.0"])
     out = capsys.readouterr().out
     assert rc == 0, out
     assert "firings_unaccounted: 0" in out and "soak: PASS" in out

@@ -217,11 +217,13 @@ def test_polls_survive_request_damage(
         calls += n
         k = c.counters()
     assert k["naks"] > 0 and k["timeouts"] > 0 and k["retries"] > 0, k
-    assert k["frame_errors"] == 0 and k["stale_packets"] == 0, k  # replies were never damaged
+    # replies were never damaged; but an emulator process starved past the 0.12 s timeout
+    # on a loaded machine answers late, and the client drops that reply as stale
+    assert k["frame_errors"] == 0, k
     assert k["replies"] == calls
     assert k["requests"] == k["replies"] + k["naks"] + k["timeouts"] == calls + k["retries"], k
     commands, naks = _trace_counts(trace)
-    assert commands == k["replies"] and naks == k["naks"]
+    assert commands == k["replies"] + k["stale_packets"] and naks == k["naks"]
 
 
 def test_moves_under_request_damage_fail_clearly(
