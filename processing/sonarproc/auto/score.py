@@ -100,7 +100,9 @@ def paired_se(
     >>> paired_se(a, a + 0.001) < 1e-4 < paired_se(a, rng.random(400) * 0.01)
     True
     """
-    if a.shape != b.shape or a.size < 2:
+    if a.shape != b.shape:
+        raise ValueError(f"paired losses differ in shape: {a.shape} and {b.shape}")
+    if a.size < 2:
         return float("nan")
     idx = np.random.default_rng(seed).integers(0, a.size, (resamples, a.size))
     k = max(1, int(np.ceil(trim * a.size)))
@@ -136,7 +138,11 @@ def clustered_paired_se(
     >>> bool(np.isclose(one, paired_se(a, b))), bool(by_firing > 2 * one)
     (True, True)
     """
-    if a.shape != b.shape or a.size < 2 or clusters.shape != a.shape:
+    if a.shape != b.shape or clusters.shape != a.shape:
+        raise ValueError(
+            f"paired losses differ in shape: {a.shape}, {b.shape} (clusters {clusters.shape})"
+        )
+    if a.size < 2:
         return float("nan")
     _, cl = np.unique(clusters, return_inverse=True)
     nc = int(cl.max()) + 1

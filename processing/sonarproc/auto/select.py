@@ -251,6 +251,7 @@ def run_auto(
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
     workers = kwargs.get("workers")
+    per_fold = int(kwargs.get("heldout_per_fold", 300))
     last: tuple[MethodResult, Score] | None = None
     for s in ranked:
         if s.excluded is not None and last is not None:
@@ -272,7 +273,11 @@ def run_auto(
             if excess > HULL_CELLS * r.grid.cell:
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
-            return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
+            return (
+                _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold),
+                s,
+                choice,
+            )
     if last is None:
         raise NothingToMapError(f"{log_.path}: no automatic candidate left anything on the map")
     res, s = last
@@ -281,7 +286,7 @@ def run_auto(
         f"({s.excluded})"
     )
     # its refit through the echo points has guard rails of its own (the points' hull)
-    return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
+    return _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold), s, choice
 
 
 def _refitted(
@@ -293,10 +298,11 @@ def _refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
+    per_fold: int,
 ) -> MethodResult:
     """The run refitted through the echo points (:func:`_echo_refitted`), and the record
     of the map cells its profile left out."""
-    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
+    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold)
     left_out = refitted.run.counts.get(LEFT_OUT, 0)
     choice.left_out = {
         "rule": SEPARATION_RULE,
@@ -358,6 +364,7 @@ def _echo_refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
+    per_fold: int,
 ) -> MethodResult:
     """The winner's run with a profile refitted through the echo points, if that wins.
 
@@ -393,7 +400,7 @@ def _echo_refitted(
         return choose_refit(
             st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
             chosen_losses=mine, folds=choice.folds,
-            repeats=choice.repeats, cap=cap, seed=seed, noise=noise,
+            repeats=choice.repeats, heldout_per_fold=per_fold, cap=cap, seed=seed, noise=noise,
         )  # fmt: skip
 
     refits = in_threads(refit_from, starts, workers)
