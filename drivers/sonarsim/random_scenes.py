@@ -188,7 +188,18 @@ def random_scenario_dict(seed: int) -> dict[str, Any]:
             "heading_range_deg": [60.0, 120.0],
         }  # fmt: skip
         data["pairs"] = "all" if bistatic else "own"
-    return data
+    return _plain(data)
+
+
+def _plain(v: Any) -> Any:
+    """``v`` with numpy scalars made Python numbers (a YAML file can hold it)."""
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_plain(x) for x in v]
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
 
 
 def random_scenario(seed: int) -> Scenario:

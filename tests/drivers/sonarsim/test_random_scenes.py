@@ -23,6 +23,15 @@ def test_same_seed_same_scene_other_seed_other_scene() -> None:
     np.testing.assert_array_equal(a.truth, b.truth)
 
 
+def test_a_scene_is_a_yaml_scenario() -> None:
+    import yaml
+
+    from sonarsim import scenario_from_dict
+
+    text = yaml.safe_dump(random_scenario_dict(5))
+    assert scenario_from_dict(yaml.safe_load(text)).name == "random-5"
+
+
 def test_every_surface_and_array_kind_is_drawn() -> None:
     kinds = [random_scenario_dict(s)["description"].split(" / ") for s in range(60)]
     assert {k[0] for k in kinds} == set(SURFACE_KINDS)
