@@ -22,10 +22,25 @@ from sonarsim.geometry import FloatArray, wrap_angle
 from sonarsim.reflectors import point_echoes
 from sonarsim.search import pair_echoes
 from sonarsim.specular import Sensors
+from sonarsim.surfaces import Circle
 from sonarsim.transducer import TransducerParams, amplitude, search_half_angle, time_walk
 from sonarsim.world import World
 
 IntArray = NDArray[np.intp]
+
+
+def cylinder_divergence(world: World, surface: IntArray, r: FloatArray) -> FloatArray:
+    """Echo strength of a cylinder relative to a plane at the same range: ``R / (R + r)``.
+
+    A convex mirror of radius ``R`` widens a horizontal ray tube of the pulse by
+    ``1 + 2 r / R`` on reflection, so after the round trip the tube is
+    ``2 r (1 + r / R)`` wide instead of a plane's ``2 r``; vertically a cylinder is flat.
+    1 for every other surface (curved walls' focusing is not modelled).
+    """
+    radius = np.array([s.radius if isinstance(s, Circle) else 0.0 for s in world.surfaces])
+    rad = radius[surface] if surface.size else np.zeros(0)
+    cyl = rad > 0.0
+    return np.asarray(np.where(cyl, rad / np.where(cyl, rad + r, 1.0), 1.0))
 
 
 @dataclass(frozen=True)
@@ -60,6 +75,7 @@ def transducer_echoes(
     rel = ev.point - s_xy
     theta = np.abs(wrap_angle(np.arctan2(rel[:, 1], rel[:, 0]) - sensors.heading[inst[ev.firing]]))
     a_spec = amplitude(theta, theta, 0.5 * ev.path, params.plane_reflectivity, 2.0, params, c)
+    a_spec = a_spec * cylinder_divergence(world, ev.surface, 0.5 * ev.path)
     ok = a_spec >= params.threshold
     pts = point_echoes(world, world.segments, sensors, inst, params, c, search)
     channel = np.concatenate([ev.firing[ok], pts.channel])

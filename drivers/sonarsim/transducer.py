@@ -21,7 +21,8 @@ Echo amplitude
     echo's arrival direction off each transducer's axis, ``rho`` the reflector's
     reflectivity and ``n`` its spreading exponent: 2 for a specular plane (round trip in
     image geometry), a concave corner (two specular bounces, same image geometry) and a
-    cylinder's facing point (its extra horizontal divergence is neglected); 3 for a
+    cylinder's facing point (times its horizontal divergence ``R / (R + r)``, see
+    :func:`sonarsim.physical_echoes.cylinder_divergence`); 3 for a
     diffracting convex edge, whose echo is a weak point source (Kuc & Siegel 1987 find
     edge echoes fall off faster than plane echoes and are heard only close by).
 Detection threshold
