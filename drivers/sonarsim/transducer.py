@@ -14,7 +14,8 @@ Directivity
     ``beam_model: gaussian`` (default) uses the Gaussian that matches the lobe's
     curvature on the axis, ``D = exp(-(ka sin theta)^2 / 8)`` (Barshan & Kuc 1990), which
     has no null and so lets strong near echoes be heard past the nominal half-width.
-    With ``a = 19 mm``, ``f = 49.4 kHz`` and ``c = 343 m/s``, ``ka = 17.2``.
+    With ``a = 19 mm``, ``f = 49.4 kHz`` and ``c = 343 m/s``, ``ka = 17.2`` and the first
+    null lies at 12.9 degrees, which caps the piston model's effective beam there.
 Echo amplitude
     Relative to the head-on echo of a perfect plane at ``reference_range``:
     ``A = rho D(theta_tx) D(theta_rx) (r_ref / r)^n`` where ``theta`` is the angle of the
@@ -28,12 +29,13 @@ Echo amplitude
 Detection threshold
     An echo is heard when ``A >= threshold``. The default ``0.014`` puts the effective
     beam edge of a plane at 12.5 degrees at 1.5 m (the nominal half-width, Leonard &
-    Durrant-Whyte 1991), about 16 degrees at 0.5 m and 8 degrees at 4 m; a head-on plane
-    is heard up to ``r_ref / sqrt(threshold)`` = 8.5 m.
+    Durrant-Whyte 1991), 16.1 degrees at 0.5 m, 13.9 at 1 m, 11.4 at 2 m and 8.2 at 4 m;
+    a head-on plane is heard up to ``r_ref / sqrt(threshold)`` = 8.5 m, a head-on
+    diffracting edge up to ``(edge_reflectivity / threshold)^(1/3)`` = 1.5 m.
 Time walk
-    The receiver's envelope rises linearly over ``rise_time_s`` (the ranging board
-    integrates the echo, Kleeman & Kuc 1995), so an echo of amplitude ``A`` crosses the
-    threshold ``rise_time_s * threshold / A`` late: the range reads long by
+    The receiver's envelope rises linearly over ``rise_time_s`` and the board times the
+    echo where it crosses the threshold (Kleeman & Kuc 1995), so an echo of amplitude
+    ``A`` crosses it ``rise_time_s * threshold / A`` late: the range reads long by
     ``c rise_time_s threshold / (2 A)``. The default ``87 us`` gives 1.5 cm at the beam
     edge (``A = threshold``), under 0.3 mm for a head-on plane at 1 m.
 """
