@@ -9,7 +9,8 @@ material). Seen from a sector narrower than 180 degrees the vertex is a concave 
 from one wider than 180 degrees (including the full turn around a free wall end, a door
 jamb) it is a convex edge; a sector of 180 degrees is a straight continuation and gives
 no point echo. Curved surfaces (circles, curves) have no vertices: their sampled
-segments' ends are not corners.
+segments' ends are not corners, and a straight wall ending on a curve keeps a free end
+(it diffracts as an edge, which is also what a junction far from a right angle does).
 
 A concave corner whose opening is within ``corner_angle_tolerance_deg`` of 90 degrees
 retro-reflects (two specular bounces return the pulse towards the sensor from anywhere
