@@ -9,7 +9,7 @@ sonarlog-shaped results.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,7 @@ from sonarsim.scenario_spec import (
     TimingSpec,
 )
 from sonarsim.shipped import resolve_shipped
+from sonarsim.transducer import TransducerParams
 from sonarsim.world import (
     World,
     WorldError,
@@ -77,6 +78,8 @@ class Scenario:
     truth_spacing: float
     source: str = ""
     text: str = ""
+    physics: str = "ideal"
+    transducer: TransducerParams = field(default_factory=TransducerParams)
 
 
 # --- building --------------------------------------------------------------------------------
@@ -210,12 +213,30 @@ def scenario_from_dict(
     max_id = int(array.ids.max()) if len(array) else 0
     if rotation.size > 1 and (rotation.size * (max_id + 1) - 1) > np.iinfo(np.int16).max:
         raise ScenarioError(f"{source}: too many virtual sensors for int16 ids")
+    physics = spec.physics or world.physics or "ideal"
+    if physics == "transducer":
+        _check_transducer(spec, source)
     return Scenario(
         spec.name or Path(source).stem, world, array, poses, rotation,
         np.arange(len(array), dtype=np.intp), spec.pairs, spec.first_echo_only,
         spec.max_order, spec.speed_of_sound, the_seed, spec.timing, spec.imperfections,
-        spec.record_no_echo, spec.truth_spacing, source, text,
+        spec.record_no_echo, spec.truth_spacing, source, text, physics,
+        TransducerParams(**spec.transducer.model_dump()),
     )  # fmt: skip
+
+
+def _check_transducer(spec: ScenarioSpec, source: str) -> None:
+    """The transducer physics models monostatic first-order echoes (corners included)."""
+    if spec.pairs != "own":
+        raise ScenarioError(f"{source}: pairs: physics transducer allows only 'own'")
+    if spec.max_order != 1:
+        raise ScenarioError(
+            f"{source}: max_order: physics transducer allows only 1 (corners are modelled)"
+        )
+    if spec.imperfections.crosstalk:
+        raise ScenarioError(
+            f"{source}: imperfections.crosstalk: physics transducer allows only false"
+        )
 
 
 def load_scenario(path: str | Path, *, seed: int | None = None) -> Scenario:

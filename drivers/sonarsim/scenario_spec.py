@@ -209,6 +209,25 @@ class ImperfectionSpec(_Model):
     flag_crosstalk: bool = False
 
 
+class TransducerSpec(_Model):
+    """Parameters of ``physics: transducer`` (SI units; see :mod:`sonarsim.transducer`)."""
+
+    beam_model: Literal["gaussian", "piston"] = "gaussian"
+    frequency_hz: float = Field(default=49_400.0, gt=1_000, le=1_000_000)
+    piston_radius: float = Field(default=0.019, gt=0, le=0.5)
+    threshold: float = Field(default=0.014, gt=0, lt=1)
+    reference_range: float = Field(default=1.0, gt=0, le=100)
+    rise_time_s: float = Field(default=87e-6, ge=0, le=0.01)
+    plane_reflectivity: float = Field(default=1.0, gt=0, le=1)
+    corner_reflectivity: float = Field(default=1.0, gt=0, le=1)
+    edge_reflectivity: float = Field(default=0.05, ge=0, le=1)
+    edge_spreading_exponent: float = Field(default=3.0, ge=2, le=6)
+    corner_angle_tolerance_deg: float = Field(default=15.0, ge=0, le=45)
+
+
+Physics = Literal["ideal", "transducer"]
+
+
 class ScenarioSpec(_Model):
     """A complete simulation scenario.
 
@@ -222,7 +241,10 @@ class ScenarioSpec(_Model):
     ``max_order`` (bounces, >1 via mirror images of flat surfaces); ``speed_of_sound``
     (m/s); ``seed`` (every random draw); ``timing``; ``imperfections``;
     ``record_no_echo`` (a flagged row for each channel that heard nothing);
-    ``truth_spacing`` (m, <= 0.01).
+    ``truth_spacing`` (m, <= 0.01); ``physics`` (``ideal``: the paper's specular echoes
+    in a hard-edged beam at the exact range; ``transducer``: beam pattern, threshold,
+    time walk, corners, edges, see :mod:`sonarsim.transducer`; absent: the world's
+    ``physics``, else ``ideal``); ``transducer`` (that physics' parameters).
     """
 
     name: str = ""
@@ -241,3 +263,5 @@ class ScenarioSpec(_Model):
     imperfections: ImperfectionSpec = Field(default_factory=ImperfectionSpec)
     record_no_echo: bool = False
     truth_spacing: float = Field(default=0.01, gt=0, le=0.01)
+    physics: Physics | None = None
+    transducer: TransducerSpec = Field(default_factory=TransducerSpec)

@@ -15,7 +15,9 @@ sensor turning about its own position, Fig. 6) is recorded as one virtual transd
 
 Imperfections, in order: dropouts of true echoes; crosstalk (echoes later than the
 listening window leave it and land in the following windows); spurious echoes; range
-noise; quantisation; the receiver's range limits; then first-echo selection.
+noise; quantisation; the receiver's range limits; then first-echo selection. With
+``physics: transducer`` echoes come from :mod:`sonarsim.physical_echoes` instead and the
+first echo above the threshold is always the one reported.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from numpy.typing import NDArray
 from sonarsim import imperfections as imp
 from sonarsim.arrays import SensorArray
 from sonarsim.geometry import FloatArray
+from sonarsim.physical_echoes import transducer_echoes
 from sonarsim.records import FLAG_CROSSTALK, FLAG_NO_ECHO, READING_DTYPE
 from sonarsim.scenario import Scenario
 from sonarsim.search import pair_echoes
@@ -144,6 +147,8 @@ def simulate(scn: Scenario) -> SimResult:
     chan_stop = plan.fire_stop[plan.chan_fire]
     tx_inst = _instance(plan, chan_stop, plan.fire_tx[plan.chan_fire])
     rx_inst = _instance(plan, chan_stop, plan.chan_rx)
+    if scn.physics == "transducer":
+        return _simulate_transducer(scn, plan, varr, tx_inst)
     ev = pair_echoes(scn.world, plan.sensors, tx_inst, rx_inst, max_order=scn.max_order)
     channel, path, order = ev.firing, ev.path, ev.order
     crosstalk = np.zeros(channel.size, dtype=bool)
@@ -202,6 +207,10 @@ def simulate(scn: Scenario) -> SimResult:
 
     readings = _readings(scn, plan, varr, channel, path, crosstalk)
     truth = _truth(scn, seen_surfaces)
+    return SimResult(varr.records(), readings, truth, c, _attrs(scn))
+
+
+def _attrs(scn: Scenario) -> dict[str, str | int | float]:
     attrs: dict[str, str | int | float] = {
         "simulator": "sonarsim",
         "scenario": scn.name,
@@ -213,7 +222,44 @@ def simulate(scn: Scenario) -> SimResult:
         "first_echo_only": int(scn.first_echo_only),
         "max_order": int(scn.max_order),
     }
-    return SimResult(varr.records(), readings, truth, c, attrs)
+    if scn.physics != "ideal":
+        # Only non-default physics is recorded, so ideal logs stay byte-identical.
+        attrs["physics"] = scn.physics
+    return attrs
+
+
+def _simulate_transducer(
+    scn: Scenario, plan: _Plan, varr: SensorArray, inst: IntArray
+) -> SimResult:
+    """The transducer physics: thresholded, time-walked echoes; the first one per channel.
+
+    Dropouts and spurious echoes join the candidates; the receiver's blanking and range
+    limits apply before first-echo selection (the board reports the first echo it can
+    hear, Kleeman & Kuc 1995); range noise and quantisation then apply to that reading.
+    """
+    c = scn.speed_of_sound
+    imps = scn.imperfections
+    seeds = np.random.SeedSequence(scn.seed).spawn(4)
+    rng_drop, rng_spur, rng_noise, _ = (np.random.default_rng(s) for s in seeds)
+    heard = transducer_echoes(scn.world, plan.sensors, inst, scn.transducer, c)
+    keep = imp.dropouts(heard.channel.size, imps.dropout_probability, rng_drop)
+    channel, path = heard.channel[keep], heard.path[keep]
+    rx_min = plan.sensors.min_range[inst]
+    rx_max = plan.sensors.max_range[inst]
+    sc, sp = imp.spurious(rx_min, rx_max, imps.spurious_probability, rng_spur)
+    channel = np.concatenate([channel, sc])
+    path = np.concatenate([path, sp])
+    half = 0.5 * path
+    audible = (half >= rx_min[channel]) & (half <= rx_max[channel])
+    channel, path = channel[audible], path[audible]
+    idx = imp.first_per_channel(channel, path)
+    channel, path = channel[idx], path[idx]
+    path = imp.range_noise(path, imps.range_noise_sigma, rng_noise)
+    if imps.quantise:
+        path = imp.quantise(path, imps.quantum)
+    readings = _readings(scn, plan, varr, channel, path, np.zeros(channel.size, dtype=bool))
+    truth = _truth(scn, np.unique(heard.surface))
+    return SimResult(varr.records(), readings, truth, c, _attrs(scn))
 
 
 def _readings(

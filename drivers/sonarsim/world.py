@@ -14,9 +14,13 @@ degrees (keys end in ``_deg``)::
       - {type: sinusoid, amplitude: 0.15, period: 1.25, offset: 2.0, x_range: [-1, 5]}
       - {type: profile, points: [[0, 1.0], [0.5, 1.2], [1.0, 1.1]]}
       - {type: circle, center: [1.0, 2.0], radius: 0.3}
+    physics: transducer         # optional: ideal (default) or transducer
 
 Every surface may have ``name`` and ``truth`` (whether it belongs in a simulation's truth
-profile; rooms default to false, everything else to true).
+profile; rooms default to false, everything else to true). ``physics`` is the echo
+physics scenarios in this world use unless they set their own (see
+:mod:`sonarsim.transducer`); corners and edges are derived from the straight pieces
+(:mod:`sonarsim.reflectors`), cylinders are ``circle`` surfaces.
 """
 
 from __future__ import annotations
@@ -82,6 +86,7 @@ class World:
     name: str = ""
     resolution: float = DEFAULT_RESOLUTION
     source: str = field(default="", compare=False)
+    physics: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "surfaces", tuple(self.surfaces))
@@ -104,7 +109,7 @@ class World:
         turret = None if self.start_turret is None else self.start_turret + angle
         return World(
             [srf.transformed(angle, off, self.resolution) for srf in self.surfaces],
-            start, turret, self.name, self.resolution,
+            start, turret, self.name, self.resolution, self.source, self.physics,
         )  # fmt: skip
 
     def truth_profile(
@@ -235,6 +240,7 @@ class WorldSpec(BaseModel):
     resolution: float = Field(DEFAULT_RESOLUTION, gt=0, le=0.1)
     start_pose: _StartPose = _StartPose()
     surfaces: list[_SurfaceSpec] = Field(min_length=1)
+    physics: Literal["ideal", "transducer"] | None = None
 
 
 def _build_surface(spec: Any) -> Surface:
@@ -337,7 +343,7 @@ def world_from_dict(data: Mapping[str, Any], *, source: str = "<world>") -> Worl
     turret = None if sp.turret_deg is None else float(np.deg2rad(sp.turret_deg))
     return World(
         surfaces, (sp.x, sp.y, float(np.deg2rad(sp.theta_deg))), turret, spec.name,
-        spec.resolution, source,
+        spec.resolution, source, spec.physics,
     )  # fmt: skip
 
 

@@ -34,6 +34,7 @@ SOURCES = ("pyproject.toml", "README.md", "LICENSE", "drivers", "daemon", "proce
 SHIPPED_SCENARIOS = {
     "fig02", "fig06a", "fig06b", "fig08a", "fig08b", "fig10b", "fig10c", "fig12", "fig13",
     "fig16", "fig18", "corridor-l", "room-box", "hall-pillar",
+    "office-door", "corridor-tee", "curved-room", "pioneer-hall",
 }  # fmt: skip
 
 

@@ -50,7 +50,11 @@ def test_multi_surface_truth_is_separated_by_nan_rows() -> None:
     assert np.isfinite(np.delete(t, gaps, axis=0)).all()
 
 
-@pytest.mark.parametrize("name", ["corridor-l", "room-box", "hall-pillar"])
+@pytest.mark.parametrize(
+    "name",
+    ["corridor-l", "room-box", "hall-pillar", "office-door", "corridor-tee", "curved-room",
+     "pioneer-hall"],
+)  # fmt: skip
 def test_shipped_multiwall_scenarios_simulate_first_echoes(name: str) -> None:
     scn = load_scenario(name)
     assert scn.first_echo_only and scn.pairs == "own"

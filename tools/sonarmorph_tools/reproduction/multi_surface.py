@@ -47,7 +47,10 @@ __all__ = [
 ]
 
 #: The shipped multi-surface scenarios.
-SCENARIOS: tuple[str, ...] = ("corridor-l", "room-box", "hall-pillar")
+SCENARIOS: tuple[str, ...] = (
+    "corridor-l", "room-box", "hall-pillar",
+    "office-door", "corridor-tee", "curved-room", "pioneer-hall",
+)  # fmt: skip
 #: Mean distance from the fitted surfaces to the truth must be at most this (m)...
 PRECISION_TARGET_M = 0.03
 #: ... and this fraction of the truth the sonars saw must lie within 5 cm of a surface.
@@ -155,6 +158,8 @@ def _echo_text(scenario: Path) -> str:
 
     data = yaml.safe_load(scenario.read_text(encoding="utf-8")) or {}
     order = int(data.get("max_order", 1))
+    if data.get("physics") == "transducer":
+        return "transducer physics (first echo above threshold)"
     first = "first echo" if data.get("first_echo_only", False) else "every echo"
     return f"{first}, max_order {order}"
 
