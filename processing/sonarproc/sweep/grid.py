@@ -46,7 +46,7 @@ KEYS: dict[str, str] = {
     "ops": "ops",
     "order": "order",
     "cell": "float",
-    "fit": "choice:poly,spline,polar",
+    "fit": "choice:poly,spline,polar,auto",
     "robust": "choice:none,huber",
     "span": "choice:truth,points",
     "smooth": "float",
