@@ -194,8 +194,8 @@ def read_report(path: str | Path) -> dict[str, Any]:
         doc = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as err:
         raise InputError(f"{p}: not a readable report.json ({err})") from None
-    if not isinstance(doc, dict) or "fit" not in doc:
-        raise InputError(f"{p}: not a sonarproc report (no 'fit')")
+    if not isinstance(doc, dict):
+        raise InputError(f"{p}: not a sonarproc report (not a JSON object)")
     return upgrade_report(doc)
 
 

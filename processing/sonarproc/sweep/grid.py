@@ -297,12 +297,19 @@ def shard_indices(total: int, shard: tuple[int, int]) -> range:
 
 
 def is_scenario_path(inp: str) -> bool | None:
-    """True for a scenario YAML, False for a log (a sonarlog, a ROS 1 bag, a ROS 2 bag
-    directory or a Player log), None when the path is neither."""
+    """True for a scenario YAML (or a shipped scenario's name), False for a log (a
+    sonarlog, a ROS 1 bag, a ROS 2 bag directory or a Player log), None when the path is
+    neither."""
     p = Path(inp)
     suffix = p.suffix.lower()
     if suffix in (".yaml", ".yml"):
         return True
     if suffix in (".h5", ".hdf5", ".bag", ".log") or (p / "metadata.yaml").is_file():
         return False
+    if not p.exists() and len(p.parts) == 1:
+        # the name of a shipped scenario (``fig12``, ``room-box``), as ``simulate`` takes
+        from sonarsim.shipped import shipped_names
+
+        if p.name in shipped_names("scenarios"):
+            return True
     return None

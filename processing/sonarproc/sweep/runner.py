@@ -81,20 +81,24 @@ COLUMNS = (
     "f_c",
     "E1_m",
     "E2",
-    "surfaces",
-    "precision_m",
-    "completeness",
     "t_cpu_s",
     "N",
     "N_k",
     "readings_used",
     "processed_cells",
     "cv_score",
+    # several surfaces (fit=auto on a room): scored where E1 and E2 are not defined
+    "surfaces",
+    "precision_m",
+    "completeness",
 )
 
 
 #: What a sweep takes as an input.
-INPUT_KINDS = "a sweep input must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml)"
+INPUT_KINDS = (
+    "a sweep input must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml, or the "
+    "name of a shipped one)"
+)
 
 
 def _load(inp: str, values: dict[str, Any]) -> Any:
@@ -264,9 +268,10 @@ def run_sweep(
         Rows sorted by combination index.
     """
     for inp in inputs:
-        if not Path(inp).exists():
+        kind = is_scenario_path(inp)
+        if not Path(inp).exists() and kind is not True:  # a shipped scenario's name is fine
             raise FileNotFoundError(2, "no such file", inp)
-        if is_scenario_path(inp) is None:
+        if kind is None:
             raise InputError(f"{inp}: {INPUT_KINDS}")
     grid = parse_grid(spec)
     combos = combinations(list(inputs), grid)

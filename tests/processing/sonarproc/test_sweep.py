@@ -187,7 +187,10 @@ def test_rows_equal_single_runs(
         assert r["ok"] and r["fit_ok"] and r["cell"] == 0.01 and r["fit"] == "poly"
     header = (tmp_path / "s" / "results.csv").read_text().splitlines()[0]
     assert header.startswith("index,input,ops,order,cell,fit,robust,span,smooth,")
-    assert header.endswith(",e,f_c,E1_m,E2,t_cpu_s,N,N_k,readings_used,processed_cells,cv_score")
+    assert header.endswith(
+        ",e,f_c,E1_m,E2,t_cpu_s,N,N_k,readings_used,processed_cells,cv_score,"
+        "surfaces,precision_m,completeness"
+    )
 
 
 def test_jobs_2_gives_the_same_table(log_h5: Path, tmp_path: Path) -> None:
