@@ -311,4 +311,7 @@ def test_unreadable_inputs_stop_the_sweep(
     notlog = tmp_path / "x.csv"
     notlog.write_text("t\n", encoding="utf-8")
     assert main(["sweep", str(notlog), "--grid", "order=4", "--out", out]) == 2
-    assert "must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml)" in capsys.readouterr().err
+    assert (
+        "must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml, or the name of a shipped one)"
+        in capsys.readouterr().err
+    )
