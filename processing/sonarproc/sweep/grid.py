@@ -38,7 +38,7 @@ __all__ = [
 
 SYNTAX = (
     "KEY=V1|V2|A..B|LO..HI@N|LO..HI@logN[;KEY=...] with KEY in "
-    "ops, order, cell, fit, robust, span, smooth, drop_crosstalk, sigma, seed"
+    "ops, order, cell, fit, robust, span, smooth, drop_crosstalk, arc_step, sigma, seed"
 )
 
 #: Parameter keys and the kind of their values.
@@ -51,9 +51,13 @@ KEYS: dict[str, str] = {
     "span": "choice:truth,points",
     "smooth": "float",
     "drop_crosstalk": "bool",
+    "arc_step": "float",
     "sigma": "float",
     "seed": "int",
 }
+#: The fit where the grid names none: ``sonarproc run``'s default, so that a sweep row
+#: with no ``fit`` key is the run a user gets with no option.
+RUN_DEFAULT_FIT = "auto"
 #: Keys that change the data (simulation) rather than the processing.
 DATA_KEYS = ("sigma", "seed")
 _RANGE = re.compile(r"^(-?[0-9.eE+-]+?)\.\.(-?[0-9.eE+-]+?)(?:@(log)?([0-9]+))?$")
@@ -218,6 +222,9 @@ def parse_grid(spec: str) -> dict[str, list[Any]]:
 def combination_params(values: dict[str, Any]) -> RunParams:
     """A :class:`RunParams` from grid values (the data keys are ignored)."""
     kw = {k: v for k, v in values.items() if k not in DATA_KEYS}
+    kw.setdefault("fit", RUN_DEFAULT_FIT)
+    if kw.get("arc_step") is not None:  # given in degrees, as ``--arc-step``
+        kw["arc_step"] = math.radians(float(kw["arc_step"]))
     order = kw.pop("order", None)
     if order == "auto":
         kw["auto_order"] = True

@@ -168,7 +168,7 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
         readings_used=r.counts["readings_used"],
         processed_cells=r.counts["processed_cells"],
     )
-    if r.truth is None and p.fit not in ("polar", "auto") and r.points_x.size:
+    if r.truth is None and p.fit != "polar" and r.surfaces is None and r.points_x.size:
         try:
             _, scores = select_order_cv(
                 r.points_x,

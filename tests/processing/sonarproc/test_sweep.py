@@ -184,7 +184,7 @@ def test_rows_equal_single_runs(
         m = json.loads(capsys.readouterr().out)["metrics"]
         for key in ("e", "f_c", "E1_m", "E2", "N", "N_k"):
             assert r[key] == pytest.approx(m[key], rel=1e-12), key
-        assert r["ok"] and r["fit_ok"] and r["cell"] == 0.01 and r["fit"] == "poly"
+        assert r["ok"] and r["fit_ok"] and r["cell"] == 0.01 and r["fit"] == "auto"
     header = (tmp_path / "s" / "results.csv").read_text().splitlines()[0]
     assert header.startswith("index,input,ops,order,cell,fit,robust,span,smooth,")
     assert header.endswith(
