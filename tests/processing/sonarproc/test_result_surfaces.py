@@ -116,3 +116,18 @@ def test_watch_once_on_a_truth_log(rooms: dict[str, Path], tmp_path: Path) -> No
     doc = json.loads((out / "report.json").read_text())
     assert doc["fit"]["ok"] is True and doc["fit"]["surfaces"] >= 4
     assert len(_html_rows((out / "report.html").read_text())) == len(doc["surfaces"])
+
+
+def test_sweep_best_of_surfaces_rows_is_the_most_complete_then_precise() -> None:
+    from sonarproc.cli.sweep import best_line
+    from sonarproc.sweep.merge import best_rows
+
+    def row(i: int, prec: float, comp: float) -> dict[str, object]:
+        base = {"input": "room", "ok": True, "fit_ok": True, "fit": "auto", "E1_m": None}
+        return {**base, "index": i, "f_c": 1.0, "precision_m": prec, "completeness": comp}
+
+    best = best_rows([row(0, 0.004, 0.70), row(1, 0.006, 0.951), row(2, 0.005, 0.948)])
+    assert best["room"]["row"]["index"] == 2  # completeness ties to 0.01, then precision
+    assert best["room"]["criterion"].startswith("max completeness")
+    line = best_line("room", best["room"])
+    assert line.endswith("precision 0.500 cm, completeness 0.948")
