@@ -9,12 +9,12 @@ into ``IMG`` (``docs/gallery``) and writes ``docs/gallery.md`` beside it.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from sonarproc.report import read_report
 from sonarproc.report.summary import summary_line
 
 __all__ = ["ABOUT", "half_size", "main", "render_gallery"]
@@ -57,7 +57,7 @@ def render_gallery(cases: Path, img: Path, names: Sequence[str]) -> str:
     ]
     for name in names:
         rep, cmp_ = cases / name / "report", cases / name / "compare"
-        doc = json.loads((rep / "report.json").read_text())
+        doc = read_report(rep / "report.json")
         title = "Demo" if name == "demo" else f"Scenario `{name}`"
         lines += [f"## {title}", ""]
         default = (

@@ -105,11 +105,13 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     table.add_row("skipped out of range", skipped)
     table.add_row("map", f"{g['nx']} x {g['ny']} cells of {length_cm(g['cell'])}")
     table.add_row("operations", map_label(str(doc["parameters"]["ops"]), doc.get("auto")))
-    fit_text = "spline" if fit["kind"] == "spline" else f"{fit['kind']}, order {fit['order']}"
-    if "surfaces" in doc:
-        models = [s.get("model", "failed") for s in doc["surfaces"]]
-        kinds = ", ".join(f"{models.count(k)} {k}" for k in sorted(set(models)))
-        table.add_row("fit", f"{len(doc['surfaces'])} surfaces ({kinds})")
+    fit_text = "spline" if fit["kind"] == "spline" else f"{fit['kind']}, order {fit.get('order')}"
+    if fit["kind"] == "surfaces":
+        kinds = ", ".join(f"{n} {k}" for k, n in fit.get("kinds", {}).items())
+        text = f"{fit.get('surfaces', 0)} surfaces" + (f" ({kinds})" if kinds else "")
+        if fit.get("failed"):
+            text += f", {fit['failed']} not fitted"
+        table.add_row("fit", text if fit["ok"] else f"{text}: FAILED ({fit.get('reason')})")
     else:
         table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
     table.add_row("e", number(m["e"]))

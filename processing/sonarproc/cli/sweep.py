@@ -139,6 +139,11 @@ def best_line(inp: str, best: dict[str, Any]) -> str:
     scores = f"e {number(r.get('e'))}, f_c {number(r.get('f_c'))}"
     if r.get("E1_m") is not None:
         scores += f", E1 {length_cm(r['E1_m'])}, E2 {number(r.get('E2'))}"
+    if r.get("precision_m") is not None:
+        scores += (
+            f", precision {length_cm(r['precision_m'])}, "
+            f"completeness {number(r.get('completeness'))}"
+        )
     return f"best for {inp} ({criterion}): {params or 'the defaults'}: {scores}"
 
 

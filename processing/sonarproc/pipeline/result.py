@@ -49,6 +49,66 @@ class RunResult:
     auto: dict[str, Any] | None = None
     surface_metrics: dict[str, Any] | None = None
 
+    @property
+    def surfaces_fit(self) -> bool:
+        """Whether the run fitted several surfaces (``fit = "auto"`` chose surfaces)."""
+        return self.surfaces is not None
+
+    def fit_json(self) -> dict[str, Any]:
+        """``report.json``'s ``fit`` (Contract 2).
+
+        A surfaces fit is a successful fit: ``{"kind": "surfaces", "ok": true,
+        "surfaces": N, ...}`` (see
+        :func:`sonarproc.pipeline.surfacefit.surfaces_fit_record`); a profile fit is its
+        own record, with the centre of a polar fit.
+        """
+        if self.surfaces is not None:
+            from sonarproc.pipeline.surfacefit import surfaces_fit_record
+
+            return surfaces_fit_record(self.surfaces)
+        fit = dict(self.fit.to_json())
+        if self.centre is not None:
+            fit.setdefault("centre", list(self.centre))
+        return fit
+
+    def surfaces_json(self) -> list[dict[str, Any]] | None:
+        """``report.json``'s ``surfaces``: one entry per surface (id, ``kind``, ``model``,
+        ``length_m``, ``rms_m``, ``support``...), the failed ones last; None for a profile fit.
+        """
+        if self.surfaces is None:
+            return None
+        from sonarproc.pipeline.surfacefit import surface_kind
+
+        entries = self.surfaces.to_json()
+        for e in entries:
+            if e.get("ok"):
+                e.setdefault("kind", surface_kind(e.get("model")))
+        return entries
+
+    def metrics_json(self) -> dict[str, Any]:
+        """``report.json``'s ``metrics``.
+
+        Always ``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``. ``E1_m``, ``E2``, ``sigma_y_m``
+        where they are defined: a profile fit on a log whose truth is one curve (or any
+        closed truth, for a polar fit). ``precision_m``, ``completeness`` (and the counts
+        behind them) beside them when surfaces were fitted on a log with a truth.
+        """
+        m = self.metrics.to_json()
+        out: dict[str, Any] = {
+            "e": m["e"],
+            "f_c": m["f_c"],
+            "t_cpu_s": self.t_cpu_s,
+            "N": m["N"],
+            "N_k": m["N_k"],
+        }
+        polar = self.params.fit == "polar"
+        truth = self.truth
+        if truth is not None and self.surfaces is None and (polar or not np.isnan(truth).any()):
+            out.update(E1_m=m["E1_m"], E2=m["E2"], sigma_y_m=m["sigma_y_m"])
+        if self.surface_metrics is not None:
+            out.update(self.surface_metrics)
+        return out
+
     @classmethod
     def of(
         cls,

@@ -55,6 +55,8 @@ __all__ = [
     "column_spans",
     "measure_surfaces",
     "refine_surfaces",
+    "surface_kind",
+    "surfaces_fit_record",
 ]
 
 #: One function of x when the kept cells of a median column span at most this (m)...
@@ -80,6 +82,11 @@ LINE_MIN_VOTES = 20
 #: all (fewer are stray echoes: a surface the map could find needs many readings in a
 #: long log, and the map costs as much for a few arcs as for many).
 RESIDUAL_SHARE = 0.001
+#: The kind of reflector each fitted model stands for (Contract 2, v3): a straight wall is
+#: a plane; a circular arc is the section of a cylinder (a pillar, a round wall); a spline
+#: is a free curve. Corners and edges (point reflectors) are kinds of their own.
+MODEL_KINDS = {"line": "plane", "arc": "cylinder", "spline": "curve",
+               "corner": "corner", "edge": "edge"}  # fmt: skip
 #: A wall's echo points further apart than this (m) start a new wall (a doorway).
 BRIDGE_M = 0.30
 
@@ -266,3 +273,43 @@ def measure_surfaces(
     pts = np.concatenate(truth_points(truth))
     seen = seen_truth(pts, *arcs_args, **beams)
     return dict(surface_metrics(found.polylines(), truth, seen=seen).to_json())
+
+
+def surface_kind(model: str | None) -> str:
+    """The reflector kind (``plane``, ``cylinder``, ``curve``, ``corner``, ``edge``) of a model.
+
+    >>> surface_kind("line"), surface_kind("arc"), surface_kind("spline")
+    ('plane', 'cylinder', 'curve')
+    >>> surface_kind("corner"), surface_kind(None)
+    ('corner', 'curve')
+    """
+    return MODEL_KINDS.get(str(model), "curve")
+
+
+def surfaces_fit_record(found: SurfaceSet) -> dict[str, Any]:
+    """``report.json``'s ``fit`` for a surfaces fit (Contract 2, v3).
+
+    A surfaces fit is a successful fit when at least one surface was fitted: ``ok``,
+    ``surfaces`` (how many were fitted), ``failed`` (how many could not be), and
+    ``kinds`` (how many of each reflector kind). With none, ``ok`` is false and
+    ``reason`` says why.
+
+    >>> r = surfaces_fit_record(SurfaceSet([], [], 0, 0, "nothing kept"))
+    >>> r["kind"], r["ok"], r["surfaces"], r["reason"]
+    ('surfaces', False, 0, 'nothing kept')
+    """
+    kinds: dict[str, int] = {}
+    for s in found.surfaces:
+        k = surface_kind(s.model)
+        kinds[k] = kinds.get(k, 0) + 1
+    n = len(found.surfaces)
+    record: dict[str, Any] = {
+        "kind": "surfaces",
+        "ok": n > 0,
+        "surfaces": n,
+        "failed": len(found.failures),
+        "kinds": dict(sorted(kinds.items())),
+    }
+    if n == 0:
+        record["reason"] = str(found.reason or "no surface could be fitted")
+    return record

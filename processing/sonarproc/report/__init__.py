@@ -15,8 +15,10 @@ from sonarproc.report.run_report import (
     REPORT_FILES,
     default_out_dir,
     profile_points,
+    read_report,
     report_dict,
     report_files,
+    upgrade_report,
     write_profile_csv,
     write_report,
 )
@@ -29,8 +31,10 @@ __all__ = [
     "fit_figure",
     "processed_figure",
     "profile_points",
+    "read_report",
     "report_dict",
     "report_files",
+    "upgrade_report",
     "write_profile_csv",
     "write_report",
 ]

@@ -8,13 +8,13 @@ from __future__ import annotations
 import base64
 import html
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sonarproc.report.auto_record import auto_record_html
 from sonarproc.report.units import MISSING, length_cm, metric, seconds
 
-__all__ = ["render_html"]
+__all__ = ["render_html", "surfaces_table"]
 
 _STEMS = ("arcmap", "processed", "fit")
 _MIME = {"png": "image/png", "svg": "image/svg+xml"}
@@ -38,7 +38,23 @@ _METRIC_LABELS = {
     "N": "N (columns spanned)",
     "N_k": "N_k (columns with points)",
     "sigma_y_m": "σ_y",
+    "precision_m": "precision (mean distance to the truth)",
+    "completeness": "completeness (share of the seen truth found)",
+    "truth_points": "truth points",
+    "seen_points": "truth points the sonars saw",
+    "found_points": "seen truth points found",
+    "completeness_within_m": "found: a surface within",
 }
+
+#: The columns of the surfaces table: report.json key, heading.
+_SURFACE_COLUMNS = (
+    ("surface", "surface"),
+    ("kind", "kind"),
+    ("model", "model"),
+    ("length_m", "length"),
+    ("rms_m", "RMS"),
+    ("support", "support (cells)"),
+)
 
 
 def _fmt(v: Any) -> str:
@@ -83,6 +99,64 @@ def _grid_rows(grid: Mapping[str, Any]) -> dict[str, Any]:
     return rows
 
 
+def surfaces_table(surfaces: Sequence[Mapping[str, Any]]) -> str:
+    """The surfaces of a surfaces fit, one row each (lengths through the units function).
+
+    Reads report.json's ``surfaces`` of any version: an entry without ``kind`` (a v2
+    report) shows its model's kind; a surface no model fitted shows its reason.
+
+    >>> surfaces_table([{"surface": 0, "ok": True, "model": "line", "length_m": 2.0,
+    ...                  "rms_m": 0.004, "support": 180}]).count("<tr>")
+    2
+    """
+    from sonarproc.pipeline.surfacefit import surface_kind
+
+    head = "".join(f"<th>{html.escape(h)}</th>" for _, h in _SURFACE_COLUMNS)
+    rows = [f"<tr>{head}</tr>"]
+    for s in surfaces:
+        if s.get("ok", True):
+            values = {**s, "kind": s.get("kind") or surface_kind(s.get("model"))}
+            cells = [metric(k, values.get(k)) for k, _ in _SURFACE_COLUMNS]
+        else:
+            reason = f"not fitted: {s.get('reason')}"
+            cells = [str(s.get("surface")), MISSING, reason, MISSING, MISSING,
+                     str(s.get("support", MISSING))]  # fmt: skip
+        rows.append("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in cells) + "</tr>")
+    return '<table class="surfaces">' + "".join(rows) + "</table>"
+
+
+def _fit_section(doc: Mapping[str, Any]) -> str:
+    """The fit: its record, or why it failed; for several surfaces, their table.
+
+    An old report (v2) recorded a surfaces fit as failed with the surfaces listed: it is
+    shown as the success it was.
+    """
+    fit = dict(doc["fit"])
+    surfaces = [dict(s) for s in doc.get("surfaces") or []]
+    fitted = [s for s in surfaces if s.get("ok", True)]
+    if fit.get("kind") == "surfaces":
+        n = int(fit.get("surfaces", len(fitted)))
+        if n == 0:
+            return f'<p class="fail">No surface fitted: {html.escape(str(fit.get("reason")))}</p>'
+        from sonarproc.pipeline.surfacefit import surface_kind
+
+        kinds: dict[str, int] = {}
+        for s in fitted:
+            k = str(s.get("kind") or surface_kind(s.get("model")))
+            kinds[k] = kinds.get(k, 0) + 1
+        what = ", ".join(f"{c} {k}" for k, c in sorted(kinds.items()))
+        return f"<p>{n} surface(s) fitted ({html.escape(what)}).</p>" + surfaces_table(surfaces)
+    fit_rows: dict[str, Any] = {"kind": fit.get("kind"), "order": fit.get("order")}
+    if fit.get("ok"):
+        for key in ("basis", "domain", "centre", "smoothing_lambda", "coefficients"):
+            if key in fit:
+                fit_rows[key] = fit[key]
+        return _table(fit_rows)
+    return f'<p class="fail">Fit failed: {html.escape(str(fit.get("reason")))}</p>' + _table(
+        fit_rows
+    )
+
+
 def _figure(name: str, data: bytes, caption: str) -> str:
     mime = _MIME[name.rsplit(".", 1)[-1]]
     uri = f"data:{mime};base64," + base64.b64encode(data).decode("ascii")
@@ -104,18 +178,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         The figure files written (``arcmap.png``, ``fit.svg``...) and their contents:
         each figure is shown once, as its PNG if there is one, else its SVG.
     """
-    fit = dict(doc["fit"])
-    fit_rows: dict[str, Any] = {"kind": fit.get("kind"), "order": fit.get("order")}
-    if fit.get("ok"):
-        for key in ("basis", "domain", "centre", "smoothing_lambda", "coefficients"):
-            if key in fit:
-                fit_rows[key] = fit[key]
-        fit_html = _table(fit_rows)
-    else:
-        fit_html = (
-            f'<p class="fail">Fit failed: {html.escape(str(fit.get("reason")))}</p>'
-            + _table(fit_rows)
-        )
+    fit_html = _fit_section(doc)
     captions = {
         "arcmap": "Arc map: number of arcs through each cell",
         "processed": "The processed map",

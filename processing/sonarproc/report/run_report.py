@@ -30,8 +30,10 @@ __all__ = [
     "REPORT_FILES",
     "default_out_dir",
     "profile_points",
+    "read_report",
     "report_dict",
     "report_files",
+    "upgrade_report",
     "write_profile_csv",
     "write_report",
 ]
@@ -77,25 +79,15 @@ def report_dict(result: RunResult, *, auto: dict[str, Any] | None = None) -> dic
     ``grid``, ``counts``, ``log_state`` (``closed``, ``crashed``, ``cut``), ``intact_rows``,
     ``dropped_rows``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
     and, when the log has a truth profile, ``E1_m``, ``E2``, ``sigma_y_m``), ``truth``,
-    ``timings_s``; with ``auto`` (``run --auto``'s record), ``auto``.
+    ``timings_s``; with ``auto`` (``run --auto``'s record), ``auto``. A surfaces fit
+    (``fit = "auto"`` on a room) has ``fit`` = ``{"kind": "surfaces", "ok": true,
+    "surfaces": N, ...}``, a ``surfaces`` list (``kind``, ``model``, ``length_m``,
+    ``rms_m``, ``support`` each) and, on a log with a truth, ``precision_m`` and
+    ``completeness`` in ``metrics`` (E1 and E2 are not defined for several surfaces).
     """
     g = result.grid
-    m = result.metrics.to_json()
-    metrics: dict[str, Any] = {
-        "e": m["e"],
-        "f_c": m["f_c"],
-        "t_cpu_s": result.t_cpu_s,
-        "N": m["N"],
-        "N_k": m["N_k"],
-    }
-    polar = result.params.fit == "polar"
-    if result.truth is not None and (polar or not np.isnan(result.truth).any()):
-        metrics.update(E1_m=m["E1_m"], E2=m["E2"], sigma_y_m=m["sigma_y_m"])
-    if result.surface_metrics is not None:
-        metrics.update(result.surface_metrics)
-    fit = result.fit.to_json()
-    if result.centre is not None:
-        fit.setdefault("centre", list(result.centre))
+    metrics = result.metrics_json()
+    fit = result.fit_json()
     doc = {
         "format": "sonarproc-report",
         "version": 1,
@@ -124,11 +116,87 @@ def report_dict(result: RunResult, *, auto: dict[str, Any] | None = None) -> dic
         doc["fit_choice"] = result.auto
     if auto is not None:
         doc["auto"] = auto
-    if result.surfaces is not None:
-        doc["surfaces"] = result.surfaces.to_json()
+    surfaces = result.surfaces_json()
+    if result.surfaces is not None and surfaces is not None:
+        doc["surfaces"] = surfaces
         if result.surfaces.reason:
             doc["surfaces_reason"] = result.surfaces.reason
     return dict(to_jsonable(doc))
+
+
+def upgrade_report(doc: dict[str, Any]) -> dict[str, Any]:
+    """A ``report.json`` of any earlier version in today's shape (Contract 2, v3).
+
+    Earlier runs recorded a surfaces fit as a failure (``"ok": false``, "N surface(s)
+    fitted one by one") and could put ``precision_m`` and ``completeness`` at the top
+    level, null without a truth. Here the fit becomes the success it was (``ok``,
+    ``surfaces``), non-null measures move into ``metrics``, and every fitted surface
+    gets its ``kind``. A current report comes back unchanged.
+
+    >>> old = {"fit": {"kind": "surfaces", "ok": False, "reason": "2 surface(s) fitted"},
+    ...        "metrics": {"e": 0.5}, "precision_m": None, "completeness": None,
+    ...        "surfaces": [{"surface": 0, "ok": True, "model": "line"},
+    ...                     {"surface": 1, "ok": True, "model": "arc"}]}
+    >>> new = upgrade_report(old)
+    >>> new["fit"]["ok"], new["fit"]["surfaces"], new["fit"]["kinds"]
+    (True, 2, {'cylinder': 1, 'plane': 1})
+    >>> new["metrics"], "precision_m" in new, new["surfaces"][1]["kind"]
+    ({'e': 0.5}, False, 'cylinder')
+    """
+    from sonarproc.pipeline.surfacefit import surface_kind
+
+    out = dict(doc)
+    metrics = dict(out.get("metrics") or {})
+    for key in ("precision_m", "completeness"):
+        if key in out:
+            value = out.pop(key)
+            if value is not None:
+                metrics.setdefault(key, value)
+    out["metrics"] = metrics
+    fit = dict(out.get("fit") or {})
+    if fit.get("kind") == "surfaces" and "surfaces" in out:
+        entries = [dict(e) for e in out["surfaces"]]
+        fitted = [e for e in entries if e.get("ok", True)]
+        for e in fitted:
+            e.setdefault("kind", surface_kind(e.get("model")))
+        out["surfaces"] = entries
+        if "surfaces" not in fit:
+            kinds: dict[str, int] = {}
+            for e in fitted:
+                kinds[e["kind"]] = kinds.get(e["kind"], 0) + 1
+            reason = fit.get("reason")
+            fit = {
+                "kind": "surfaces",
+                "ok": bool(fitted),
+                "surfaces": len(fitted),
+                "failed": len(entries) - len(fitted),
+                "kinds": dict(sorted(kinds.items())),
+            }
+            if not fitted:
+                fit["reason"] = reason
+    out["fit"] = fit
+    return out
+
+
+def read_report(path: str | Path) -> dict[str, Any]:
+    """Read a ``report.json`` (a file or its directory) of any version, in today's shape.
+
+    Raises
+    ------
+    InputError
+        The file is missing or is not a report.
+    """
+    from sonarproc.errors import InputError
+
+    p = Path(path)
+    p = p / "report.json" if p.is_dir() else p
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise InputError(f"{p}: not a readable report.json ({err})") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{p}: not a sonarproc report (not a JSON object)")
+    return upgrade_report(doc)
 
 
 def profile_points(result: RunResult) -> npt.NDArray[np.float64]:

@@ -38,7 +38,7 @@ __all__ = [
 
 SYNTAX = (
     "KEY=V1|V2|A..B|LO..HI@N|LO..HI@logN[;KEY=...] with KEY in "
-    "ops, order, cell, fit, robust, span, smooth, drop_crosstalk, sigma, seed"
+    "ops, order, cell, fit, robust, span, smooth, drop_crosstalk, arc_step, sigma, seed"
 )
 
 #: Parameter keys and the kind of their values.
@@ -46,14 +46,18 @@ KEYS: dict[str, str] = {
     "ops": "ops",
     "order": "order",
     "cell": "float",
-    "fit": "choice:poly,spline,polar",
+    "fit": "choice:poly,spline,polar,auto",
     "robust": "choice:none,huber",
     "span": "choice:truth,points",
     "smooth": "float",
     "drop_crosstalk": "bool",
+    "arc_step": "float",
     "sigma": "float",
     "seed": "int",
 }
+#: The fit where the grid names none: ``sonarproc run``'s default, so that a sweep row
+#: with no ``fit`` key is the run a user gets with no option.
+RUN_DEFAULT_FIT = "auto"
 #: Keys that change the data (simulation) rather than the processing.
 DATA_KEYS = ("sigma", "seed")
 _RANGE = re.compile(r"^(-?[0-9.eE+-]+?)\.\.(-?[0-9.eE+-]+?)(?:@(log)?([0-9]+))?$")
@@ -218,6 +222,9 @@ def parse_grid(spec: str) -> dict[str, list[Any]]:
 def combination_params(values: dict[str, Any]) -> RunParams:
     """A :class:`RunParams` from grid values (the data keys are ignored)."""
     kw = {k: v for k, v in values.items() if k not in DATA_KEYS}
+    kw.setdefault("fit", RUN_DEFAULT_FIT)
+    if kw.get("arc_step") is not None:  # given in degrees, as ``--arc-step``
+        kw["arc_step"] = math.radians(float(kw["arc_step"]))
     order = kw.pop("order", None)
     if order == "auto":
         kw["auto_order"] = True
@@ -297,12 +304,19 @@ def shard_indices(total: int, shard: tuple[int, int]) -> range:
 
 
 def is_scenario_path(inp: str) -> bool | None:
-    """True for a scenario YAML, False for a log (a sonarlog, a ROS 1 bag, a ROS 2 bag
-    directory or a Player log), None when the path is neither."""
+    """True for a scenario YAML (or a shipped scenario's name), False for a log (a
+    sonarlog, a ROS 1 bag, a ROS 2 bag directory or a Player log), None when the path is
+    neither."""
     p = Path(inp)
     suffix = p.suffix.lower()
     if suffix in (".yaml", ".yml"):
         return True
     if suffix in (".h5", ".hdf5", ".bag", ".log") or (p / "metadata.yaml").is_file():
         return False
+    if not p.exists() and len(p.parts) == 1:
+        # the name of a shipped scenario (``fig12``, ``room-box``), as ``simulate`` takes
+        from sonarsim.shipped import shipped_names
+
+        if p.name in shipped_names("scenarios"):
+            return True
     return None

@@ -133,6 +133,18 @@ def best_rows(rows: Sequence[dict[str, Any]]) -> dict[str, dict[str, Any]]:
         if with_e1:
             out[inp] = _best_by_e1(with_e1)
             continue
+        # several surfaces against a multi-surface truth: E1 is not defined, precision is
+        # (the complete runs first: a run that fits one wall well is not the best map)
+        with_p = [r for r in good if r.get("precision_m") is not None]
+        if with_p:
+            best = min(
+                with_p,
+                key=lambda r: (-round(r.get("completeness") or 0.0, 2), r["precision_m"],
+                               r["index"]),
+            )  # fmt: skip
+            crit = "max completeness (to 0.01), then min precision_m (truth)"
+            out[inp] = {"criterion": crit, "row": best}
+            continue
         cover = [r for r in good if r.get("f_c") is not None]
         if not cover:
             continue

@@ -87,11 +87,18 @@ COLUMNS = (
     "readings_used",
     "processed_cells",
     "cv_score",
+    # several surfaces (fit=auto on a room): scored where E1 and E2 are not defined
+    "surfaces",
+    "precision_m",
+    "completeness",
 )
 
 
 #: What a sweep takes as an input.
-INPUT_KINDS = "a sweep input must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml)"
+INPUT_KINDS = (
+    "a sweep input must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml, or the "
+    "name of a shipped one)"
+)
 
 
 def _load(inp: str, values: dict[str, Any]) -> Any:
@@ -122,7 +129,7 @@ def _load(inp: str, values: dict[str, Any]) -> Any:
 
 def _row(c: Combination, lg: Any) -> dict[str, Any]:
     """Run one combination on its log; a refused run becomes a row with ``ok`` false."""
-    from sonarproc.fit import FitFailure, select_order_cv
+    from sonarproc.fit import select_order_cv
     from sonarproc.pipeline import process
 
     p = combination_params(c.values)
@@ -141,21 +148,27 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
     except ValueError as err:
         row["error"] = str(err)
         return row
-    m = r.metrics.to_json()
+    # the run's own record (report.json's fit and metrics): a surfaces fit is a success,
+    # scored by precision and completeness where E1 and E2 are not defined
+    fit = r.fit_json()
+    m = r.metrics_json()
     row.update(
         ok=True,
-        fit_ok=not isinstance(r.fit, FitFailure),
+        fit_ok=bool(fit.get("ok")),
         e=m["e"],
         f_c=m["f_c"],
-        E1_m=m["E1_m"] if r.truth is not None else None,
-        E2=m["E2"] if r.truth is not None else None,
+        E1_m=m.get("E1_m"),
+        E2=m.get("E2"),
+        surfaces=fit.get("surfaces"),
+        precision_m=m.get("precision_m"),
+        completeness=m.get("completeness"),
         t_cpu_s=r.t_cpu_s,
         N=m["N"],
         N_k=m["N_k"],
         readings_used=r.counts["readings_used"],
         processed_cells=r.counts["processed_cells"],
     )
-    if r.truth is None and p.fit != "polar" and r.points_x.size:
+    if r.truth is None and p.fit != "polar" and r.surfaces is None and r.points_x.size:
         try:
             _, scores = select_order_cv(
                 r.points_x,
@@ -255,9 +268,10 @@ def run_sweep(
         Rows sorted by combination index.
     """
     for inp in inputs:
-        if not Path(inp).exists():
+        kind = is_scenario_path(inp)
+        if not Path(inp).exists() and kind is not True:  # a shipped scenario's name is fine
             raise FileNotFoundError(2, "no such file", inp)
-        if is_scenario_path(inp) is None:
+        if kind is None:
             raise InputError(f"{inp}: {INPUT_KINDS}")
     grid = parse_grid(spec)
     combos = combinations(list(inputs), grid)

@@ -184,10 +184,13 @@ def test_rows_equal_single_runs(
         m = json.loads(capsys.readouterr().out)["metrics"]
         for key in ("e", "f_c", "E1_m", "E2", "N", "N_k"):
             assert r[key] == pytest.approx(m[key], rel=1e-12), key
-        assert r["ok"] and r["fit_ok"] and r["cell"] == 0.01 and r["fit"] == "poly"
+        assert r["ok"] and r["fit_ok"] and r["cell"] == 0.01 and r["fit"] == "auto"
     header = (tmp_path / "s" / "results.csv").read_text().splitlines()[0]
     assert header.startswith("index,input,ops,order,cell,fit,robust,span,smooth,")
-    assert header.endswith(",e,f_c,E1_m,E2,t_cpu_s,N,N_k,readings_used,processed_cells,cv_score")
+    assert header.endswith(
+        ",e,f_c,E1_m,E2,t_cpu_s,N,N_k,readings_used,processed_cells,cv_score,"
+        "surfaces,precision_m,completeness"
+    )
 
 
 def test_jobs_2_gives_the_same_table(log_h5: Path, tmp_path: Path) -> None:
@@ -308,4 +311,7 @@ def test_unreadable_inputs_stop_the_sweep(
     notlog = tmp_path / "x.csv"
     notlog.write_text("t\n", encoding="utf-8")
     assert main(["sweep", str(notlog), "--grid", "order=4", "--out", out]) == 2
-    assert "must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml)" in capsys.readouterr().err
+    assert (
+        "must be a log (.h5, .bag, a ROS 2 bag) or a scenario (.yaml, or the name of a shipped one)"
+        in capsys.readouterr().err
+    )
