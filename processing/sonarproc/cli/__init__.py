@@ -2,7 +2,9 @@
 
 ``app`` holds the typer app and the error policy; one module per subcommand (``run``,
 ``compare``, ``export``, ``recover``, ``simulate``, ``sweep``, ``watch``) parses its options
-and calls the library; ``options`` holds the options they share; ``main`` runs it all.
+and calls the library; ``options`` holds the options they share; ``entry`` runs it all
+(not named ``main``: importing a submodule of that name would replace this package's
+:func:`main` function with the module).
 """
 
 from __future__ import annotations
@@ -12,6 +14,6 @@ __all__ = ["main"]
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default: ``sys.argv[1:]``) and return the exit code."""
-    from sonarproc.cli.main import main as run_main
+    from sonarproc.cli.entry import main as run_main
 
     return run_main(argv)

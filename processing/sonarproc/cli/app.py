@@ -1,7 +1,7 @@
 """The ``sonarproc`` typer app and its error policy: which errors are the user's.
 
 Each subcommand lives in its own module of this package and registers itself on
-:data:`app`; :mod:`sonarproc.cli.main` imports them all and runs the app.
+:data:`app`; :mod:`sonarproc.cli.entry` imports them all and runs the app.
 
 Exit codes: 0 success, 1 runtime failure, 2 usage or configuration error. Only the
 project's own errors (:class:`sonarproc.errors.SonarprocError`, the log format's

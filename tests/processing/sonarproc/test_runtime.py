@@ -44,7 +44,7 @@ def test_freed_arrays_are_reused_without_page_faults() -> None:
 
 
 def test_the_command_sets_it(monkeypatch: pytest.MonkeyPatch) -> None:
-    import sonarproc.cli.main as cli_main
+    import sonarproc.cli.entry as cli_main
 
     calls: list[bool] = []
     monkeypatch.setattr(cli_main, "retain_freed_memory", lambda: calls.append(True) or True)
