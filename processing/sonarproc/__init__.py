@@ -20,16 +20,12 @@ stays cheap)::
 
 from __future__ import annotations
 
-from importlib import metadata
 from typing import TYPE_CHECKING, Any
+
+from sonarproc.version import __version__
 
 if TYPE_CHECKING:
     from sonarproc.api import RunResult, compare, read_log, run
-
-try:
-    __version__ = metadata.version("sonarmorph")
-except metadata.PackageNotFoundError:  # pragma: no cover - running from an uninstalled tree
-    __version__ = "0+unknown"
 
 __all__ = ["RunResult", "__version__", "compare", "read_log", "run"]
 

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
 
-from sonarproc import __version__
 from sonarproc.errors import FitError, ParameterError, SonarprocError
+from sonarproc.version import __version__
 
 if TYPE_CHECKING:
     from sonarlog import SonarLog

@@ -13,12 +13,12 @@ from collections.abc import Sequence
 from typing import Any
 
 from sonarlog import SonarLog
-from sonarproc import __version__
 from sonarproc.fit import FitFailure
 from sonarproc.methods.base import MapMethod, MethodResult
 from sonarproc.params import RunParams
 from sonarproc.pipeline.result import RunResult
 from sonarproc.report.jsonable import to_jsonable
+from sonarproc.version import __version__
 
 __all__ = [
     "COLUMNS",

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc import __version__
 from sonarproc.fit import FitFailure
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
+from sonarproc.version import __version__
 
 __all__ = [
     "DEFAULT_FIGURES",
