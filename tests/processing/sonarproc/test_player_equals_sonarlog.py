@@ -21,6 +21,9 @@ from sonarlog import FLAG_NO_ECHO, read_log
 from sonarlog.sources import read_source, write_sonarlog
 from sonarproc.cli import main
 
+#: A test scenario (tests/data/scenarios) by path, a shipped one by name.
+RING_SINE = str(Path(__file__).parents[2] / "data" / "scenarios" / "auto5-ring-sine.yaml")
+
 METRICS = ("e", "f_c", "E1_m", "E2", "precision_m", "completeness")
 
 
@@ -30,7 +33,7 @@ def _run(log: Path, out: Path, *extra: str) -> dict[str, object]:
     return dict(json.loads((out / "report.json").read_text()))
 
 
-@pytest.mark.parametrize("scene", ["auto5-ring-sine", "room-box"])
+@pytest.mark.parametrize("scene", [RING_SINE, "room-box"], ids=["auto5-ring-sine", "room-box"])
 def test_player_log_maps_like_the_sonarlog(tmp_path: Path, scene: str) -> None:
     sim = tmp_path / "sim.h5"
     with contextlib.redirect_stdout(io.StringIO()):
