@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from sonarlog import SonarLog
@@ -25,7 +26,9 @@ __all__ = [
     "compare",
     "comparison_doc",
     "comparison_rows",
+    "fit_json",
     "fit_label",
+    "write_method_surfaces",
 ]
 
 log = logging.getLogger(__name__)
@@ -44,7 +47,13 @@ COLUMNS = (
     "fit_ok",
     "fit_order",
     "fit",
+    "precision_m",
+    "completeness",
+    "surfaces",
 )
+
+#: Files each method with surfaces writes into ``OUT/<method>/`` (:func:`write_method_surfaces`).
+SURFACE_FILES = ("surfaces.csv", "surfaces.geojson")
 
 
 def compare(log_: SonarLog, params: RunParams, methods: Sequence[MapMethod]) -> list[MethodResult]:
@@ -77,11 +86,61 @@ def fit_label(run: RunResult) -> str:
     return f"order {fit.order}" if fit.kind == "poly" else f"{fit.kind}, order {fit.order}"
 
 
+def fit_json(result: MethodResult) -> dict[str, Any]:
+    """A method's fit for ``compare.json``'s ``fits``: the curve's, or its surfaces (a success).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace as NS
+    >>> from sonarproc.surfaces import SurfaceFit
+    >>> s = SurfaceFit("line", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.002, 50, 80)
+    >>> r = NS(surfaces=[s], run=NS(surface_metrics=None))
+    >>> doc = fit_json(r)
+    >>> doc["kind"], doc["ok"], doc["count"], doc["surfaces"][0]["model"]
+    ('surfaces', True, 1, 'line')
+    """
+    if not result.surfaces:
+        return dict(result.run.fit.to_json())
+    return {
+        "kind": "surfaces",
+        "ok": True,
+        "order": None,
+        "count": len(result.surfaces),
+        "surfaces": [s.to_json(k) for k, s in enumerate(result.surfaces)],
+        "metrics": result.run.surface_metrics,
+    }
+
+
+def write_method_surfaces(result: MethodResult, out_dir: str | Path) -> list[Path]:
+    """Write :data:`SURFACE_FILES` of a method with surfaces into ``OUT/<method>/``.
+
+    The surfaces are numbered as in ``compare.json``'s ``fits`` (0 .. N-1); a method
+    without surfaces (one curve, or none) writes nothing.
+    """
+    from sonarproc.surfaces import write_surfaces_csv, write_surfaces_geojson
+
+    if not result.surfaces:
+        return []
+    folder = Path(out_dir) / result.method
+    folder.mkdir(parents=True, exist_ok=True)
+    return [
+        write_surfaces_csv(result.surfaces, folder / SURFACE_FILES[0]),
+        write_surfaces_geojson(result.surfaces, folder / SURFACE_FILES[1]),
+    ]
+
+
 def comparison_rows(results: Sequence[MethodResult]) -> list[dict[str, Any]]:
-    """One row per method: the metrics, points kept and the fit's state."""
+    """One row per method: the metrics, points kept, the fit's state, and the surfaces'.
+
+    ``fit_ok`` is true for a surfaces fit; ``precision_m`` and ``completeness`` are the
+    surfaces' against a truth of several surfaces (None without either), ``surfaces`` their
+    count (0 for one curve).
+    """
     rows = []
     for r in results:
         m = r.run.metrics
+        surface_metrics = r.run.surface_metrics or {}
         rows.append(
             {
                 "method": r.method,
@@ -93,9 +152,13 @@ def comparison_rows(results: Sequence[MethodResult]) -> list[dict[str, Any]]:
                 "N": m.N,
                 "N_k": m.N_k,
                 "points": int(r.run.points_x.size),
-                "fit_ok": not isinstance(r.run.fit, FitFailure),
+                "fit_ok": r.fit_ok,
                 "fit_order": r.run.fit.order,
                 "fit": fit_label(r.run),
+                # against a truth of several surfaces; None without surfaces or truth
+                "precision_m": surface_metrics.get("precision_m"),
+                "completeness": surface_metrics.get("completeness"),
+                "surfaces": len(r.surfaces),
             }
         )
     return [dict(to_jsonable(row)) for row in rows]
@@ -118,7 +181,7 @@ def comparison_doc(
         "truth": bool(results and results[0].run.truth is not None),
         "methods": comparison_rows(results),
         "options": {r.method: r.options for r in results},
-        "fits": {r.method: r.run.fit.to_json() for r in results},
+        "fits": {r.method: fit_json(r) for r in results},
         "counts": {r.method: r.run.counts for r in results},
     }
     return dict(to_jsonable(doc))
