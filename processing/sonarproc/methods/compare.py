@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from sonarlog import SonarLog
 from sonarproc import __version__
 from sonarproc.fit import FitFailure
@@ -28,6 +30,7 @@ __all__ = [
     "comparison_rows",
     "fit_json",
     "fit_label",
+    "measure_curve",
     "write_method_surfaces",
 ]
 
@@ -57,12 +60,44 @@ SURFACE_FILES = ("surfaces.csv", "surfaces.geojson")
 
 
 def compare(log_: SonarLog, params: RunParams, methods: Sequence[MapMethod]) -> list[MethodResult]:
-    """Run every method on ``log_`` with ``params`` (same grid, fit and metrics)."""
+    """Run every method on ``log_`` with ``params`` (same grid, fit and metrics).
+
+    Every method gets precision and completeness against a truth: its surfaces', or, when
+    it fitted one curve, the curve's (:func:`measure_curve`), so the rows compare alike.
+    """
     results = []
     for m in methods:
         log.info("%s: running %s", log_.path, m.name)
-        results.append(m.run(log_, params))
+        r = m.run(log_, params)
+        if r.run.surface_metrics is None and r.run.truth is not None and r.fit_ok:
+            r.run.surface_metrics = measure_curve(r, log_, m.params_for(params))
+        results.append(r)
     return results
+
+
+def measure_curve(result: MethodResult, log_: SonarLog, params: RunParams) -> dict[str, Any]:
+    """Precision and completeness of a run's one fitted curve, as if it were one surface.
+
+    The curve is sampled over its domain every cell (as ``profile.csv``) and measured as
+    the surfaces are (:func:`sonarproc.surfaces.surface_metrics`): against every truth
+    polyline, completeness over the part of the truth the sonars saw (the readings are
+    selected again as the run selected them).
+    """
+    from sonarproc.pipeline.selection import select_beams
+    from sonarproc.surfaces import seen_truth, surface_metrics, truth_points
+
+    run = result.run
+    assert run.truth is not None and not isinstance(run.fit, FitFailure)
+    truth = np.asarray(run.truth, dtype=np.float64)
+    beams, _ = select_beams(log_, params)
+    tp = beams.poses
+    seen = seen_truth(
+        np.concatenate(truth_points(truth)), tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,
+        beams.path, tx_half_beamwidth=tp.tx_half_beamwidth,
+        rx_half_beamwidth=tp.rx_half_beamwidth,
+    )  # fmt: skip
+    curve = np.asarray(run.fit.sample(run.grid.cell), dtype=np.float64)
+    return dict(surface_metrics([curve], truth, seen=seen).to_json())
 
 
 def fit_label(run: RunResult) -> str:
