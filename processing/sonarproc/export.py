@@ -106,7 +106,8 @@ def surface_cells(
     """The grid cells ``(iy, ix)`` the polylines pass through, each segment rasterised.
 
     Consecutive points are joined by :func:`skimage.draw.line` in cell indices (a
-    polyline sampled every cell leaves no gap); cells off the grid are dropped.
+    polyline sampled every cell leaves no gap); cells off the grid are dropped, and each
+    cell is given once, in row-major order.
 
     Examples
     --------
@@ -140,7 +141,8 @@ def surface_cells(
         return empty, empty
     iy_all, ix_all = np.concatenate(rows), np.concatenate(cols)
     inside = grid.contains_index(iy_all, ix_all)
-    return iy_all[inside], ix_all[inside]
+    flat = np.unique(iy_all[inside] * grid.nx + ix_all[inside])  # each cell once, row-major
+    return flat // grid.nx, flat % grid.nx
 
 
 def write_ros_map(result: MethodResult, stem: str | Path) -> tuple[Path, Path]:
