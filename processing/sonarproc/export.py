@@ -9,18 +9,25 @@
   occupancy of a pixel is ``(255 - v) / 255``, so 0 reads as occupied, 254 as free and
   205 (0.196...) as unknown. A probabilistic method (``occupancy``) exports its p(occupied)
   with those thresholds; the others export their processed cells as occupied and all
-  else as unknown.
-* **geojson**: the fitted profile as a ``LineString`` feature in the map frame (x, y in m;
-  *not* WGS 84 longitude/latitude, which RFC 7946 assumes: tools must treat it as a local
-  planar frame), with the method and the metrics as properties.
-* **ply**: the processed cells as a binary little-endian PLY point cloud (``float x, y, z``
-  with z = 0, and ``uint evidence``), readable by Open3D, CloudCompare, PCL and MeshLab.
+  else as unknown. The fitted surfaces (or the one fitted curve) are drawn over it as
+  occupied cells, each polyline rasterised at the map's resolution.
+* **geojson**: the fitted surfaces in the map frame (x, y in m; *not* WGS 84
+  longitude/latitude, which RFC 7946 assumes: tools must treat it as a local planar
+  frame): one ``LineString`` per surface with ``surface, model, kind, length_m, rms_m,
+  support`` (a surface of one point, a corner or an edge, is a ``Point``), or the one
+  fitted profile as a ``LineString``; the method and the metrics are the collection's
+  properties.
+* **ply**: the processed cells as a binary little-endian PLY point cloud (element
+  ``vertex``: ``float x, y, z`` with z = 0, and ``uint evidence``), readable by Open3D,
+  CloudCompare, PCL and MeshLab, then the fitted surfaces as a second element
+  ``surface_point`` (``float x, y, z``, ``int surface``: the polylines' points in order,
+  each with its surface id; readers that know only ``vertex`` skip it).
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +39,7 @@ from sonarproc.errors import InputError, ParameterError
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.methods.base import MethodResult
+from sonarproc.surfaces import SurfaceFit
 
 __all__ = [
     "FORMATS",
@@ -40,8 +48,10 @@ __all__ = [
     "UNKNOWN",
     "parse_formats",
     "read_pgm",
+    "read_ply",
     "read_ros_map",
     "ros_map_image",
+    "surface_cells",
     "write_exports",
     "write_geojson",
     "write_ply",
@@ -70,17 +80,69 @@ def parse_formats(text: str) -> list[str]:
 
 
 def ros_map_image(result: MethodResult) -> npt.NDArray[np.uint8]:
-    """The map as map_server pixels, indexed ``[iy, ix]`` like the grid (row 0 = lowest y)."""
+    """The map as map_server pixels, indexed ``[iy, ix]`` like the grid (row 0 = lowest y).
+
+    The method's map (p(occupied) thresholded, or its processed cells occupied), with the
+    fitted surfaces drawn over it as occupied cells (:func:`surface_cells`): a planner
+    reading the map sees the walls the run found, unbroken.
+    """
     run = result.run
     if result.probability is not None:
         p = result.probability
         img = np.full(p.shape, UNKNOWN, dtype=np.uint8)
         img[p > OCCUPIED_THRESH] = OCCUPIED
         img[p < FREE_THRESH] = FREE
-        return img
-    img = np.full(run.processed.shape, UNKNOWN, dtype=np.uint8)
-    img[run.processed] = OCCUPIED
+    else:
+        img = np.full(run.processed.shape, UNKNOWN, dtype=np.uint8)
+        img[run.processed] = OCCUPIED
+    iy, ix = surface_cells(fitted_polylines(result), run.grid)
+    img[iy, ix] = OCCUPIED
     return img
+
+
+def surface_cells(
+    polylines: Sequence[npt.NDArray[np.float64]], grid: Grid
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """The grid cells ``(iy, ix)`` the polylines pass through, each segment rasterised.
+
+    Consecutive points are joined by :func:`skimage.draw.line` in cell indices (a
+    polyline sampled every cell leaves no gap); cells off the grid are dropped, and each
+    cell is given once, in row-major order.
+
+    Examples
+    --------
+    >>> g = Grid(x0=0.0, y0=0.0, cell=1.0, nx=5, ny=3)
+    >>> iy, ix = surface_cells([np.array([[0.0, 1.0], [4.0, 1.0]])], g)
+    >>> ix.tolist(), iy.tolist()
+    ([0, 1, 2, 3, 4], [1, 1, 1, 1, 1])
+    """
+    from skimage.draw import line
+
+    rows: list[npt.NDArray[np.intp]] = []
+    cols: list[npt.NDArray[np.intp]] = []
+    for poly in polylines:
+        pts = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
+        pts = pts[np.isfinite(pts).all(axis=1)]
+        if pts.shape[0] == 0:
+            continue
+        iy, ix = grid.to_index(pts[:, 0], pts[:, 1])
+        rows.append(iy)
+        cols.append(ix)
+        # a segment longer than the grid is no sampled surface (it would only cost memory)
+        longest = 2 * (grid.nx + grid.ny)
+        for k in range(pts.shape[0] - 1):
+            if max(abs(int(iy[k + 1] - iy[k])), abs(int(ix[k + 1] - ix[k]))) > longest:
+                continue
+            rr, cc = line(int(iy[k]), int(ix[k]), int(iy[k + 1]), int(ix[k + 1]))
+            rows.append(rr.astype(np.intp))
+            cols.append(cc.astype(np.intp))
+    if not rows:
+        empty = np.zeros(0, dtype=np.intp)
+        return empty, empty
+    iy_all, ix_all = np.concatenate(rows), np.concatenate(cols)
+    inside = grid.contains_index(iy_all, ix_all)
+    flat = np.unique(iy_all[inside] * grid.nx + ix_all[inside])  # each cell once, row-major
+    return flat // grid.nx, flat % grid.nx
 
 
 def write_ros_map(result: MethodResult, stem: str | Path) -> tuple[Path, Path]:
@@ -132,7 +194,12 @@ def read_ros_map(yaml_path: str | Path) -> tuple[Grid, npt.NDArray[np.uint8]]:
 
 
 def geojson_profile(result: MethodResult) -> dict[str, Any]:
-    """The fitted profile as a GeoJSON FeatureCollection (one LineString, map frame)."""
+    """The fitted surfaces as a GeoJSON FeatureCollection (map frame).
+
+    One feature per surface (:func:`surface_feature`), numbered 0..N-1 as in
+    ``surfaces.csv``; without surfaces, the one fitted profile as a ``LineString``; no
+    feature (and ``fit_failure``) when the fit failed.
+    """
     from sonarproc.report.jsonable import to_jsonable
 
     run = result.run
@@ -141,13 +208,17 @@ def geojson_profile(result: MethodResult) -> dict[str, Any]:
         "source": run.source,
         "frame": "map",
         "units": "m",
-        "fit": run.fit.kind,
-        "fit_order": run.fit.order,
+        "fit": "surfaces" if result.surfaces else run.fit.kind,
+        "fit_order": None if result.surfaces else run.fit.order,
         **run.metrics.to_json(),
+        **(run.surface_metrics or {}),
+        "surfaces": len(result.surfaces),
         "t_cpu_s": run.t_cpu_s,
     }
     features: list[dict[str, Any]] = []
-    if not isinstance(run.fit, FitFailure):
+    if result.surfaces:
+        features = [surface_feature(k, s) for k, s in enumerate(result.surfaces)]
+    elif not isinstance(run.fit, FitFailure):
         pts = run.fit.sample(run.grid.cell)
         coords = np.round(pts, 6).tolist()
         features.append(
@@ -164,6 +235,47 @@ def geojson_profile(result: MethodResult) -> dict[str, Any]:
     )
 
 
+def surface_feature(surface: int, fit: SurfaceFit) -> dict[str, Any]:
+    """One surface as a GeoJSON feature: a ``LineString``, or a ``Point`` when it is one point.
+
+    A surface reduced to one point (a corner or an edge: a reflector with no extent)
+    has ``kind: "point"``; any other has ``kind: "surface"``.
+
+    Examples
+    --------
+    >>> from sonarproc.surfaces import SurfaceFit
+    >>> wall = SurfaceFit("line", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.002, 50, 80)
+    >>> f = surface_feature(0, wall)
+    >>> f["geometry"]["type"], f["properties"]["kind"], f["properties"]["length_m"]
+    ('LineString', 'surface', 0.5)
+    >>> corner = SurfaceFit("point", np.array([[2.0, 3.0]]), 0.0, 0.001, 12, 40)
+    >>> g = surface_feature(1, corner)
+    >>> g["geometry"], g["properties"]["kind"]
+    ({'type': 'Point', 'coordinates': [2.0, 3.0]}, 'point')
+    """
+    pts = np.round(np.asarray(fit.polyline, dtype=np.float64).reshape(-1, 2), 6)
+    single = pts.shape[0] == 1 or bool(np.all(pts == pts[0]))
+    geometry = (
+        {"type": "Point", "coordinates": pts[0].tolist()}
+        if single
+        else {"type": "LineString", "coordinates": pts.tolist()}
+    )
+    return {
+        "type": "Feature",
+        "geometry": geometry,
+        "properties": {
+            "surface": surface,
+            "model": fit.model,
+            "kind": "point" if single else "surface",
+            "length_m": float(fit.length_m),
+            "rms_m": float(fit.rms_m),
+            "support": int(fit.support),
+            "arcs": int(fit.arcs),
+            "closed": bool(fit.closed),
+        },
+    }
+
+
 def write_geojson(result: MethodResult, path: str | Path) -> Path:
     """Write :func:`geojson_profile` to ``path``."""
     p = Path(path)
@@ -172,32 +284,71 @@ def write_geojson(result: MethodResult, path: str | Path) -> Path:
 
 
 PLY_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("evidence", "<u4")])
+#: The second PLY element: the fitted surfaces' points, each with its surface id.
+PLY_SURFACE_DTYPE = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("surface", "<i4")])
 
 
 def write_ply(result: MethodResult, path: str | Path) -> Path:
-    """Write the processed cells as a binary little-endian PLY point cloud."""
+    """Write the processed cells, then the fitted surfaces' points, as a binary PLY.
+
+    Element ``vertex``: the processed cells (``x, y, z = 0, evidence``); element
+    ``surface_point``: every point of every fitted polyline in order, with its
+    ``surface`` id (0..N-1 as in ``surfaces.csv``; the one fitted profile is surface 0).
+    """
     run = result.run
     ix, iy = np.nonzero(run.processed.T)
     v = np.zeros(ix.size, dtype=PLY_DTYPE)
     v["x"], v["y"] = run.grid.to_world(iy, ix)
     v["evidence"] = run.counts_map[iy, ix]
+    polys = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in fitted_polylines(result)]
+    sp = np.zeros(sum(p.shape[0] for p in polys), dtype=PLY_SURFACE_DTYPE)
+    if polys:
+        sp["x"] = np.concatenate([p[:, 0] for p in polys])
+        sp["y"] = np.concatenate([p[:, 1] for p in polys])
+        sp["surface"] = np.repeat(np.arange(len(polys)), [p.shape[0] for p in polys])
     header = (
         "ply\nformat binary_little_endian 1.0\n"
         f"comment sonarmorph {result.method} processed map, map frame, m\n"
+        f"comment {len(polys)} fitted surface(s) in element surface_point\n"
         f"element vertex {ix.size}\n"
         "property float x\nproperty float y\nproperty float z\nproperty uint evidence\n"
+        f"element surface_point {sp.size}\n"
+        "property float x\nproperty float y\nproperty float z\nproperty int surface\n"
         "end_header\n"
     ).encode("ascii")
     p = Path(path)
-    p.write_bytes(header + v.tobytes())
+    p.write_bytes(header + v.tobytes() + sp.tobytes())
     return p
+
+
+def read_ply(path: str | Path) -> dict[str, npt.NDArray[Any]]:
+    """Read a PLY written by :func:`write_ply`: its elements by name (structured arrays)."""
+    data = Path(path).read_bytes()
+    end = data.find(b"end_header\n")
+    if not data.startswith(b"ply\n") or end < 0:
+        raise InputError(f"{path}: not a PLY file with a plain header")
+    types = {"float": "<f4", "uint": "<u4", "int": "<i4"}
+    elements: list[tuple[str, int, list[tuple[str, str]]]] = []
+    for line in data[:end].decode("ascii").splitlines():
+        words = line.split()
+        if words[:1] == ["element"]:
+            elements.append((words[1], int(words[2]), []))
+        elif words[:1] == ["property"] and elements:
+            elements[-1][2].append((words[2], types[words[1]]))
+    out: dict[str, npt.NDArray[Any]] = {}
+    offset = end + len(b"end_header\n")
+    for name, count, fields in elements:
+        dtype = np.dtype(fields)
+        out[name] = np.frombuffer(data, dtype=dtype, count=count, offset=offset)
+        offset += count * dtype.itemsize
+    return out
 
 
 def fitted_polylines(result: MethodResult) -> list[npt.NDArray[np.float64]]:
     """The fitted surfaces of a run as polylines (world frame): each surface, or the profile."""
     run = result.run
-    if run.surfaces is not None and run.surfaces.surfaces:
-        return [np.asarray(s.polyline, dtype=np.float64) for s in run.surfaces.surfaces]
+    if result.surfaces:
+        return [np.asarray(s.polyline, dtype=np.float64) for s in result.surfaces]
     if isinstance(run.fit, FitFailure):
         return []
     return [run.fit.sample(run.grid.cell)]

@@ -64,10 +64,13 @@ def _table(doc: dict[str, Any], out: Path) -> None:
     from sonarproc.report.units import MISSING, number, seconds, sig3
 
     table = Table(title=f"sonarproc compare: {doc['source']}")
-    for col in ("method", "e", "f_c", "E1 (cm)", "E2", "t_cpu (s)", "points", "fit"):
+    columns = ("method", "e", "f_c", "E1 (cm)", "E2", "t_cpu (s)", "points", "fit",
+               "precision (cm)", "completeness", "surfaces")  # fmt: skip
+    for col in columns:
         table.add_column(col, justify="left" if col == "method" else "right", no_wrap=True)
     for r in doc["methods"]:
         e1 = MISSING if r["E1_m"] is None else sig3(100 * r["E1_m"])
+        precision = r.get("precision_m")
         table.add_row(
             r["method"],
             number(r["e"]),
@@ -77,9 +80,12 @@ def _table(doc: dict[str, Any], out: Path) -> None:
             seconds(r["t_cpu_s"]).removesuffix(" s"),
             str(r["points"]),
             r["fit"],
+            MISSING if precision is None else sig3(100 * precision),
+            number(r.get("completeness")),
+            str(r.get("surfaces", 0)),
         )
     console = Console()
-    console.width = max(console.width, 100)
+    console.width = max(console.width, 140)
     console.print(table)
     console.print(f"written to {out}")
 
@@ -127,7 +133,7 @@ def compare_command(
     """Run several map-building methods on one log with the same grid, fit and metrics."""
     from sonarproc.export import parse_formats, write_exports
     from sonarproc.methods import DEFAULT_METHODS, parse_method_list
-    from sonarproc.methods.compare import compare
+    from sonarproc.methods.compare import compare, write_method_surfaces
     from sonarproc.pipeline import load_log
     from sonarproc.report.comparison import write_comparison
     from sonarproc.report.plots import parse_figure_formats
@@ -163,6 +169,7 @@ def compare_command(
             str(log), params, results, out_dir, auto=record, figures=figure_formats
         )
         for r, row in zip(results, doc["methods"], strict=True):
+            write_method_surfaces(r, out_dir)
             if formats:
                 write_exports(r, out_dir / "export", formats, log=lg)
             if not row["fit_ok"]:

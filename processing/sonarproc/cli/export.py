@@ -1,8 +1,10 @@
 """``sonarproc export``: one method's map of a log as files robotics tools read.
 
-Formats (:mod:`sonarproc.export`): ``ros-map`` (map_server PGM + YAML), ``geojson`` (the
-fitted profile as a LineString in the map frame), ``ply`` (the processed cells as a
-point cloud). ``sonarproc compare --export ...`` writes the same files for every method.
+Formats (:mod:`sonarproc.export`): ``ros-map`` (map_server PGM + YAML, the fitted surfaces
+drawn occupied), ``geojson`` (one LineString per fitted surface, or the fitted profile, in
+the map frame), ``ply`` (the processed cells as a point cloud, and the surfaces' points),
+``rosbag2`` (the readings replayed over the surfaces). ``sonarproc compare --export ...``
+writes the same files for every method.
 """
 
 from __future__ import annotations

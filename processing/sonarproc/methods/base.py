@@ -29,11 +29,13 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.errors import ParameterError
+from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import MethodMap, Stage, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
+from sonarproc.surfaces import SurfaceFit
 
 __all__ = ["Beams", "MapMethod", "MethodMap", "MethodResult", "OptionValue"]
 
@@ -51,6 +53,17 @@ class MethodResult:
     options: dict[str, OptionValue]
     run: RunResult
     probability: npt.NDArray[np.float64] | None = None
+
+    @property
+    def surfaces(self) -> list[SurfaceFit]:
+        """The surfaces fitted one by one (``fit = "auto"`` on a scene of several), or []."""
+        found = self.run.surfaces
+        return list(found.surfaces) if found is not None else []
+
+    @property
+    def fit_ok(self) -> bool:
+        """Whether the run has a fit: its surfaces, or one curve (a surfaces fit succeeds)."""
+        return bool(self.surfaces) or not isinstance(self.run.fit, FitFailure)
 
 
 class MapMethod(ABC):

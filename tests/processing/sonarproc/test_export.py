@@ -16,10 +16,13 @@ from sonarproc.export import (
     OCCUPIED,
     PLY_DTYPE,
     UNKNOWN,
+    fitted_polylines,
     parse_formats,
     read_pgm,
+    read_ply,
     read_ros_map,
     ros_map_image,
+    surface_cells,
     write_exports,
 )
 from sonarproc.methods import MethodResult, make_method
@@ -70,12 +73,15 @@ def test_ros_map_bytes_and_round_trip(occ: MethodResult, tmp_path: Path) -> None
     assert np.array_equal(back, img)
     assert (grid.nx, grid.ny) == (g.nx, g.ny)
     assert grid.x0 == pytest.approx(g.x0) and grid.y0 == pytest.approx(g.y0)
-    # map_server semantics: occ = (255 - v) / 255 against the thresholds
+    # the fitted profile is drawn occupied; elsewhere map_server semantics,
+    # occ = (255 - v) / 255, give the method's p(occupied) against the thresholds
+    drawn = _drawn(occ)
+    assert drawn.sum() >= occ.run.grid.nx // 2 and np.all(back[drawn] == OCCUPIED)
     p = occ.probability
     assert p is not None
     occ_ros = (255 - back.astype(float)) / 255
-    assert np.array_equal(occ_ros > 0.65, p > 0.65)
-    assert np.array_equal(occ_ros < 0.196, p < 0.196)
+    assert np.array_equal((occ_ros > 0.65)[~drawn], (p > 0.65)[~drawn])
+    assert np.array_equal((occ_ros < 0.196)[~drawn], (p < 0.196)[~drawn])
     # every cell the method kept at p > 0.65 is occupied in the map
     assert np.all(back[occ.run.processed & (p > 0.65)] == OCCUPIED)
 
@@ -84,8 +90,16 @@ def test_ros_map_of_a_binary_method(fig02: SonarLog, tmp_path: Path) -> None:
     res = make_method("line-of-sight").run(fig02, RunParams(order=9))
     _, yml = write_exports(res, tmp_path, ["ros-map"])
     _, back = read_ros_map(yml)
-    assert np.array_equal(back == OCCUPIED, res.run.processed)
-    assert np.all(back[~res.run.processed] == UNKNOWN)
+    occupied = res.run.processed | _drawn(res)
+    assert np.array_equal(back == OCCUPIED, occupied)
+    assert np.all(back[~occupied] == UNKNOWN)
+
+
+def _drawn(res: MethodResult) -> np.ndarray:
+    """The cells the fitted curves pass through, as a mask on the grid."""
+    mask = np.zeros(res.run.grid.shape, dtype=bool)
+    mask[surface_cells(fitted_polylines(res), res.run.grid)] = True
+    return mask
 
 
 def test_geojson_profile(occ: MethodResult, tmp_path: Path) -> None:
@@ -109,8 +123,10 @@ def test_ply_point_cloud(occ: MethodResult, tmp_path: Path) -> None:
     assert lines[:2] == ["ply", "format binary_little_endian 1.0"]
     n = int(next(x for x in lines if x.startswith("element vertex")).split()[-1])
     assert n == occ.run.points_x.size
-    v = np.frombuffer(body, dtype=PLY_DTYPE)
-    assert v.size == n
+    assert "element surface_point" in head.decode()
+    v = read_ply(path)["vertex"]
+    assert v.dtype == PLY_DTYPE and v.size == n
+    assert body[: v.nbytes] == v.tobytes()
     order = np.lexsort((v["y"], v["x"]))
     np.testing.assert_allclose(v["x"][order], occ.run.points_x, atol=1e-5)
     np.testing.assert_allclose(v["y"][order], occ.run.points_y, atol=1e-5)
