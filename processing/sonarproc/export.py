@@ -238,8 +238,8 @@ def geojson_profile(result: MethodResult) -> dict[str, Any]:
 def surface_feature(surface: int, fit: SurfaceFit) -> dict[str, Any]:
     """One surface as a GeoJSON feature: a ``LineString``, or a ``Point`` when it is one point.
 
-    A surface reduced to one point (a corner or an edge: a reflector with no extent)
-    has ``kind: "point"``; any other has ``kind: "surface"``.
+    A surface reduced to one point (a corner or an edge: a reflector with no extent) is a
+    ``Point``; ``kind`` is the reflector kind its model implies (Contract 2, v3).
 
     Examples
     --------
@@ -247,12 +247,14 @@ def surface_feature(surface: int, fit: SurfaceFit) -> dict[str, Any]:
     >>> wall = SurfaceFit("line", np.array([[0.0, 1.0], [0.5, 1.0]]), 0.5, 0.002, 50, 80)
     >>> f = surface_feature(0, wall)
     >>> f["geometry"]["type"], f["properties"]["kind"], f["properties"]["length_m"]
-    ('LineString', 'surface', 0.5)
-    >>> corner = SurfaceFit("point", np.array([[2.0, 3.0]]), 0.0, 0.001, 12, 40)
+    ('LineString', 'plane', 0.5)
+    >>> corner = SurfaceFit("corner", np.array([[2.0, 3.0]]), 0.0, 0.001, 12, 40)
     >>> g = surface_feature(1, corner)
     >>> g["geometry"], g["properties"]["kind"]
-    ({'type': 'Point', 'coordinates': [2.0, 3.0]}, 'point')
+    ({'type': 'Point', 'coordinates': [2.0, 3.0]}, 'corner')
     """
+    from sonarproc.pipeline.surfacefit import surface_kind
+
     pts = np.round(np.asarray(fit.polyline, dtype=np.float64).reshape(-1, 2), 6)
     single = pts.shape[0] == 1 or bool(np.all(pts == pts[0]))
     geometry = (
@@ -266,7 +268,7 @@ def surface_feature(surface: int, fit: SurfaceFit) -> dict[str, Any]:
         "properties": {
             "surface": surface,
             "model": fit.model,
-            "kind": "point" if single else "surface",
+            "kind": surface_kind(fit.model),
             "length_m": float(fit.length_m),
             "rms_m": float(fit.rms_m),
             "support": int(fit.support),

@@ -73,22 +73,20 @@ QUALITY_SCHEMA: dict[str, Any] = {
 
 
 def surface_kind(s: SurfaceFit) -> str:
-    """A surface's kind: its own ``kind`` when it has one, else from its model.
-
-    A straight line is a plane seen edge-on; an arc or a spline a curved surface.
+    """A surface's kind: its own ``kind`` when it has one, else the one its model implies.
 
     Examples
     --------
     >>> from sonarproc.surfaces import SurfaceFit
     >>> surface_kind(SurfaceFit("line", np.zeros((2, 2)), 1.0, 0.0, 10, 10))
     'plane'
-    >>> surface_kind(SurfaceFit("arc", np.zeros((2, 2)), 1.0, 0.0, 10, 10))
-    'curve'
     """
+    from sonarproc.pipeline.surfacefit import surface_kind as kind_of_model
+
     kind = getattr(s, "kind", None)
     if isinstance(kind, str) and kind:
         return kind
-    return "plane" if s.model == "line" else "curve"
+    return kind_of_model(s.model)
 
 
 def _digest(*parts: Any) -> str:

@@ -105,8 +105,9 @@ def test_export_carries_the_surfaces(
     assert {f["geometry"]["type"] for f in feats} == {"LineString"}
     for k, f in enumerate(feats):
         props = f["properties"]
-        assert props["surface"] == k and props["kind"] == "surface"
-        assert props["model"] in ("line", "arc", "spline")
+        assert props["surface"] == k
+        kinds = {"line": "plane", "arc": "cylinder", "spline": "curve"}
+        assert props["kind"] == kinds[props["model"]]
         assert props["length_m"] > 0 and props["rms_m"] >= 0 and props["support"] > 0
     polylines = [np.asarray(f["geometry"]["coordinates"], dtype=np.float64) for f in feats]
     # ROS map: every point of every surface is an occupied pixel
