@@ -165,7 +165,7 @@ def test_surface_kinds_and_colours() -> None:
 
     line = SurfaceFit("line", np.zeros((2, 2)), 1.0, 0.0, 5, 5)
     arc = SurfaceFit("arc", np.zeros((2, 2)), 1.0, 0.0, 5, 5)
-    assert (surface_kind(line), surface_kind(arc)) == ("plane", "curve")
+    assert (surface_kind(line), surface_kind(arc)) == ("plane", "cylinder")
     assert set(KIND_COLORS) == {"plane", "curve", "cylinder", "corner", "edge"}
     assert len(set(KIND_COLORS.values())) == 5
 
