@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from sonard.writer_thread import Writer
+from sonarlog.foxglove_server import BACKLOG_MESSAGES, start_server
 
 __all__ = ["BACKLOG_MESSAGES", "QUEUE_BATCHES", "LiveView", "TeeWriter"]
 
@@ -31,8 +32,6 @@ log = logging.getLogger(__name__)
 #: Batches waiting for the view's thread: the writer thread hands over a batch per
 #: sonar reply, so this is many seconds of readings at any firing rate.
 QUEUE_BATCHES = 256
-#: Messages queued per client before the SDK drops the oldest: ~40 s at 25 readings/s.
-BACKLOG_MESSAGES = 2048
 _STOP = object()
 
 
@@ -65,17 +64,7 @@ class LiveView:
         self.robot = RobotPublisher(sensors, speed_of_sound, context=self.context)
         self._queue: queue.Queue[Any] = queue.Queue(maxsize=QUEUE_BATCHES)
         self.dropped_batches = 0
-        try:
-            self._server: Any = foxglove.start_server(
-                name="sonard",
-                host=host,
-                port=port,
-                context=self.context,
-                message_backlog_size=BACKLOG_MESSAGES,
-                server_listener=_listener(self._on_subscribe),
-            )
-        except Exception as exc:  # the SDK raises its own error type for a bind failure
-            raise OSError(f"cannot listen on {host}:{port}: {exc}") from exc
+        self._server = start_server("sonard", host, port, self.context, self._on_subscribe)
         self.host = host
         self._thread = threading.Thread(target=self._run, name="sonard-foxglove", daemon=True)
         self._thread.start()
@@ -153,14 +142,3 @@ class TeeWriter:
     def close(self) -> None:
         """Close the log."""
         self._writer.close()
-
-
-def _listener(note: Any) -> Any:
-    """A :class:`foxglove.websocket.ServerListener` calling ``note(topic)`` on subscribe."""
-    from foxglove.websocket import ChannelView, Client, ServerListener
-
-    class Subscriptions(ServerListener):
-        def on_subscribe(self, client: Client, channel: ChannelView) -> None:
-            note(str(channel.topic))
-
-    return Subscriptions()

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sonarlog.foxglove_server import json_channel
 from sonarlog.schema import FLAG_CROSSTALK, FLAG_NO_ECHO
 
 if TYPE_CHECKING:
@@ -193,7 +194,6 @@ class RobotPublisher:
         *,
         context: foxglove.Context | None = None,
     ) -> None:
-        import foxglove
         import foxglove.channels as fc
         import foxglove.messages as fg
 
@@ -202,16 +202,7 @@ class RobotPublisher:
         self.speed_of_sound = float(speed_of_sound)
         self._row = {int(s["id"]): i for i, s in enumerate(self.sensors)}
         self.readings_channel = fc.SceneUpdateChannel(TOPIC_READINGS, context=context)
-        self.raw_channel = foxglove.Channel(
-            TOPIC_RAW,
-            schema=foxglove.Schema(
-                name="sonarmorph.Reading",
-                encoding="jsonschema",
-                data=json.dumps(RAW_SCHEMA).encode(),
-            ),
-            message_encoding="json",
-            context=context,
-        )
+        self.raw_channel = json_channel(TOPIC_RAW, "sonarmorph.Reading", RAW_SCHEMA, context)
         self.pose_channel = fc.PoseInFrameChannel(TOPIC_POSE, context=context)
         self.path_channel = fc.PosesInFrameChannel(TOPIC_PATH, context=context)
         self.tf_channel = fc.FrameTransformsChannel(TOPIC_TF, context=context)

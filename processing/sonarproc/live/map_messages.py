@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sonarlog.foxglove_messages import FRAME_MAP, timestamp_of
+from sonarlog.foxglove_server import json_channel
 
 if TYPE_CHECKING:
     import foxglove
@@ -111,7 +112,6 @@ class MapPublisher:
     """
 
     def __init__(self, *, context: foxglove.Context | None = None) -> None:
-        import foxglove
         import foxglove.channels as fc
         import foxglove.messages as fg
 
@@ -119,15 +119,8 @@ class MapPublisher:
         self.arcs_channel = fc.GridChannel(TOPIC_ARCS, context=context)
         self.processed_channel = fc.GridChannel(TOPIC_PROCESSED, context=context)
         self.surfaces_channel = fc.SceneUpdateChannel(TOPIC_SURFACES, context=context)
-        self.quality_channel = foxglove.Channel(
-            TOPIC_QUALITY,
-            schema=foxglove.Schema(
-                name="sonarmorph.Quality",
-                encoding="jsonschema",
-                data=json.dumps(QUALITY_SCHEMA).encode(),
-            ),
-            message_encoding="json",
-            context=context,
+        self.quality_channel = json_channel(
+            TOPIC_QUALITY, "sonarmorph.Quality", QUALITY_SCHEMA, context
         )
         self._grid_digest: dict[str, str] = {}
         self._surface_digest: dict[str, str] = {}

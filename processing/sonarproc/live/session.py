@@ -13,12 +13,12 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from sonarlog.foxglove_messages import RobotPublisher
+from sonarlog.foxglove_server import BACKLOG_MESSAGES, start_server
 from sonarproc.live.map_messages import MapPublisher
 
 if TYPE_CHECKING:
@@ -26,9 +26,6 @@ if TYPE_CHECKING:
 
 __all__ = ["BACKLOG_MESSAGES", "LiveServer", "serve_result"]
 
-#: Messages queued per client before the oldest are dropped: about 40 s of readings at
-#: 25 readings/s with two messages each; a map update adds a few.
-BACKLOG_MESSAGES = 2048
 #: How often a served, finished run checks for new subscribers (s).
 CATCH_UP_POLL_S = 0.1
 
@@ -71,17 +68,7 @@ class LiveServer:
         self.map = MapPublisher(context=self.context)
         self._lock = threading.Lock()
         self._subscribed: set[str] = set()
-        try:
-            self._server: Any = foxglove.start_server(
-                name=name,
-                host=host,
-                port=port,
-                context=self.context,
-                message_backlog_size=BACKLOG_MESSAGES,
-                server_listener=_listener(self._note_subscription),
-            )
-        except Exception as exc:  # the SDK raises its own error type for a bind failure
-            raise OSError(f"cannot listen on {host}:{port}: {exc}") from exc
+        self._server = start_server(name, host, port, self.context, self._note_subscription)
         self.host = host
 
     @property
@@ -117,17 +104,6 @@ class LiveServer:
     def close(self) -> None:
         """Stop the server (clients are disconnected)."""
         self._server.stop()
-
-
-def _listener(note: Callable[[str], None]) -> Any:
-    """A :class:`foxglove.websocket.ServerListener` calling ``note(topic)`` on subscribe."""
-    from foxglove.websocket import ChannelView, Client, ServerListener
-
-    class Subscriptions(ServerListener):
-        def on_subscribe(self, client: Client, channel: ChannelView) -> None:
-            note(str(channel.topic))
-
-    return Subscriptions()
 
 
 def serve_result(
