@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from sonard.soak.accounting import account_firings, slope_per_hour
-from sonard.soak.runner import main, parse_duration
+from sonard.soak.processes import Sample
+from sonard.soak.runner import SoakResult, _resources, main, parse_duration
 from sonarlog import SENSOR_DTYPE, SonarLog, empty_readings
 from sonarlog.schema import EVENT_DTYPE
 
@@ -63,3 +64,22 @@ def test_slope_and_duration_parsing() -> None:
     with pytest.raises(ValueError, match="DURATION"):
         parse_duration("soon")
     assert main(["soon"]) == 2
+
+
+def _fd_samples(fds: list[int]) -> list[Sample]:
+    return [Sample(float(i), 80_000, n) for i, n in enumerate(fds)]
+
+
+def test_an_outage_at_the_end_of_warm_up_is_not_a_leak() -> None:
+    # 40 samples a second apart: warm-up ends at 20 s, when the link was down (6 fds)
+    fds = [12] * 20 + [6] + [12] * 19
+    result = SoakResult(40.0)
+    _resources(_fd_samples(fds), 40.0, result)
+    assert result.failures == [] and result.figures["fds_start"] == 12
+
+
+def test_descriptors_that_pile_up_are_a_leak() -> None:
+    fds = [12] * 20 + [12 + k // 5 for k in range(20)]
+    result = SoakResult(40.0)
+    _resources(_fd_samples(fds), 40.0, result)
+    assert result.failures == ["open fds grew from 12 to 15"]
