@@ -15,7 +15,9 @@ from __future__ import annotations
 import csv
 import json
 import os
+import re
 import shutil
+import socket
 import subprocess
 import sys
 import time
@@ -28,6 +30,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SLURM_TEST = ROOT / "scripts" / "slurm-test"
 SBATCH_SCRIPT = ROOT / "scripts" / "sweep-slurm.sbatch"
+DOC = ROOT / "docs" / "live-and-sweeps.md"
 
 #: ``slurm-test``'s exit code for "this machine cannot run SLURM" (the reason on stderr).
 CANNOT_RUN = 77
@@ -209,3 +212,25 @@ def test_array_sweep_and_merge_equal_a_local_sweep(slurm_conf: Path, tmp_path: P
     assert len(expected_jsonl) == 8
     assert _jsonl(out / "merged.jsonl") == expected_jsonl
     assert _csv(out / "merged.csv") == _csv(local / "results.csv")
+
+
+def _machine_free(conf: str, cluster_dir: str, host: str) -> list[str]:
+    """A slurm.conf's lines with its directory, host, ports and node hardware blanked."""
+    text = conf.replace(cluster_dir, "DIR")
+    text = re.sub(rf"(SlurmctldHost=|NodeName=|Nodes=){re.escape(host)}\b", r"\1HOST", text)
+    text = re.sub(r"Port=\d+", "Port=N", text)
+    text = re.sub(r"(NodeAddr=127\.0\.0\.1) .* (State=UNKNOWN)", r"\1 HW \2", text)
+    return text.strip().splitlines()
+
+
+def test_the_docs_show_the_conf_the_test_runs(slurm_conf: Path) -> None:
+    doc = DOC.read_text()
+    first = "# A one-node SLURM cluster on this machine, written by scripts/slurm-test."
+    start = doc.index(first)
+    shown = doc[start : doc.index("```", start)]
+    written = slurm_conf.read_text()
+    assert written.startswith(first)
+    host = socket.gethostname().split(".")[0]  # what `hostname -s` gives the script
+    assert _machine_free(shown, "/tmp/slurm", "mybox") == _machine_free(
+        written, str(slurm_conf.parent), host
+    )
