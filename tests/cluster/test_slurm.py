@@ -4,7 +4,8 @@
 one-node ``slurm.conf`` and starts munged, slurmctld and slurmd; the test submits the
 sbatch script the way its header says (an array of 4 shards, then the merge job depending
 on it), waits for both, and compares the merged table with a local ``sonarproc sweep`` of
-the same grid, row for row. ``scripts/slurm-test down`` stops the daemons whatever
+the same grid, row for row; and that the ``slurm.conf`` shown in the docs is the one
+``up`` wrote. ``scripts/slurm-test down`` stops the daemons whatever
 happens. A machine that cannot run SLURM (not root, no apt-get, a daemon that will not
 start) skips the test with the reason; with ``SONARMORPH_REQUIRE_SLURM=1`` in the
 environment that is a failure instead.
@@ -155,7 +156,32 @@ def _csv(path: Path) -> list[dict[str, str]]:
     return [{k: v for k, v in r.items() if k not in IGNORED_COLUMNS} for r in rows]
 
 
+def _machine_free(conf: str, cluster_dir: str, host: str) -> list[str]:
+    """A slurm.conf's lines with its directory, host, ports and node hardware blanked."""
+    text = conf.replace(cluster_dir, "DIR")
+    text = re.sub(rf"(SlurmctldHost=|NodeName=|Nodes=){re.escape(host)}\b", r"\1HOST", text)
+    text = re.sub(r"Port=\d+", "Port=N", text)
+    text = re.sub(r"(NodeAddr=127\.0\.0\.1) .* (State=UNKNOWN)", r"\1 HW \2", text)
+    return text.strip().splitlines()
+
+
+def _assert_docs_show(slurm_conf: Path) -> None:
+    """The docs' example slurm.conf is the one ``up`` wrote, up to this machine."""
+    doc = DOC.read_text()
+    first = "# A one-node SLURM cluster on this machine, written by scripts/slurm-test."
+    start = doc.index(first)
+    shown = doc[start : doc.index("```", start)]
+    written = slurm_conf.read_text()
+    assert written.startswith(first)
+    host = socket.gethostname().split(".")[0]  # what `hostname -s` gives the script
+    assert _machine_free(shown, "/tmp/slurm", "mybox") == _machine_free(
+        written, str(slurm_conf.parent), host
+    )
+
+
 def test_array_sweep_and_merge_equal_a_local_sweep(slurm_conf: Path, tmp_path: Path) -> None:
+    # one test, so that parallel test workers do not start two clusters
+    _assert_docs_show(slurm_conf)
     work, out = tmp_path / "submit", tmp_path / "sweep-out"
     work.mkdir()
     env = _job_env(slurm_conf, out)
@@ -212,25 +238,3 @@ def test_array_sweep_and_merge_equal_a_local_sweep(slurm_conf: Path, tmp_path: P
     assert len(expected_jsonl) == 8
     assert _jsonl(out / "merged.jsonl") == expected_jsonl
     assert _csv(out / "merged.csv") == _csv(local / "results.csv")
-
-
-def _machine_free(conf: str, cluster_dir: str, host: str) -> list[str]:
-    """A slurm.conf's lines with its directory, host, ports and node hardware blanked."""
-    text = conf.replace(cluster_dir, "DIR")
-    text = re.sub(rf"(SlurmctldHost=|NodeName=|Nodes=){re.escape(host)}\b", r"\1HOST", text)
-    text = re.sub(r"Port=\d+", "Port=N", text)
-    text = re.sub(r"(NodeAddr=127\.0\.0\.1) .* (State=UNKNOWN)", r"\1 HW \2", text)
-    return text.strip().splitlines()
-
-
-def test_the_docs_show_the_conf_the_test_runs(slurm_conf: Path) -> None:
-    doc = DOC.read_text()
-    first = "# A one-node SLURM cluster on this machine, written by scripts/slurm-test."
-    start = doc.index(first)
-    shown = doc[start : doc.index("```", start)]
-    written = slurm_conf.read_text()
-    assert written.startswith(first)
-    host = socket.gethostname().split(".")[0]  # what `hostname -s` gives the script
-    assert _machine_free(shown, "/tmp/slurm", "mybox") == _machine_free(
-        written, str(slurm_conf.parent), host
-    )
