@@ -202,12 +202,13 @@ def test_array_sweep_and_merge_equal_a_local_sweep(slurm_conf: Path, tmp_path: P
     )
     # the local sweep runs while the cluster works
     local = tmp_path / "local"
-    subprocess.run(
+    swept = subprocess.run(
         [_sonarproc(), "sweep", *INPUTS.split(), "--grid", GRID, "--out", str(local)],
         cwd=ROOT,
-        check=True,
         capture_output=True,
+        text=True,
     )
+    assert swept.returncode == 0, swept.stderr
     _wait_for([array, merge], env, work)
 
     tasks = _jobs(array, env)
