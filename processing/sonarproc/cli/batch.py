@@ -92,9 +92,9 @@ def batch_command(
 ) -> None:
     """Run 'sonarproc run' over many logs: a report per log and a summary table.
 
-    A log that cannot be processed is a row with status 'error' and its reason; the other
-    logs go on. Exit code 0 when every log gave a report, 1 when any failed, 2 for a usage
-    error (bad option, unusable --out).
+    A log that cannot be processed is an error row with its reason; the others go on.
+
+    Exit code: 0 every log gave a report, 1 any log failed, 2 usage error (option, --out).
     """
     from sonarproc.batch import BatchOptions, run_batch, write_summary
     from sonarproc.engines import parse_engine
