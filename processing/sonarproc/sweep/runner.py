@@ -50,7 +50,7 @@ from sonarproc.sweep.grid import (
     parse_shard,
     shard_indices,
 )
-from sonarproc.sweep.shared import SharedMaps, shared_log
+from sonarproc.sweep.shared import SharedMaps, clear_shared, shared_log
 
 __all__ = [
     "COLUMNS",
@@ -295,9 +295,12 @@ def run_sweep(
             progress(finished, len(mine))
 
     advance([])
-    parts = map_chunks(
-        run_chunk, chunks_of(mine, jobs), engine=engine or Engine(), workers=jobs, done=advance
-    )
+    try:
+        parts = map_chunks(
+            run_chunk, chunks_of(mine, jobs), engine=engine or Engine(), workers=jobs, done=advance
+        )
+    finally:
+        clear_shared()  # chunks run in this process leave no logs behind in it
     rows = [r for part in parts for r in part]
     rows.sort(key=lambda r: int(r["index"]))
     manifest = {
