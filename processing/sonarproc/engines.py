@@ -29,7 +29,7 @@ from typing import Any, Literal, TypeVar
 
 from sonarproc.errors import ParameterError
 
-__all__ = ["DASK_HINT", "ENGINES", "Engine", "map_chunks", "parse_engine"]
+__all__ = ["DASK_HINT", "ENGINES", "Engine", "map_chunks", "parse_engine", "runs_here"]
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +108,18 @@ def _preload() -> None:
         importlib.import_module(name)
 
 
+def runs_here(engine: Engine, workers: int, chunks: int) -> bool:
+    """Whether :func:`map_chunks` runs the chunks in this process (no pool to start):
+    the local engine with one worker, or one chunk.
+
+    Examples
+    --------
+    >>> runs_here(Engine(), 1, 8), runs_here(Engine(), 2, 1), runs_here(Engine(), 2, 8)
+    (True, True, False)
+    """
+    return engine.kind == "local" and (workers <= 1 or chunks <= 1)
+
+
 def map_chunks(
     fn: Callable[[T], R],
     chunks: Sequence[T],
@@ -145,7 +157,7 @@ def map_chunks(
     """
     if engine.kind == "dask":
         return _map_dask(fn, chunks, engine.address, workers, done)
-    if workers <= 1 or len(chunks) <= 1:
+    if runs_here(engine, workers, len(chunks)):
         out = []
         for c in chunks:
             out.append(fn(c))
@@ -188,7 +200,7 @@ def _map_dask(
             n_workers=max(1, workers),
             threads_per_worker=1,  # the pipeline holds the GIL: one run per process
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # any free port: several clusters may run at once
             silence_logs=logging.ERROR,
         )
     client = Client(cluster if cluster is not None else address)

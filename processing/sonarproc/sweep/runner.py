@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from sonarproc.engines import Engine, map_chunks
+from sonarproc.engines import Engine, map_chunks, runs_here
 from sonarproc.errors import InputError
 from sonarproc.report.jsonable import to_jsonable
 from sonarproc.sweep.grid import (
@@ -198,16 +198,23 @@ def _map_key(c: Combination) -> str:
         return ""
 
 
-def run_chunk(task: list[Combination]) -> list[dict[str, Any]]:
+def run_chunk(
+    task: list[Combination], tick: Callable[[], None] | None = None
+) -> list[dict[str, Any]]:
     """Run a chunk of combinations that share one input, noise and seed.
 
     The log is read or simulated once per worker process (:func:`shared_log`), and the
     combinations run in the order of their map parameters, so that each count map is
     built once. A log or scenario that cannot be read raises (the whole sweep stops: a
-    usage error).
+    usage error). ``tick`` (in this process only) hears of each finished combination.
     """
     lg, maps = shared_log(task[0].input, _data_values(task[0]), _load)
-    return [_row(c, lg, maps) for c in sorted(task, key=_map_key)]
+    rows = []
+    for c in sorted(task, key=_map_key):
+        rows.append(_row(c, lg, maps))
+        if tick is not None:
+            tick()
+    return rows
 
 
 def chunks_of(combos: Sequence[Combination], workers: int) -> list[list[Combination]]:
@@ -266,7 +273,7 @@ def run_sweep(
         Run every N-th combination starting at I.
     progress : callable, optional
         ``progress(done, total)``: combinations of this shard finished so far and in
-        all, after each chunk.
+        all: after each one in this process, after each chunk on workers.
     engine : Engine, optional
         Where the chunks run (:mod:`sonarproc.engines`; default: local). The rows do
         not depend on it.
@@ -288,17 +295,22 @@ def run_sweep(
     wall0 = time.perf_counter()
     finished = 0
 
-    def advance(part: list[dict[str, Any]]) -> None:
+    def advance(n: int) -> None:
         nonlocal finished
-        finished += len(part)
+        finished += n
         if progress is not None:
             progress(finished, len(mine))
 
-    advance([])
+    advance(0)
+    where = engine or Engine()
+    chunks = chunks_of(mine, jobs)
     try:
-        parts = map_chunks(
-            run_chunk, chunks_of(mine, jobs), engine=engine or Engine(), workers=jobs, done=advance
-        )
+        if runs_here(where, jobs, len(chunks)):  # progress after every combination
+            parts = [run_chunk(ch, lambda: advance(1)) for ch in chunks]
+        else:
+            parts = map_chunks(
+                run_chunk, chunks, engine=where, workers=jobs, done=lambda p: advance(len(p))
+            )
     finally:
         clear_shared()  # chunks run in this process leave no logs behind in it
     rows = [r for part in parts for r in part]

@@ -89,7 +89,8 @@ def shared_log(
 
 
 def clear_shared() -> None:
-    """Forget every cached log (a benchmark measuring cold runs; tests)."""
+    """Forget every cached log: after a sweep that ran in this process, before a
+    benchmark's cold run."""
     _LOGS.clear()
 
 
