@@ -8,6 +8,7 @@ be on a filesystem the workers share); only the summary rows come back.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import os
@@ -118,6 +119,17 @@ def _install(tmp: Path, final: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
+def _quality_record(quality: Any) -> Any:
+    """A run's quality as JSON-ready data: its ``to_json()``, a dataclass's fields, or as is."""
+    if quality is None or isinstance(quality, dict):
+        return quality
+    if hasattr(quality, "to_json"):
+        return quality.to_json()
+    if dataclasses.is_dataclass(quality) and not isinstance(quality, type):
+        return dataclasses.asdict(quality)
+    return quality
+
+
 def _run_one(item: _Item, out_dir: Path, opt: BatchOptions) -> dict[str, Any]:
     """Run one log into ``out_dir / item.report``; its summary row (an error row if not)."""
     from sonarproc.pipeline import load_log, process
@@ -135,9 +147,8 @@ def _run_one(item: _Item, out_dir: Path, opt: BatchOptions) -> dict[str, Any]:
         else:
             result = process(lg, opt.params)
         doc = write_report(result, tmp, auto=record, figures=opt.figures)
-        quality = getattr(result, "quality", None)
-        if "quality" not in doc and quality is not None:
-            doc["quality"] = quality.to_json() if hasattr(quality, "to_json") else quality
+        if "quality" not in doc:
+            doc["quality"] = _quality_record(getattr(result, "quality", None))
         _install(tmp, out_dir / item.report)
     except Exception as err:  # one log's failure is its row; the batch goes on
         log.debug("%s failed", item.log, exc_info=True)
