@@ -5,8 +5,8 @@ each, so that the cost of handing a task to a worker is paid per chunk, not per 
 give them to :func:`map_chunks` with an :class:`Engine`:
 
 - ``local``: a :class:`concurrent.futures.ProcessPoolExecutor` whose workers live for
-  the whole call and start from a fork server that has already imported the pipeline
-  (one worker, or one chunk: in this process, no pool at all);
+  the whole call and start with the pipeline already imported (forked from this process,
+  or from a fork server; one worker, or one chunk: in this process, no pool at all);
 - ``dask``: :mod:`dask.distributed`, a ``LocalCluster`` of single-threaded worker
   processes, or the scheduler at ``dask=ADDRESS`` (``tcp://host:8786``, a
   ``dask-jobqueue`` cluster's address...). Dask is an optional extra
@@ -22,6 +22,8 @@ import importlib.util
 import logging
 import multiprocessing
 import multiprocessing.context
+import sys
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -91,9 +93,18 @@ def parse_engine(text: str) -> Engine:
 
 
 def _local_context() -> multiprocessing.context.BaseContext:
-    """Workers from a fork server that has imported the pipeline (cheap to start, and no
-    fork of a possibly multi-threaded parent); plain spawn where there is no fork server."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
+    """How local workers start.
+
+    On Linux, from a parent that runs no other thread: a fork, which inherits every module
+    the parent has imported (no start-up import at all; a lone thread holds no lock a
+    child could inherit locked). Otherwise from a fork server that has imported the
+    pipeline once (no fork of a multi-threaded parent, such as one drawing a progress
+    bar); plain spawn where there is neither.
+    """
+    methods = multiprocessing.get_all_start_methods()
+    if sys.platform == "linux" and "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(list(PRELOAD))
         return ctx
