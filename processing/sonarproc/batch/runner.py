@@ -137,7 +137,10 @@ def _run_one(item: _Item, out_dir: Path, opt: BatchOptions) -> dict[str, Any]:
 
     tmp = Path(tempfile.mkdtemp(prefix=f".{item.report}.partial-", dir=out_dir))
     try:
-        lg = load_log(item.log, sensors=opt.sensors, robot=opt.robot, degrees=opt.degrees)
+        # a sonarlog carries its mounts: --robot names those of the bags and CSVs only
+        sonarlog = Path(item.log).suffix.lower() in (".h5", ".hdf5")
+        robot = None if sonarlog else opt.robot
+        lg = load_log(item.log, sensors=opt.sensors, robot=robot, degrees=opt.degrees)
         record = None
         if opt.auto:
             from sonarproc.auto import run_auto
