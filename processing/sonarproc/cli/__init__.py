@@ -1,8 +1,8 @@
 """The ``sonarproc`` command line: a thin typer layer over the library.
 
 ``app`` holds the typer app and the error policy; one module per subcommand (``run``,
-``compare``, ``export``, ``recover``, ``simulate``, ``sweep``, ``watch``) parses its options
-and calls the library; ``options`` holds the options they share; ``entry`` runs it all
+``batch``, ``compare``, ``export``, ``recover``, ``simulate``, ``sweep``, ``watch``) parses its
+options and calls the library; ``options`` holds the options they share; ``entry`` runs it all
 (not named ``main``: importing a submodule of that name would replace this package's
 :func:`main` function with the module).
 """

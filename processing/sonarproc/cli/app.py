@@ -94,6 +94,8 @@ PARAMETER_FLAGS = {
     "seed": "--seed",
     "out": "--out",
     "jobs": "--jobs",
+    "workers": "--workers (--jobs)",
+    "engine": "--engine",
     "figures": "--figures",
 }
 

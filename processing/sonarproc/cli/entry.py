@@ -7,14 +7,24 @@ from typing import NoReturn
 
 import typer
 
-from sonarproc.cli import compare, export, import_log, recover, run, simulate, sweep, watch
+from sonarproc.cli import (
+    batch,
+    compare,
+    export,
+    import_log,
+    recover,
+    run,
+    simulate,
+    sweep,
+    watch,
+)
 from sonarproc.cli.app import app
 from sonarproc.runtime import retain_freed_memory
 
 __all__ = ["main", "run_console"]
 
 #: The subcommand modules (imported for their side effect of registering on ``app``).
-COMMANDS = (compare, export, import_log, recover, run, simulate, sweep, watch)
+COMMANDS = (batch, compare, export, import_log, recover, run, simulate, sweep, watch)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,5 @@
-"""Command-line options shared by ``run``, ``watch``, ``compare`` and ``export``.
+"""Command-line options shared by ``run``, ``watch``, ``compare``, ``export``, ``sweep`` and
+``batch``.
 
 One definition per option (typer ``Annotated`` aliases) so that the commands describe and
 parse the map and fit parameters the same way, and one place turning them into
@@ -23,6 +24,7 @@ __all__ = [
     "CellOption",
     "CentreOption",
     "DropCrosstalkOption",
+    "EngineOption",
     "FiguresOption",
     "FitOption",
     "OpsOption",
@@ -33,7 +35,9 @@ __all__ = [
     "SmoothOption",
     "SpanOption",
     "TruthOption",
+    "WorkersOption",
     "build_run_params",
+    "worker_count",
 ]
 
 CellOption = Annotated[float, typer.Option(help="Grid cell size (m).")]
@@ -171,3 +175,39 @@ def build_run_params(
         span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         arc_step=None if arc_step_deg is None else math.radians(arc_step_deg),
     )
+
+
+EngineOption = Annotated[
+    str,
+    typer.Option(
+        "--engine",
+        metavar="ENGINE",
+        help="Where the runs execute: local (a process pool), dask (a local Dask cluster) or "
+        "dask=SCHEDULER_ADDRESS (an existing Dask cluster; needs the 'dask' extra).",
+    ),
+]
+WorkersOption = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        "--jobs",
+        metavar="N",
+        help="Worker processes (0: one per CPU; 1 with --engine local: in this process). "
+        "Ignored with a Dask scheduler address.",
+    ),
+]
+
+
+def worker_count(workers: int) -> int:
+    """``--workers``: a count >= 1 (0 means one per CPU).
+
+    Raises
+    ------
+    ParameterError
+        A negative count.
+    """
+    import os
+
+    if workers < 0:
+        raise ParameterError("workers", f"must be >= 0, got {workers}")
+    return workers or (os.cpu_count() or 1)

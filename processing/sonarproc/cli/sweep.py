@@ -8,16 +8,15 @@ merge; this module parses options, prints a summary and maps errors to exit code
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
 from sonarproc.cli.app import RuntimeProblem, app, guarded
+from sonarproc.cli.options import EngineOption, WorkersOption, worker_count
 from sonarproc.cli.paths import check_output_dir
 from sonarproc.cli.progress import progress
-from sonarproc.errors import ParameterError
 
 __all__ = ["sweep_command", "sweep_merge_command"]
 
@@ -33,30 +32,32 @@ def sweep_command(
             help="Parameter grid, e.g. 'ops=thinning:1..8;order=4..12;sigma=0.001..0.1@log5'."
         ),
     ],
-    jobs: Annotated[int, typer.Option(help="Worker processes (0: one per CPU).")] = 1,
+    workers: WorkersOption = 1,
+    engine: EngineOption = "local",
     shard: Annotated[
         str, typer.Option(help="Run every N-th combination from I: 'I/N' (0 <= I < N).")
     ] = "0/1",
     out: Annotated[Path, typer.Option("--out", help="Output directory.")] = Path("sweep"),
 ) -> None:
     """Run a grid of processing parameters (and noise/seeds for scenarios); write a table."""
+    from sonarproc.engines import parse_engine
     from sonarproc.sweep import parse_shard, run_sweep, write_sweep
 
     with guarded():
         part = parse_shard(shard)
-        if jobs < 0:
-            raise ParameterError("jobs", f"must be >= 0, got {jobs}")
-        n_jobs = jobs or (os.cpu_count() or 1)
+        n_workers = worker_count(workers)
+        where = parse_engine(engine)
         check_output_dir(out)
         with progress("sweep", None) as steps:
             result = run_sweep(
-                [str(p) for p in inputs], grid, jobs=n_jobs, shard=part, progress=steps
-            )
+                [str(p) for p in inputs], grid, jobs=n_workers, shard=part, progress=steps,
+                engine=where,
+            )  # fmt: skip
         csv_path = write_sweep(result, out)
     failed = sum(1 for r in result.rows if not r["ok"])
     typer.echo(
         f"sonarproc sweep: {len(result.rows)} of {result.total} combinations "
-        f"(shard {part[0]}/{part[1]}) in {result.wall_s:.2f} s with {n_jobs} job(s)"
+        f"(shard {part[0]}/{part[1]}) in {result.wall_s:.2f} s with {where.describe(n_workers)}"
         + (f", {failed} refused (see the error column)" if failed else "")
         + f"; table: {csv_path}"
     )

@@ -27,17 +27,15 @@ import csv
 import json
 import logging
 import math
-import multiprocessing
-import multiprocessing.context
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from sonarproc.engines import Engine, map_chunks, runs_here
 from sonarproc.errors import InputError
 from sonarproc.report.jsonable import to_jsonable
 from sonarproc.sweep.grid import (
@@ -52,6 +50,7 @@ from sonarproc.sweep.grid import (
     parse_shard,
     shard_indices,
 )
+from sonarproc.sweep.shared import SharedMaps, clear_shared, shared_log
 
 __all__ = [
     "COLUMNS",
@@ -127,8 +126,12 @@ def _load(inp: str, values: dict[str, Any]) -> Any:
     )
 
 
-def _row(c: Combination, lg: Any) -> dict[str, Any]:
-    """Run one combination on its log; a refused run becomes a row with ``ok`` false."""
+def _row(c: Combination, lg: Any, maps: SharedMaps | None = None) -> dict[str, Any]:
+    """Run one combination on its log; a refused run becomes a row with ``ok`` false.
+
+    ``maps``: the log's shared count maps (None: a whole run of its own, as
+    ``sonarproc run`` does it).
+    """
     from sonarproc.fit import select_order_cv
     from sonarproc.pipeline import process
 
@@ -144,7 +147,7 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
     row.update(ok=False, error=None, fit_ok=False)
     row.update({k: None for k in COLUMNS if k not in row})
     try:
-        r = process(lg, p)
+        r = process(lg, p) if maps is None else maps.process(p)
     except ValueError as err:
         row["error"] = str(err)
         return row
@@ -183,49 +186,57 @@ def _row(c: Combination, lg: Any) -> dict[str, Any]:
     return to_jsonable(row)
 
 
-def _run_task(
-    task: list[Combination], progress: Callable[[int], None] | None = None
-) -> list[dict[str, Any]]:
-    """Run combinations that share one input, noise and seed: load or simulate once.
+def _data_values(c: Combination) -> dict[str, Any]:
+    return {k: v for k, v in c.values.items() if k in DATA_KEYS}
 
-    A log or scenario that cannot be read raises (the whole sweep stops: a usage error).
-    ``progress`` (in-process runs only) hears of each finished combination.
+
+def _map_key(c: Combination) -> str:
+    """The map parameters of a combination, as a sortable key (see :class:`SharedMaps`)."""
+    try:
+        return repr(SharedMaps.map_key(combination_params(c.values)))
+    except ValueError:  # refused later, with its row
+        return ""
+
+
+def run_chunk(
+    task: list[Combination], tick: Callable[[], None] | None = None
+) -> list[dict[str, Any]]:
+    """Run a chunk of combinations that share one input, noise and seed.
+
+    The log is read or simulated once per worker process (:func:`shared_log`), and the
+    combinations run in the order of their map parameters, so that each count map is
+    built once. A log or scenario that cannot be read raises (the whole sweep stops: a
+    usage error). ``tick`` (in this process only) hears of each finished combination.
     """
-    data = {k: v for k, v in task[0].values.items() if k in DATA_KEYS}
-    lg = _load(task[0].input, data)
+    lg, maps = shared_log(task[0].input, _data_values(task[0]), _load)
     rows = []
-    for c in task:
-        rows.append(_row(c, lg))
-        if progress is not None:
-            progress(1)
+    for c in sorted(task, key=_map_key):
+        rows.append(_row(c, lg, maps))
+        if tick is not None:
+            tick()
     return rows
 
 
-def _tasks(combos: Sequence[Combination], jobs: int) -> list[list[Combination]]:
-    """Group combinations by data (input, sigma, seed): each group loads or simulates its
-    log once. Groups are split only when there are fewer than ``jobs`` of them (a split
-    repeats the load), so that every worker has something to do."""
+def chunks_of(combos: Sequence[Combination], workers: int) -> list[list[Combination]]:
+    """Cut combinations into chunks, one per (input, sigma, seed) group.
+
+    A group is split only when there are fewer groups than ``workers`` (a split makes a
+    second worker read or simulate the same data), along its map parameters so that
+    each chunk builds as few count maps as it can. Every chunk holds several runs: the
+    cost of handing a task to a worker is paid per chunk.
+    """
     groups: dict[str, list[Combination]] = {}
     for c in combos:
         key = json.dumps([c.input, *(c.values.get(k) for k in DATA_KEYS)])
         groups.setdefault(key, []).append(c)
-    tasks: list[list[Combination]] = []
-    splits = max(1, math.ceil(jobs / max(1, len(groups))))
+    chunks: list[list[Combination]] = []
+    splits = max(1, math.ceil(workers / max(1, len(groups))))
     for g in groups.values():
+        g = sorted(g, key=_map_key)
         size = max(1, math.ceil(len(g) / splits))
         for s in range(0, len(g), size):
-            tasks.append(g[s : s + size])
-    return tasks
-
-
-def _mp_context() -> multiprocessing.context.BaseContext:
-    """Workers from a fork server that has imported this module (cheap to start, and no
-    fork of a possibly multi-threaded parent); plain spawn where there is no fork server."""
-    if "forkserver" in multiprocessing.get_all_start_methods():
-        ctx = multiprocessing.get_context("forkserver")
-        ctx.set_forkserver_preload(["sonarproc.sweep", "sonarproc.pipeline", "sonarsim"])
-        return ctx
-    return multiprocessing.get_context("spawn")
+            chunks.append(g[s : s + size])
+    return chunks
 
 
 @dataclass
@@ -245,8 +256,9 @@ def run_sweep(
     jobs: int = 1,
     shard: tuple[int, int] = (0, 1),
     progress: Callable[[int, int], None] | None = None,
+    engine: Engine | None = None,
 ) -> SweepResult:
-    """Run this shard's combinations of the grid, ``jobs`` processes at once.
+    """Run this shard's combinations of the grid on ``jobs`` workers.
 
     Parameters
     ----------
@@ -255,12 +267,16 @@ def run_sweep(
     spec : str
         The grid (:func:`parse_grid`).
     jobs : int
-        Worker processes (1: in this process).
+        Workers (local processes, or a Dask ``LocalCluster``'s; 1 with the local
+        engine: in this process).
     shard : (I, N)
         Run every N-th combination starting at I.
     progress : callable, optional
         ``progress(done, total)``: combinations of this shard finished so far and in
-        all, after each one in this process, after each task with ``jobs > 1``.
+        all: after each one in this process, after each chunk on workers.
+    engine : Engine, optional
+        Where the chunks run (:mod:`sonarproc.engines`; default: local). The rows do
+        not depend on it.
 
     Returns
     -------
@@ -277,8 +293,6 @@ def run_sweep(
     combos = combinations(list(inputs), grid)
     mine = [combos[i] for i in shard_indices(len(combos), shard)]
     wall0 = time.perf_counter()
-    tasks = _tasks(mine, jobs)
-    rows: list[dict[str, Any]] = []
     finished = 0
 
     def advance(n: int) -> None:
@@ -288,15 +302,18 @@ def run_sweep(
             progress(finished, len(mine))
 
     advance(0)
-    if jobs <= 1 or len(tasks) <= 1:
-        for t in tasks:
-            rows.extend(_run_task(t, advance))
-    else:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=_mp_context()) as pool:
-            for done in as_completed([pool.submit(_run_task, t) for t in tasks]):
-                part = done.result()
-                rows.extend(part)
-                advance(len(part))
+    where = engine or Engine()
+    chunks = chunks_of(mine, jobs)
+    try:
+        if runs_here(where, jobs, len(chunks)):  # progress after every combination
+            parts = [run_chunk(ch, lambda: advance(1)) for ch in chunks]
+        else:
+            parts = map_chunks(
+                run_chunk, chunks, engine=where, workers=jobs, done=lambda p: advance(len(p))
+            )
+    finally:
+        clear_shared()  # chunks run in this process leave no logs behind in it
+    rows = [r for part in parts for r in part]
     rows.sort(key=lambda r: int(r["index"]))
     manifest = {
         "format": "sonarproc-sweep",
