@@ -1,4 +1,4 @@
-"""run's default options on the held-out scenes: every kind meets its goal, and the page is fresh."""
+"""run's default on the held-out scenes: every kind meets its goal; the page is fresh."""
 
 from __future__ import annotations
 
