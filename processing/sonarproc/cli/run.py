@@ -191,9 +191,10 @@ def run_command(
         knobs = {"ops": ops, "fit": fit, "order": order, "smooth": smooth, "robust": robust}
         mode = resolve_mode(auto=auto, paper=paper, knobs=knobs)
         params = build_run_params(
-            cell=cell, bbox=bbox, ops=ops or PAPER_OPS, fit=fit or "auto", order=order,
-            smooth=smooth, centre=centre, drop_crosstalk=drop_crosstalk,
-            robust=robust or "none", span=span, arc_step_deg=arc_step,
+            cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
+            fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
+            span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
