@@ -58,7 +58,8 @@ class RunResult:
     method : str
         ``morphological`` for :func:`run`; the method's name for :func:`compare`.
     auto : dict or None
-        With ``auto=True``, the record of the choice (``report.json``'s ``auto``).
+        Where ``--auto``'s choice made the result (``auto=True``, or a one-curve log run
+        with default options), the record of the choice (``report.json``'s ``auto``).
     """
 
     record: RunRecord
@@ -116,6 +117,11 @@ def _cli_defaults() -> dict[str, Any]:
     return {name: params[name].default for name in RUN_OPTIONS}
 
 
+def _or(value: Any, default: Any) -> Any:
+    """``value``, or ``default`` where it was left out (``None``; an empty text is refused)."""
+    return default if value is None else value
+
+
 def _as_text(value: Any) -> Any:
     if isinstance(value, Sequence) and not isinstance(value, str):
         return ",".join(repr(float(v)) for v in value)
@@ -136,12 +142,15 @@ def run_params(**options: Any) -> RunParams:
     unknown = sorted(set(options) - set(RUN_OPTIONS))
     if unknown:
         raise ParameterError(unknown[0], f"is not an option (options: {', '.join(RUN_OPTIONS)})")
+    from sonarproc.params import PAPER_OPS
+
     values = {**_cli_defaults(), **options}
     return build_run_params(
-        cell=float(values["cell"]), bbox=_as_text(values["bbox"]), ops=values["ops"],
-        fit=values["fit"], order=values["order"], smooth=values["smooth"],
-        centre=_as_text(values["centre"]), drop_crosstalk=bool(values["drop_crosstalk"]),
-        robust=values["robust"], span=values["span"], arc_step_deg=values["arc_step"],
+        cell=float(values["cell"]), bbox=_as_text(values["bbox"]),
+        ops=_or(values["ops"], PAPER_OPS), fit=_or(values["fit"], "auto"), order=values["order"],
+        smooth=values["smooth"], centre=_as_text(values["centre"]),
+        drop_crosstalk=bool(values["drop_crosstalk"]), robust=_or(values["robust"], "none"),
+        span=values["span"], arc_step_deg=values["arc_step"],
     )  # fmt: skip
 
 
@@ -189,6 +198,7 @@ def run(
     log: str | Path | SonarLog,
     *,
     auto: bool = False,
+    paper: bool = False,
     sensors: str | Path | None = None,
     truth: str | Path | None = None,
     robot: str | None = None,
@@ -202,11 +212,18 @@ def run(
     log : path-like or sonarlog.SonarLog
         A log path (any kind :func:`read_log` reads) or a log in memory.
     auto : bool
-        Choose the method, operations and fit without ground truth (``--auto``).
+        Choose the method, operations and fit without ground truth on any log (``--auto``).
+    paper : bool
+        The paper's method exactly (``--paper``): ``ops="thinning:3"``, a polynomial of
+        order 9 for one curve.
     sensors, truth, robot, degrees
         As for :func:`read_log`.
     **options
         ``sonarproc run``'s options (:data:`RUN_OPTIONS`), e.g. ``fit="poly", order=9``.
+        With none of ``ops``, ``fit``, ``order``, ``smooth``, ``robust`` (and neither
+        ``auto`` nor ``paper``), a one-curve log's fit is chosen as ``auto`` chooses it
+        and a room's surfaces are fitted one by one, as ``sonarproc run`` does
+        (:mod:`sonarproc.run_modes`).
 
     Returns
     -------
@@ -219,19 +236,14 @@ def run(
     FileNotFoundError, sonarlog.SonarLogError, NothingToMapError
         As ``sonarproc run``.
     """
-    import time
+    from sonarproc.run_modes import FIT_KNOBS, resolve_mode, run_log
 
+    mode = resolve_mode(auto=auto, paper=paper, knobs={k: options.get(k) for k in FIT_KNOBS})
     params = run_params(**options)
-    cpu0 = time.process_time()
-    lg = _log(log, {"sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees})
-    if auto:
-        from sonarproc.auto import run_auto
-
-        chosen_run, chosen, choice = run_auto(lg, params)
-        return RunResult(chosen_run.run, "auto", choice.to_json(chosen))
-    from sonarproc.pipeline import process
-
-    return RunResult(process(lg, params, cpu_start=cpu0))
+    read = {"sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees}
+    source = log if isinstance(log, (str, Path)) else _log(log, read)
+    result, record = run_log(source, params, mode, read=read)
+    return RunResult(result, "auto" if record is not None else "morphological", record)
 
 
 def compare(

@@ -9,10 +9,13 @@ from typing import Any, Literal
 from sonarproc.errors import ParameterError
 from sonarproc.fit import FitKind
 
-__all__ = ["DEFAULT_ORDER", "RunParams", "parse_bbox", "parse_point"]
+__all__ = ["DEFAULT_ORDER", "PAPER_OPS", "RunParams", "parse_bbox", "parse_point"]
 
 #: Default fit order per fit kind: the paper's m = 9 (Table 1) for a polynomial; harmonics
 #: for a polar fit; the spline is always cubic.
+#: The paper's morphological operations (section 4: thinning to a one-cell-wide curve).
+PAPER_OPS = "thinning:3"
+
 DEFAULT_ORDER: dict[str, int] = {"poly": 9, "spline": 3, "polar": 16, "auto": 9}
 
 FIT_KINDS = ("poly", "spline", "polar", "auto")
@@ -68,7 +71,7 @@ class RunParams:
 
     cell: float = 0.01
     bbox: tuple[float, float, float, float] | None = None
-    ops: str = "thinning:3"
+    ops: str = PAPER_OPS
     fit: FitKind | Literal["auto"] = "poly"
     order: int | None = None
     smooth: float | None = None

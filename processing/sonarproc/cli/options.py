@@ -31,6 +31,9 @@ __all__ = [
     "OrderOption",
     "RobotOption",
     "RobustOption",
+    "RunFitOption",
+    "RunOpsOption",
+    "RunRobustOption",
     "SensorsOption",
     "SmoothOption",
     "SpanOption",
@@ -89,6 +92,32 @@ RobustOption = Annotated[
     typer.Option(
         help="Polynomial fit: 'none' (the paper's least squares) or 'huber' (robust, "
         "over the points, weighted by their arc counts)."
+    ),
+]
+#: ``run``'s own forms of the fit knobs: left out (``None``), they let the log choose the fit
+#: (:mod:`sonarproc.run_modes`); named, they are used as given.
+RunOpsOption = Annotated[
+    str | None,
+    typer.Option(
+        "--ops",
+        help="Operations on the arc map, e.g. 'closing,thinning:3' or 'vote:auto,ridge' "
+        "(default: the paper's thinning:3).",
+    ),
+]
+RunFitOption = Annotated[
+    str | None,
+    typer.Option(
+        "--fit",
+        help="Fit: auto (a polynomial for one curve y = f(x), else one fit per surface), "
+        "poly, spline or polar. Left out: one curve's fit is chosen as --auto chooses it.",
+    ),
+]
+RunRobustOption = Annotated[
+    str | None,
+    typer.Option(
+        "--robust",
+        help="Polynomial fit: 'none' (the paper's least squares, default) or 'huber' "
+        "(robust, over the points, weighted by their arc counts).",
     ),
 ]
 SpanOption = Annotated[

@@ -25,11 +25,11 @@ from sonarproc.cli.options import (
     CentreOption,
     DropCrosstalkOption,
     FiguresOption,
-    FitOption,
-    OpsOption,
     OrderOption,
     RobotOption,
-    RobustOption,
+    RunFitOption,
+    RunOpsOption,
+    RunRobustOption,
     SensorsOption,
     SmoothOption,
     SpanOption,
@@ -114,6 +114,8 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
         table.add_row("fit", text if fit["ok"] else f"{text}: FAILED ({fit.get('reason')})")
     else:
         table.add_row("fit", fit_text if fit["ok"] else f"{fit_text}: FAILED ({fit['reason']})")
+    if (doc.get("auto") or {}).get("mode") == "default":
+        table.add_row("chosen by", "held-out range residual, as --auto (--paper: the paper's)")
     table.add_row("e", number(m["e"]))
     table.add_row("f_c", number(m["f_c"]))
     if "E1_m" in m:
@@ -135,8 +137,8 @@ def run_command(
     ] = None,
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
-    ops: OpsOption = "thinning:3",
-    fit: FitOption = "auto",
+    ops: RunOpsOption = None,
+    fit: RunFitOption = None,
     order: OrderOption = None,
     smooth: SmoothOption = None,
     centre: CentreOption = None,
@@ -144,7 +146,7 @@ def run_command(
     robot: RobotOption = None,
     truth: TruthOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
-    robust: RobustOption = "none",
+    robust: RunRobustOption = None,
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
     figures: FiguresOption = "png,svg",
@@ -159,7 +161,17 @@ def run_command(
         typer.Option(
             "--auto",
             help="Choose the method, operations and fit by held-out range residual (no "
-            "ground truth); --ops, --fit, --order, --smooth, --robust, --span are then ignored.",
+            "ground truth) on any log, a room included; --ops, --fit, --order, --smooth, "
+            "--robust are then ignored.",
+        ),
+    ] = False,
+    paper: Annotated[
+        bool,
+        typer.Option(
+            "--paper",
+            help="The paper's method exactly: --ops thinning:3, a polynomial of order 9 "
+            "(for one curve). Without --paper, --auto or a fit option, a one-curve log's "
+            "fit is chosen as --auto chooses it.",
         ),
     ] = False,
     foxglove: FoxgloveOption = None,
@@ -169,34 +181,28 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
-    from sonarproc.pipeline import run_file
+    from sonarproc.params import PAPER_OPS
     from sonarproc.report import default_out_dir, write_report
     from sonarproc.report.plots import parse_figure_formats
+    from sonarproc.run_modes import resolve_mode, run_log
 
     with guarded():
         formats = parse_figure_formats(figures)
+        knobs = {"ops": ops, "fit": fit, "order": order, "smooth": smooth, "robust": robust}
+        mode = resolve_mode(auto=auto, paper=paper, knobs=knobs)
         params = build_run_params(
-            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
-            drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
+            cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
+            fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
+            span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
-        record = None
         try:
-            if auto:
-                from sonarproc.auto import run_auto
-                from sonarproc.pipeline import load_log
-
-                lg = load_log(log, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
-                chosen_run, chosen, choice = run_auto(lg, params)
-                result, record = chosen_run.run, choice.to_json(chosen)
-            else:
-                result = run_file(
-                    log, params, sensors=sensors, truth=truth, robot=robot, progress=progress,
-                    degrees=degrees,
-                )  # fmt: skip
+            read = {"sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees}
+            result, record = run_log(log, params, mode, read=read, progress=progress)
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
@@ -212,7 +218,7 @@ def run_command(
         typer.echo(json.dumps(doc, indent=2))
     else:
         _summary(doc, out_dir)
-        if record is not None:
+        if record is not None and mode == "auto":
             from rich.console import Console
 
             from sonarproc.auto import record_table

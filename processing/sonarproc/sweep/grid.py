@@ -55,8 +55,9 @@ KEYS: dict[str, str] = {
     "sigma": "float",
     "seed": "int",
 }
-#: The fit where the grid names none: ``sonarproc run``'s default, so that a sweep row
-#: with no ``fit`` key is the run a user gets with no option.
+#: The fit where the grid names none: ``sonarproc run --paper``'s (a one-curve map gets the
+#: paper's polynomial, a room its surfaces). A sweep measures what its knobs do, so no row
+#: chooses its own knobs as a plain ``run`` does (:mod:`sonarproc.run_modes`).
 RUN_DEFAULT_FIT = "auto"
 #: Keys that change the data (simulation) rather than the processing.
 DATA_KEYS = ("sigma", "seed")

@@ -216,7 +216,8 @@ def test_scenario_seeds_and_noise(tmp_path: Path, capsys: pytest.CaptureFixture[
     for seed in (3, 13):
         log = tmp_path / f"fig13-{seed}.h5"
         assert main(["simulate", str(FIG13), "--out", str(log), "--seed", str(seed)]) == 0
-        assert main(["run", str(log), "--out", str(tmp_path / f"r{seed}"), "--json"]) == 0
+        out = tmp_path / f"r{seed}"
+        assert main(["run", str(log), "--paper", "--out", str(out), "--json"]) == 0
         m = json.loads(_json_tail(capsys.readouterr().out))["metrics"]
         for key in ("e", "f_c", "E1_m", "E2"):
             assert rows[(0.05, seed)][key] == pytest.approx(m[key], rel=1e-12), key

@@ -124,7 +124,7 @@ def poll_reports(
 
 
 def batch_report(log: Path, out: Path, capsys: pytest.CaptureFixture[str]) -> dict:
-    assert main(["run", str(log), "--out", str(out), "--json"]) == 0
+    assert main(["run", str(log), "--paper", "--out", str(out), "--json"]) == 0
     return json.loads(capsys.readouterr().out)
 
 
