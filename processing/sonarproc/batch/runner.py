@@ -23,6 +23,7 @@ from typing import Any
 from sonarproc.batch.summary import error_row, summary_row
 from sonarproc.engines import Engine, map_chunks
 from sonarproc.params import RunParams
+from sonarproc.run_modes import RunMode
 
 __all__ = ["BatchOptions", "BatchResult", "chunk_size", "one_line", "report_names", "run_batch"]
 
@@ -38,7 +39,8 @@ class BatchOptions:
     sensors: str | None = None
     robot: str | None = None
     degrees: bool = False
-    auto: bool = False
+    #: How the operations and fit are picked (:mod:`sonarproc.run_modes`), as ``run`` does.
+    mode: RunMode = "given"
 
 
 @dataclass(frozen=True)
@@ -132,23 +134,16 @@ def _quality_record(quality: Any) -> Any:
 
 def _run_one(item: _Item, out_dir: Path, opt: BatchOptions) -> dict[str, Any]:
     """Run one log into ``out_dir / item.report``; its summary row (an error row if not)."""
-    from sonarproc.pipeline import load_log, process
     from sonarproc.report import write_report
+    from sonarproc.run_modes import run_log
 
     tmp = Path(tempfile.mkdtemp(prefix=f".{item.report}.partial-", dir=out_dir))
     try:
         # a sonarlog carries its mounts: --robot names those of the bags and CSVs only
         sonarlog = Path(item.log).suffix.lower() in (".h5", ".hdf5")
         robot = None if sonarlog else opt.robot
-        lg = load_log(item.log, sensors=opt.sensors, robot=robot, degrees=opt.degrees)
-        record = None
-        if opt.auto:
-            from sonarproc.auto import run_auto
-
-            chosen_run, chosen, choice = run_auto(lg, opt.params)
-            result, record = chosen_run.run, choice.to_json(chosen)
-        else:
-            result = process(lg, opt.params)
+        read = {"sensors": opt.sensors, "robot": robot, "degrees": opt.degrees}
+        result, record = run_log(item.log, opt.params, opt.mode, read=read)
         doc = write_report(result, tmp, auto=record, figures=opt.figures)
         if "quality" not in doc:
             doc["quality"] = _quality_record(getattr(result, "quality", None))

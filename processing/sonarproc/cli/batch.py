@@ -20,11 +20,11 @@ from sonarproc.cli.options import (
     CentreOption,
     DropCrosstalkOption,
     EngineOption,
-    FitOption,
-    OpsOption,
     OrderOption,
     RobotOption,
-    RobustOption,
+    RunFitOption,
+    RunOpsOption,
+    RunRobustOption,
     SensorsOption,
     SmoothOption,
     SpanOption,
@@ -57,15 +57,15 @@ def batch_command(
     ],
     cell: CellOption = 0.01,
     bbox: BboxOption = None,
-    ops: OpsOption = "thinning:3",
-    fit: FitOption = "auto",
+    ops: RunOpsOption = None,
+    fit: RunFitOption = None,
     order: OrderOption = None,
     smooth: SmoothOption = None,
     centre: CentreOption = None,
     sensors: SensorsOption = None,
     robot: RobotOption = None,
     drop_crosstalk: DropCrosstalkOption = False,
-    robust: RobustOption = "none",
+    robust: RunRobustOption = None,
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
     figures: Annotated[
@@ -87,6 +87,10 @@ def batch_command(
             "(as run --auto).",
         ),
     ] = False,
+    paper: Annotated[
+        bool,
+        typer.Option("--paper", help="The paper's method exactly on every log (as run --paper)."),
+    ] = False,
     engine: EngineOption = "local",
     workers: WorkersOption = 1,
 ) -> None:
@@ -98,13 +102,19 @@ def batch_command(
     """
     from sonarproc.batch import BatchOptions, run_batch, write_summary
     from sonarproc.engines import parse_engine
+    from sonarproc.params import PAPER_OPS
     from sonarproc.report.plots import parse_figure_formats
+    from sonarproc.run_modes import resolve_mode
 
     with guarded():
         formats = parse_figure_formats(figures)
+        knobs = {"ops": ops, "fit": fit, "order": order, "smooth": smooth, "robust": robust}
+        mode = resolve_mode(auto=auto, paper=paper, knobs=knobs)
         params = build_run_params(
-            cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
-            drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
+            cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
+            fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
+            drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
+            span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         n_workers = worker_count(workers)
         where = parse_engine(engine)
@@ -115,7 +125,7 @@ def batch_command(
             sensors=None if sensors is None else str(sensors),
             robot=robot,
             degrees=degrees,
-            auto=auto,
+            mode=mode,
         )
         with progress("batch", len(logs)) as steps:
             result = run_batch(
