@@ -25,6 +25,7 @@ __all__ = [
     "DropCrosstalkOption",
     "FiguresOption",
     "FitOption",
+    "NoAlignOption",
     "OpsOption",
     "OrderOption",
     "RobotOption",
@@ -76,6 +77,14 @@ RobotOption = Annotated[
 ]
 TruthOption = Annotated[
     Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
+]
+NoAlignOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-align",
+        help="Map the logged poses as they are (default: correct odometry drift where the "
+        "echoes show it).",
+    ),
 ]
 DropCrosstalkOption = Annotated[
     bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
@@ -135,6 +144,7 @@ def build_run_params(
     robust: str = "none",
     span: str = "truth",
     arc_step_deg: float | None = None,
+    align: bool = True,
 ) -> RunParams:
     """Validated run parameters from option values as typed on the command line.
 
@@ -170,4 +180,5 @@ def build_run_params(
         robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         arc_step=None if arc_step_deg is None else math.radians(arc_step_deg),
+        align=align,
     )

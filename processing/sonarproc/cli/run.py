@@ -26,6 +26,7 @@ from sonarproc.cli.options import (
     DropCrosstalkOption,
     FiguresOption,
     FitOption,
+    NoAlignOption,
     OpsOption,
     OrderOption,
     RobotOption,
@@ -40,7 +41,18 @@ from sonarproc.cli.paths import check_output_dir
 
 __all__ = ["run_command"]
 
-_STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics", "report")
+_STAGES = (
+    "read",
+    "align",
+    "select",
+    "grid",
+    "rasterise",
+    "morphology",
+    "fit",
+    "metrics",
+    "quality",
+    "report",
+)
 
 
 class _DelayedProgress:
@@ -148,6 +160,7 @@ def run_command(
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
     figures: FiguresOption = "png,svg",
+    no_align: NoAlignOption = False,
     degrees: Annotated[
         bool, typer.Option("--degrees", help="A readings CSV's theta and turret are in degrees.")
     ] = False,
@@ -178,6 +191,7 @@ def run_command(
         params = build_run_params(
             cell=cell, bbox=bbox, ops=ops, fit=fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust=robust, span=span, arc_step_deg=arc_step,
+            align=not no_align,
         )  # fmt: skip
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)

@@ -33,7 +33,7 @@ from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 __all__ = ["STAGES", "MapBuilder", "MethodMap", "evaluate_map", "map_log"]
 
 #: Stage names reported to a progress callback, in order.
-STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics")
+STAGES = ("read", "align", "select", "grid", "rasterise", "morphology", "fit", "metrics", "quality")
 
 Stage = Callable[[str], None]
 
@@ -180,6 +180,7 @@ def map_log(
     progress: Stage | None = None,
     cpu_start: float | None = None,
     empty_message: str | None = None,
+    quality: bool = False,
 ) -> tuple[RunResult, MethodMap]:
     """Select the readings, lay the grid, build the map with ``build``, fit and measure.
 
@@ -197,6 +198,10 @@ def map_log(
         ``time.process_time()`` when the run began (default: now).
     empty_message : str, optional
         The error when the built map is empty (default: no arc touches the map or bbox).
+    quality : bool
+        Also measure the map's truth-free quality (:mod:`sonarproc.quality`: one more
+        fit, without a tenth of the firings) into ``result.quality``; its time is
+        ``timings_s["quality"]``, outside ``t_cpu_s``.
 
     Returns
     -------
@@ -227,6 +232,11 @@ def map_log(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,
     )  # fmt: skip
+    if quality:
+        from sonarproc.quality import measure_quality
+
+        stage("quality")
+        result.quality = measure_quality(log_, params, build, beams, grid, mmap, result)
     stage("done")
     timings.pop("done")
     result.timings_s = timings

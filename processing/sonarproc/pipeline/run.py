@@ -41,6 +41,10 @@ def process(
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
+    With ``params.align`` (the default) the poses are first aligned where the echoes
+    show odometry drift (:func:`sonarproc.pipeline.alignment.align_log`;
+    ``result.alignment`` says whether and why); ``t_cpu_s`` covers that too.
+
     Parameters
     ----------
     log_ : sonarlog.SonarLog
@@ -55,6 +59,7 @@ def process(
     Returns
     -------
     RunResult
+        With its truth-free quality (:mod:`sonarproc.quality`) in ``.quality``.
 
     Raises
     ------
@@ -65,7 +70,23 @@ def process(
     ParameterError
         Parameters that cannot apply to this log (a map over ``max_cells``).
     """
-    result, _ = map_log(log_, params, build_arc_map, progress=progress, cpu_start=cpu_start)
+    cpu0 = time.process_time() if cpu_start is None else cpu_start
+    record = None
+    align_s = 0.0
+    if params.align:
+        from sonarproc.pipeline.alignment import align_log
+
+        if progress is not None:
+            progress("align")
+        t0 = time.perf_counter()
+        log_, record = align_log(log_)
+        align_s = time.perf_counter() - t0
+    result, _ = map_log(
+        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, quality=True
+    )
+    result.alignment = record
+    if record is not None:
+        result.timings_s = {"align": align_s, **result.timings_s}
     return result
 
 
