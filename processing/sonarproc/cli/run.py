@@ -134,6 +134,27 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     if "precision_m" in m:
         table.add_row("precision", length_cm(m["precision_m"]))
         table.add_row("completeness", number(m["completeness"]))
+    q = doc.get("quality")
+    if q:
+        frac = q.get("explained_fraction")
+        table.add_row(
+            f"explained within {length_cm(q['tolerance_m'])}",
+            "n/a" if frac is None else f"{frac:.2f} of {q['explained_readings']} readings",
+        )
+        med, p90 = q.get("heldout_residual_median_m"), q.get("heldout_residual_p90_m")
+        table.add_row(
+            "held-out residual",
+            f"median {length_cm(med)}, p90 {length_cm(p90)}"
+            if med is not None and p90 is not None
+            else f"n/a ({q.get('reason')})",
+        )
+    al = doc.get("alignment")
+    if al:
+        table.add_row(
+            "drift correction",
+            f"applied: up to {length_cm(al['max_shift_m'])}" if al["applied"]
+            else f"not applied: {al['reason']}",
+        )  # fmt: skip
     table.add_row("t_cpu", seconds(m["t_cpu_s"]))
     table.add_row("report", str(out))
     Console().print(table)
