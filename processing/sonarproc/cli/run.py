@@ -225,8 +225,17 @@ def run_command(
                 from sonarproc.pipeline import load_log
 
                 lg = load_log(log, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
+                aligned = None
+                if params.align:
+                    from sonarproc.pipeline.alignment import align_log
+
+                    lg, aligned = align_log(lg)
                 chosen_run, chosen, choice = run_auto(lg, params)
                 result, record = chosen_run.run, choice.to_json(chosen)
+                from sonarproc.quality.of_auto import measure_auto_quality
+
+                result.alignment = aligned
+                result.quality = measure_auto_quality(lg, params, chosen, result)
             else:
                 result = run_file(
                     log, params, sensors=sensors, truth=truth, robot=robot, progress=progress,
