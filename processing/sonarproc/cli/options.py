@@ -28,6 +28,7 @@ __all__ = [
     "NoAlignOption",
     "OpsOption",
     "OrderOption",
+    "PoseFrameOption",
     "RobotOption",
     "RobustOption",
     "SensorsOption",
@@ -77,6 +78,14 @@ RobotOption = Annotated[
 ]
 TruthOption = Annotated[
     Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
+]
+PoseFrameOption = Annotated[
+    str | None,
+    typer.Option(
+        "--pose-frame",
+        help="A bag's poses in this fixed frame of its tf tree (e.g. map: a SLAM's "
+        "correction composed with the odometry, map -> odom -> base_link).",
+    ),
 ]
 NoAlignOption = Annotated[
     bool,

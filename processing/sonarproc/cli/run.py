@@ -29,6 +29,7 @@ from sonarproc.cli.options import (
     NoAlignOption,
     OpsOption,
     OrderOption,
+    PoseFrameOption,
     RobotOption,
     RobustOption,
     SensorsOption,
@@ -182,6 +183,7 @@ def run_command(
     arc_step: ArcStepOption = None,
     figures: FiguresOption = "png,svg",
     no_align: NoAlignOption = False,
+    pose_frame: PoseFrameOption = None,
     degrees: Annotated[
         bool, typer.Option("--degrees", help="A readings CSV's theta and turret are in degrees.")
     ] = False,
@@ -224,7 +226,10 @@ def run_command(
                 from sonarproc.auto import run_auto
                 from sonarproc.pipeline import load_log
 
-                lg = load_log(log, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
+                lg = load_log(
+                    log, sensors=sensors, truth=truth, robot=robot, degrees=degrees,
+                    pose_frame=pose_frame,
+                )  # fmt: skip
                 aligned = None
                 if params.align:
                     from sonarproc.pipeline.alignment import align_log
@@ -239,7 +244,7 @@ def run_command(
             else:
                 result = run_file(
                     log, params, sensors=sensors, truth=truth, robot=robot, progress=progress,
-                    degrees=degrees,
+                    degrees=degrees, pose_frame=pose_frame,
                 )  # fmt: skip
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)

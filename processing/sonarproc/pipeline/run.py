@@ -97,6 +97,7 @@ def load_log(
     truth: str | Path | None = None,
     robot: str | None = None,
     degrees: bool = False,
+    pose_frame: str | None = None,
 ) -> SonarLog:
     """Read any log this tool reads, in memory.
 
@@ -104,7 +105,8 @@ def load_log(
     :func:`sonarlog.sources.read_source`, a ROS 1 bag, a ROS 2 bag directory or a Player
     log (``sensors``, a YAML, or ``robot``, a shipped preset such as ``pioneer3-dx``, then
     gives the mounts). ``truth``: a truth CSV replacing the log's. ``degrees``: a readings
-    CSV's ``theta`` and ``turret`` are in degrees.
+    CSV's ``theta`` and ``turret`` are in degrees. ``pose_frame``: a bag's poses in
+    this fixed frame of its tf tree (``map``), composed down to the robot's base frame.
 
     Raises
     ------
@@ -128,6 +130,8 @@ def load_log(
     is_sonarlog = p.is_file() and p.suffix.lower() in (".h5", ".hdf5")
     if robot is not None and is_sonarlog:
         raise ParameterError("robot", f"gives the mounts of a bag or a CSV log, not of {p}")
+    if pose_frame is not None and (is_sonarlog or p.suffix.lower() == ".csv"):
+        raise ParameterError("pose_frame", f"names a frame of a bag's tf tree; {p} is not a bag")
     if p.suffix.lower() == ".csv":
         sensors = sensors if sensors is not None else robot
         if sensors is None:
@@ -143,7 +147,7 @@ def load_log(
     if not is_sonarlog:
         from sonarlog.sources import read_source  # rosbags: only for the logs that need it
 
-        lg, _ = read_source(p, sensors=sensors, robot=robot)
+        lg, _ = read_source(p, sensors=sensors, robot=robot, pose_frame=pose_frame)
     else:
         lg = read_log(p)
     return lg if truth_xy is None else replace(lg, truth=truth_xy)
@@ -158,6 +162,7 @@ def run_file(
     robot: str | None = None,
     progress: Progress | None = None,
     degrees: bool = False,
+    pose_frame: str | None = None,
 ) -> RunResult:
     """Read a log (:func:`load_log`) and :func:`process` it; ``t_cpu_s`` includes reading.
 
@@ -171,7 +176,9 @@ def run_file(
     wall0 = time.perf_counter()
     if progress is not None:
         progress("read")
-    lg = load_log(path, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
+    lg = load_log(
+        path, sensors=sensors, truth=truth, robot=robot, degrees=degrees, pose_frame=pose_frame
+    )
     read_s = time.perf_counter() - wall0
     result = process(lg, params, progress=progress, cpu_start=cpu0)
     result.timings_s = {"read": read_s, **result.timings_s}
