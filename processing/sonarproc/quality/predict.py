@@ -156,7 +156,8 @@ def predict_paths(curves: MapCurves, beams: Beams, rows: IntArray) -> tuple[Floa
     Returns
     -------
     path : ndarray, (n,)
-        Predicted path length (m); NaN where no curve lies inside the reading's beams.
+        Predicted path length (m); NaN where no curve lies inside the reading's beams,
+        or where the echo would come from beyond the receiver's maximum range.
     surface : ndarray of int, (n,)
         The surface id (:attr:`MapCurves.surface`) of each prediction; -1 where none.
 
@@ -174,6 +175,15 @@ def predict_paths(curves: MapCurves, beams: Beams, rows: IntArray) -> tuple[Floa
     n = rows.size
     if curves.empty or n == 0:
         return np.full(n, np.nan), np.full(n, -1, dtype=np.intp)
+    path, surface = _predict(curves, beams, rows)
+    # the sonar reports no range beyond its maximum: an echo predicted from further away
+    # is no echo, not a range to compare with the one measured
+    heard = path <= 2.0 * np.asarray(beams.poses.max_range[rows], dtype=np.float64)
+    return np.where(heard, path, np.nan), np.where(heard, surface, -1).astype(np.intp)
+
+
+def _predict(curves: MapCurves, beams: Beams, rows: IntArray) -> tuple[FloatArray, IntArray]:
+    n = rows.size
     p = beams.poses
     rank = np.asarray(beams.readings["echo"][rows], dtype=np.intp)
     ends = (p.tx_xy[rows], p.tx_heading[rows], p.tx_half_beamwidth[rows],
