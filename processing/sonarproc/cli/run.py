@@ -223,24 +223,15 @@ def run_command(
         record = None
         try:
             if auto:
-                from sonarproc.auto import run_auto
                 from sonarproc.pipeline import load_log
+                from sonarproc.quality.of_auto import run_auto_measured
 
                 lg = load_log(
                     log, sensors=sensors, truth=truth, robot=robot, degrees=degrees,
                     pose_frame=pose_frame,
                 )  # fmt: skip
-                aligned = None
-                if params.align:
-                    from sonarproc.pipeline.alignment import align_log
-
-                    lg, aligned = align_log(lg)
-                chosen_run, chosen, choice = run_auto(lg, params)
+                chosen_run, chosen, choice = run_auto_measured(lg, params)
                 result, record = chosen_run.run, choice.to_json(chosen)
-                from sonarproc.quality.of_auto import measure_auto_quality
-
-                result.alignment = aligned
-                result.quality = measure_auto_quality(lg, params, chosen, result)
             else:
                 result = run_file(
                     log, params, sensors=sensors, truth=truth, robot=robot, progress=progress,

@@ -21,9 +21,10 @@ from sonarproc.pipeline.selection import Beams
 from sonarproc.quality.measure import Quality, measure_quality
 
 if TYPE_CHECKING:
-    from sonarproc.auto.score import Score
+    from sonarproc.auto.score import AutoChoice, Score
+    from sonarproc.methods import MethodResult
 
-__all__ = ["measure_auto_quality"]
+__all__ = ["measure_auto_quality", "run_auto_measured"]
 
 
 def measure_auto_quality(
@@ -45,3 +46,20 @@ def measure_auto_quality(
         return mmap
 
     return measure_quality(log_, cm.params, build, cm.beams, cm.grid, cm.mmap, result)
+
+
+def run_auto_measured(log_: SonarLog, params: RunParams) -> tuple[MethodResult, Score, AutoChoice]:
+    """``--auto`` as ``run`` does it: the poses aligned first where that helps (with
+    ``params.align``), the choice (:func:`sonarproc.auto.run_auto`), then the chosen run's
+    ``alignment`` and ``quality`` filled in."""
+    from sonarproc.auto import run_auto
+
+    aligned = None
+    if params.align:
+        from sonarproc.pipeline.alignment import align_log
+
+        log_, aligned = align_log(log_)
+    chosen_run, chosen, choice = run_auto(log_, params)
+    chosen_run.run.alignment = aligned
+    chosen_run.run.quality = measure_auto_quality(log_, params, chosen, chosen_run.run)
+    return chosen_run, chosen, choice

@@ -194,3 +194,15 @@ def test_an_old_report_reads_without_quality() -> None:
     from sonarproc.report.html import quality_section
 
     assert "Not measured" in quality_section(doc["quality"])
+
+
+def test_the_python_api_gives_quality_and_alignment(logs: str) -> None:
+    import sonarproc
+
+    _log("corridor-l", logs)
+    log = Path(logs) / "corridor-l.h5"
+    res = sonarproc.run(log)
+    assert res.quality is not None and res.quality["explained_fraction"] > 0.9
+    assert res.alignment is not None and res.alignment["applied"] is False
+    off = sonarproc.run(log, no_align=True)
+    assert off.alignment is None and off.quality == res.quality
