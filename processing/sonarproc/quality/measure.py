@@ -21,7 +21,6 @@ Two figures, both with the first-echo prediction of ``--auto``
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -30,12 +29,13 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.errors import SonarprocError
+from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import MapBuilder, MethodMap
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
-from sonarproc.quality.predict import MapCurves, map_curves, predict_paths
+from sonarproc.quality.predict import MapCurves, curves_of, map_curves, predict_paths
 
 __all__ = [
     "HELDOUT_FOLDS",
@@ -44,6 +44,7 @@ __all__ = [
     "TOLERANCE",
     "Quality",
     "explained",
+    "heldout_curves",
     "measure_quality",
     "training_map",
 ]
@@ -192,6 +193,29 @@ def training_map(
     return train_beams, MethodMap(apply_chain(counts, parse_chain(params.ops)), counts)
 
 
+def heldout_curves(params: RunParams, grid: Grid, mmap: MethodMap, beams: Beams) -> MapCurves:
+    """The curves a run's fit makes of the map ``mmap`` of ``beams``: what
+    :func:`sonarproc.pipeline.mapping.evaluate_map` fits (``fit = "auto"``: the surfaces
+    :func:`~sonarproc.pipeline.surfacefit.choose_fit` finds, or the polynomial where it
+    finds one curve y = f(x); else the run's own fit), without its metrics."""
+    from sonarproc.pipeline.evaluation import fit_and_measure
+
+    ix, iy = np.nonzero(mmap.processed.T)
+    fit_params = params
+    if params.fit == "auto":
+        from sonarproc.pipeline.surfacefit import choose_fit
+
+        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=(ix, iy))
+        if auto.surfaces is not None:
+            return curves_of(auto.surfaces, FitFailure("surfaces", ""), grid.cell)
+        fit_params = replace(params, fit="poly")
+    if ix.size == 0:
+        return MapCurves([], [], single=True)
+    ev = fit_and_measure(fit_params, grid, mmap.processed, mmap.evidence, truth=None,
+                         robot_xy=beams.robot_xy, cells=(ix, iy))  # fmt: skip
+    return curves_of(None, ev.fit, grid.cell)
+
+
 def measure_quality(
     log_: SonarLog,
     params: RunParams,
@@ -221,7 +245,6 @@ def measure_quality(
         The run's record (its surfaces or profile are the map judged).
     """
     from sonarproc.auto.holdout import firing_folds
-    from sonarproc.pipeline.mapping import evaluate_map
 
     n = int(beams.path.size)
     judged = _subsample(np.arange(n, dtype=np.intp), MAX_EXPLAINED, SEED)
@@ -235,26 +258,22 @@ def measure_quality(
     if held.all() or not held.any():
         reasons.append(f"fewer than {HELDOUT_FOLDS} firings: nothing to hold out")
     else:
-        train_beams, train_map = training_map(build, beams, ~held, grid, params, full)
-        blind = replace(log_, truth=None)
+        held_rows = _subsample(np.flatnonzero(held).astype(np.intp), MAX_HELDOUT, SEED + 1)
         try:
-            train_run = evaluate_map(
-                blind, params, grid, train_map, robot_xy=train_beams.robot_xy, counts={},
-                cpu_start=time.process_time(), beams=train_beams,
-            )  # fmt: skip
-        except SonarprocError as err:
+            train_beams, train_map = training_map(build, beams, ~held, grid, params, full)
+            train_curves = heldout_curves(params, grid, train_map, train_beams)
+        except SonarprocError as err:  # a method that leaves nothing on the held-out map
             reasons.append(f"the held-out map: {err}")
+            train_curves = MapCurves([], [], single=True)
+        path, _ = predict_paths(train_curves, beams, held_rows)
+        residual = 0.5 * np.abs(beams.path[held_rows] - path)
+        hit = np.isfinite(residual)
+        predicted = float(hit.mean())
+        if hit.any():
+            median = float(np.median(residual[hit]))
+            p90 = float(np.percentile(residual[hit], 90.0))
         else:
-            held_rows = _subsample(np.flatnonzero(held).astype(np.intp), MAX_HELDOUT, SEED + 1)
-            path, _ = predict_paths(map_curves(train_run), beams, held_rows)
-            residual = 0.5 * np.abs(beams.path[held_rows] - path)
-            hit = np.isfinite(residual)
-            predicted = float(hit.mean())
-            if hit.any():
-                median = float(np.median(residual[hit]))
-                p90 = float(np.percentile(residual[hit], 90.0))
-            else:
-                reasons.append("the held-out map predicts none of the held-out readings")
+            reasons.append("the held-out map predicts none of the held-out readings")
     return Quality(
         fraction, int(judged.size), median, p90, int(held_rows.size), predicted, per,
         "; ".join(reasons) or None,

@@ -11,16 +11,20 @@ surface that gives it is the reading's surface.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.fit import FitFailure
+from sonarproc.fit import Fit, FitFailure
 from sonarproc.methods.echo_model import first_echo_path
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["MapCurves", "map_curves", "monotone_pieces", "predict_paths", "resample"]
+if TYPE_CHECKING:
+    from sonarproc.surfaces import SurfaceSet
+
+__all__ = ["MapCurves", "curves_of", "map_curves", "monotone_pieces", "predict_paths", "resample"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -81,16 +85,21 @@ def map_curves(result: RunResult) -> MapCurves:
 
     Point features (a corner or an edge: one point) and failed surfaces predict nothing.
     """
-    spacing = max(SAMPLE_SPACING, result.grid.cell)
-    if result.surfaces is not None:
+    return curves_of(result.surfaces, result.fit, result.grid.cell)
+
+
+def curves_of(surfaces: SurfaceSet | None, fit: Fit, cell: float) -> MapCurves:
+    """:func:`map_curves` of a fit's parts: its surfaces (if any, they are the map) or its
+    profile ``fit``, sampled at :data:`SAMPLE_SPACING` or the cell size ``cell``."""
+    spacing = max(SAMPLE_SPACING, cell)
+    if surfaces is not None:
         curves, ids = [], []
-        for k, s in enumerate(result.surfaces.surfaces):
+        for k, s in enumerate(surfaces.surfaces):
             line = np.asarray(s.polyline, dtype=np.float64).reshape(-1, 2)
             if s.ok and line.shape[0] >= 2:
                 curves.append(resample(line, spacing))
                 ids.append(k)
         return MapCurves(curves, ids, single=False)
-    fit = result.fit
     if isinstance(fit, FitFailure):
         return MapCurves([], [], single=True)
     curve = np.asarray(fit.sample(spacing), dtype=np.float64).reshape(-1, 2)
