@@ -6,7 +6,7 @@ room, 90 000 readings, no truth), mapped at 1 cm with the defaults of ``sonarpro
 :func:`sonarproc.pipeline.process` as a user runs it (drift correction tried, quality
 measured), the same without quality, and the bare map (``--no-align``, no quality). The
 ratios to the bare map are the costs; the quality's is one refit of the map without a
-tenth of the firings plus the first-echo predictions of 3000 readings.
+tenth of the firings plus the first-echo predictions of 1500 readings.
 """
 
 from __future__ import annotations
