@@ -206,3 +206,19 @@ def test_the_python_api_gives_quality_and_alignment(logs: str) -> None:
     assert res.alignment is not None and res.alignment["applied"] is False
     off = sonarproc.run(log, no_align=True)
     assert off.alignment is None and off.quality == res.quality
+
+
+@pytest.mark.slow
+def test_auto_reports_the_quality_of_its_choice(logs: str, tmp_path: Path) -> None:
+    """fig12 with --auto: the chosen profile explains nearly every reading, and predicts
+    held-out ones within millimetres (the paper's default polynomial does not)."""
+    _log("fig12", logs)
+    out = tmp_path / "auto"
+    log = Path(logs) / "fig12.h5"
+    assert main(["run", str(log), "--auto", "--out", str(out), "--figures", "none", "--json"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    q = doc["quality"]
+    assert q["explained_fraction"] > 0.9
+    assert q["heldout_residual_median_m"] < 0.005 and q["heldout_residual_p90_m"] < 0.02
+    assert doc["alignment"]["applied"] is False
+    assert doc["metrics"]["E1_m"] < 0.01
