@@ -20,10 +20,12 @@ from pathlib import Path
 
 from sonarlog import SonarLog, read_log
 from sonarproc.errors import InputError, ParameterError
+from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.arcmap import build_arc_map
-from sonarproc.pipeline.mapping import map_log
+from sonarproc.pipeline.mapping import MethodMap, map_log
 from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.selection import Beams
 
 __all__ = ["METHOD", "load_log", "process", "run_file"]
 
@@ -83,8 +85,15 @@ def process(
         log_, record = align_log(log_)
         align_s = time.perf_counter() - t0
         cpu0 += time.process_time() - c0  # t_cpu_s is the paper's method's: not this
+    aligned = log_
+
+    def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
+        from sonarproc.quality import measure_quality
+
+        result.quality = measure_quality(aligned, params, build_arc_map, beams, grid, mmap, result)
+
     result, _ = map_log(
-        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, quality=True
+        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure
     )
     result.alignment = record
     if record is not None:
