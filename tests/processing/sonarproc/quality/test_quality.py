@@ -222,3 +222,22 @@ def test_auto_reports_the_quality_of_its_choice(logs: str, tmp_path: Path) -> No
     assert q["heldout_residual_median_m"] < 0.005 and q["heldout_residual_p90_m"] < 0.02
     assert doc["alignment"]["applied"] is False
     assert doc["metrics"]["E1_m"] < 0.01
+
+
+@pytest.mark.slow
+def test_the_shipped_real_log_reports_its_quality(tmp_path: Path) -> None:
+    """RoboND (held aside from all tuning): measured 0.28 explained, held-out median
+    1.0 cm and 90th percentile 11.8 cm; the drift correction is refused (too few
+    echoes of one wall seen from two stretches of the track)."""
+    robond = Path(__file__).resolve().parents[3] / "data" / "real" / "robond"
+    out = tmp_path / "robond"
+    args = ["run", str(robond / "readings.csv"), "--sensors", str(robond / "sensors.yaml")]
+    assert main([*args, "--out", str(out), "--figures", "none", "--json"]) == 0
+    doc = json.loads((out / "report.json").read_text())
+    q = doc["quality"]
+    assert 0.15 <= q["explained_fraction"] <= 0.6
+    assert q["explained_readings"] == 1000 and q["heldout_readings"] > 100
+    assert 0.0 < q["heldout_residual_median_m"] <= 0.03
+    assert q["heldout_residual_median_m"] <= q["heldout_residual_p90_m"] <= 0.5
+    assert len(q["surfaces"]) == doc["fit"]["surfaces"]
+    assert doc["alignment"]["applied"] is False and doc["alignment"]["reason"]
