@@ -38,7 +38,7 @@ __all__ = ["FIGURES", "RUN_OPTIONS", "RunResult", "compare", "read_log", "run"]
 #: The options :func:`run` and :func:`compare` take (``sonarproc run``'s, same names).
 RUN_OPTIONS = (
     "cell", "bbox", "ops", "fit", "order", "smooth", "centre", "drop_crosstalk", "robust",
-    "span", "arc_step",
+    "span", "arc_step", "no_align",
 )  # fmt: skip
 #: The figures :meth:`RunResult.figure` draws (those of a report directory).
 FIGURES = ("arcmap", "processed", "fit")
@@ -92,6 +92,21 @@ class RunResult:
 
         m = report_dict(self.record)["metrics"]
         return {k: m[k] for k in _METRIC_KEYS if m.get(k) is not None}
+
+    @property
+    def quality(self) -> dict[str, Any] | None:
+        """The truth-free quality figures (``report.json``'s ``quality``: explained
+        fraction within 5 cm, overall and per surface, held-out range residual median and
+        90th percentile), or None when the run did not measure them."""
+        q = self.record.quality
+        return None if q is None else q.to_json()
+
+    @property
+    def alignment(self) -> dict[str, Any] | None:
+        """The drift correction's record (``report.json``'s ``alignment``), or None when
+        it was not tried (``no_align=True``)."""
+        a = self.record.alignment
+        return None if a is None else a.to_json()
 
     def figure(self, name: str = "fit") -> Figure:
         """One of the report's figures as a matplotlib Figure: ``arcmap``, ``processed``, ``fit``.
@@ -151,6 +166,7 @@ def run_params(**options: Any) -> RunParams:
         smooth=values["smooth"], centre=_as_text(values["centre"]),
         drop_crosstalk=bool(values["drop_crosstalk"]), robust=_or(values["robust"], "none"),
         span=values["span"], arc_step_deg=values["arc_step"],
+        align=not bool(values["no_align"]),
     )  # fmt: skip
 
 

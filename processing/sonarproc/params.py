@@ -67,6 +67,9 @@ class RunParams:
         (:func:`sonarproc.arcs.rasterize`). A step (rad, > 0): each arc is drawn
         paper-style as samples every ``arc_step`` of angle, one cell per sample
         (:mod:`sonarproc.arcs._sampled`; ``--arc-step DEG``).
+    align : bool
+        Correct odometry drift before mapping where the echoes show it
+        (:mod:`sonarproc.pipeline.alignment`; ``--no-align`` turns it off).
     """
 
     cell: float = 0.01
@@ -82,6 +85,7 @@ class RunParams:
     span: Literal["truth", "points"] = "truth"
     max_cells: int = 400_000_000
     arc_step: float | None = None
+    align: bool = True
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.cell) and self.cell > 0):

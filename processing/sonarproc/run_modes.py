@@ -96,7 +96,7 @@ def run_log(
         See the module's description.
     read : dict, optional
         Keyword arguments of :func:`sonarproc.pipeline.load_log` (``sensors``, ``truth``,
-        ``robot``, ``degrees``) for a path.
+        ``robot``, ``degrees``, ``pose_frame``) for a path.
     progress : callable, optional
         Called with each stage's name, as :func:`sonarproc.pipeline.process` does.
 
@@ -128,9 +128,9 @@ def run_log(
         result.timings_s = {"read": read_s, **result.timings_s}
         if mode == "given" or result.surfaces is not None:
             return result, None
-    from sonarproc.auto import run_auto
+    from sonarproc.quality.of_auto import run_auto_measured
 
-    chosen_run, chosen, choice = run_auto(log_, params)
+    chosen_run, chosen, choice = run_auto_measured(log_, params)
     record = choice.to_json(chosen)
     record["mode"] = mode
     return chosen_run.run, record

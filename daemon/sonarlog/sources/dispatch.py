@@ -232,6 +232,7 @@ def read_source(
     drop_stale: bool = True,
     degrees: bool = False,
     truth: str | os.PathLike[str] | None = None,
+    pose_frame: str | None = None,
 ) -> tuple[SonarLog, ImportSummary]:
     """Read any supported log into an in-memory sonarlog.
 
@@ -257,6 +258,9 @@ def read_source(
     truth : path-like, optional
         A truth CSV (:func:`sonarlog.csvlog.read_truth_csv`: one or several polylines)
         replacing the log's ``/truth/profile``.
+    pose_frame : str, optional
+        A bag's poses in this fixed frame of its tf tree (``map``): the transforms from
+        it down to the robot's base frame composed (:mod:`sonarlog.sources.tfchain`).
 
     Returns
     -------
@@ -275,7 +279,7 @@ def read_source(
     fmt = detect_format(p)
     opts = ImportOptions(
         sonar_topic, odom_topic, robot, None if sensors is None else str(sensors),
-        temperature_c, drop_stale, degrees,
+        temperature_c, drop_stale, degrees, pose_frame,
     )  # fmt: skip
     lg, summary = fmt.read(p, opts)
     if truth is not None:

@@ -8,7 +8,10 @@ Which topics are used, unless the caller names them:
 * poses: the ``nav_msgs/Odometry`` topic (a name with ``odom`` or ``pose`` first), else a
   ``PoseStamped`` topic, else the ``odom -> base_link`` transform on ``/tf``;
 * mounts of Range transducers: ``/tf_static`` (frame -> robot base), unless a robot preset
-  or sensors file is given. Point clouds carry no mounts: they need a preset or file.
+  or sensors file is given. Point clouds carry no mounts: they need a preset or file;
+* with a fixed frame (``pose_frame``, e.g. ``map``): the poses of the robot's base frame
+  in it, composed along the tf chain (``map -> odom -> base_link``, static links from
+  ``/tf_static``; :mod:`sonarlog.sources.tfchain`).
 """
 
 from __future__ import annotations
@@ -211,11 +214,30 @@ def _choose_odom(
     )
 
 
+def _tf_topic(path: Path, topics: dict[str, tuple[str, int]], want: str | None) -> str:
+    """The dynamic tf topic a chain is read from (``want``, or the one named ``tf``)."""
+    if want is not None:
+        if want not in topics or topics[want][0] not in TF_TYPES:
+            raise SourceError(f"{path}: --pose-frame reads a tf topic; {want} is not one")
+        return want
+    tfs = sorted(
+        n for n, (t, c) in topics.items()
+        if t in TF_TYPES and n.rstrip("/").endswith("tf") and c > 0
+    )  # fmt: skip
+    if not tfs:
+        raise SourceError(f"{path}: --pose-frame needs a /tf topic; topics: {', '.join(topics)}")
+    return tfs[0]
+
+
 def _choose(path: Path, topics: dict[str, tuple[str, int]], opts: ImportOptions) -> _Choice:
     sonar, style = _choose_sonar(path, topics, opts.sonar_topic)
-    odom, kind = _choose_odom(path, topics, opts.odom_topic)
+    if opts.pose_frame:
+        odom, kind = _tf_topic(path, topics, opts.odom_topic), "chain"
+    else:
+        odom, kind = _choose_odom(path, topics, opts.odom_topic)
     static = [n for n, (t, _) in topics.items() if t in TF_TYPES and n.endswith("tf_static")]
-    return _Choice(sonar, style, odom, kind, static if style == "range" else [])
+    # static links: the Range mounts, and any link of a tf chain (base_footprint -> base_link)
+    return _Choice(sonar, style, odom, kind, static if style == "range" or opts.pose_frame else [])
 
 
 def list_bag(path: Path) -> list[TopicRow]:
@@ -376,7 +398,18 @@ def _from_cloud(
 def read_bag(path: Path, opts: ImportOptions, spec: SensorSet | None) -> BagContent:
     """Decode a bag's sonar values, poses and mounts (see the module docstring)."""
     choice, sonar, poses, static = _collect(path, opts)
-    track = poses.track()
+    if choice.odom_kind == "chain" and opts.pose_frame:
+        from sonarlog.sources.tfchain import chain_track
+
+        pair = poses.odom_pair()
+        base = pair[1] if pair else "base_link"
+        try:
+            track = chain_track(poses.tf_rows, static.parent, opts.pose_frame, base)
+        except SourceError as err:
+            raise SourceError(f"{path}: {err}") from None
+        poses.child_frame = base
+    else:
+        track = poses.track()
     if len(track) == 0:
         raise SourceError(f"{path}: no odometry: {choice.odom} holds no odom -> base poses")
     notes: list[str] = []
@@ -393,6 +426,8 @@ def read_bag(path: Path, opts: ImportOptions, spec: SensorSet | None) -> BagCont
             notes.append(f"cloud frame(s) {', '.join(odd)} taken as the robot base frame")
     pair = poses.odom_pair() if choice.odom_kind == "tf" else None
     label = f"{choice.odom} ({pair[0]} -> {pair[1]})" if pair else choice.odom
+    if choice.odom_kind == "chain":
+        label = f"{choice.odom} (tf chain {opts.pose_frame} -> {poses.child_frame})"
     return BagContent(
         raw, track, table, tuple(choice.sonar), label, choice.style, source, frames, tuple(notes)
     )

@@ -139,6 +139,9 @@ class ImportOptions:
         Drop values that repeat their sensor's previous value (default True).
     degrees : bool
         A readings CSV's angle columns (``theta``, ``turret``) are in degrees.
+    pose_frame : str or None
+        A bag's poses in this fixed frame of its tf tree (``map``: a SLAM's correction
+        composed with the odometry, :mod:`sonarlog.sources.tfchain`); None: the odometry.
     """
 
     sonar_topic: str | None = None
@@ -148,3 +151,4 @@ class ImportOptions:
     temperature_c: float | None = None
     drop_stale: bool = True
     degrees: bool = False
+    pose_frame: str | None = None

@@ -148,6 +148,9 @@ def compare_command(
         formats = parse_formats(export) if export is not None else []
         lg = load_log(log, sensors=sensors, truth=truth, robot=robot)
         warn_if_damaged(lg)
+        from sonarproc.pipeline.alignment import align_log
+
+        lg, aligned = align_log(lg)  # once, for every method (the drift correction of run)
         out_dir = out if out is not None else log.with_name(f"{log.stem}_compare")
         check_output_dir(out_dir)
         results = []
@@ -155,6 +158,7 @@ def compare_command(
             for k, method in enumerate(instances):
                 steps.describe(method.name)
                 results.extend(compare(lg, params, [method]))
+                results[-1].run.alignment = aligned
                 steps(k + 1)
         record = None
         if auto:

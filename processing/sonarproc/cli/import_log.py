@@ -56,6 +56,14 @@ def import_command(
     odom_topic: Annotated[
         str | None, typer.Option("--odom-topic", help="Pose topic (Odometry, PoseStamped, /tf).")
     ] = None,
+    pose_frame: Annotated[
+        str | None,
+        typer.Option(
+            "--pose-frame",
+            help="Poses in this fixed frame of the bag's tf tree (e.g. map: map -> odom -> "
+            "base_link composed).",
+        ),
+    ] = None,
     robot: Annotated[str | None, typer.Option("--robot", help=_ROBOT_HELP)] = None,
     sensors: Annotated[
         Path | None, typer.Option("--sensors", help="Sensors YAML with the mounts.")
@@ -103,7 +111,7 @@ def import_command(
             summary = import_to_sonarlog(
                 log, out, force=force, sonar_topic=sonar_topic, odom_topic=odom_topic,
                 robot=robot, sensors=sensors, temperature_c=temperature, degrees=degrees,
-                truth=truth,
+                truth=truth, pose_frame=pose_frame,
             )  # fmt: skip
     for line in summary.lines():
         typer.echo(f"sonarproc import: {line}", err=True)

@@ -27,8 +27,10 @@ __all__ = [
     "EngineOption",
     "FiguresOption",
     "FitOption",
+    "NoAlignOption",
     "OpsOption",
     "OrderOption",
+    "PoseFrameOption",
     "RobotOption",
     "RobustOption",
     "RunFitOption",
@@ -83,6 +85,22 @@ RobotOption = Annotated[
 ]
 TruthOption = Annotated[
     Path | None, typer.Option(help="True profile CSV (x,y) to compute E1 and E2 against.")
+]
+PoseFrameOption = Annotated[
+    str | None,
+    typer.Option(
+        "--pose-frame",
+        help="A bag's poses in this fixed frame of its tf tree (e.g. map: a SLAM's "
+        "correction composed with the odometry, map -> odom -> base_link).",
+    ),
+]
+NoAlignOption = Annotated[
+    bool,
+    typer.Option(
+        "--no-align",
+        help="Map the logged poses as they are (default: correct odometry drift where the "
+        "echoes show it).",
+    ),
 ]
 DropCrosstalkOption = Annotated[
     bool, typer.Option("--drop-crosstalk", help="Skip readings flagged as crosstalk.")
@@ -168,6 +186,7 @@ def build_run_params(
     robust: str = "none",
     span: str = "truth",
     arc_step_deg: float | None = None,
+    align: bool = True,
 ) -> RunParams:
     """Validated run parameters from option values as typed on the command line.
 
@@ -203,6 +222,7 @@ def build_run_params(
         robust=robust.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         span=span.strip().lower(),  # type: ignore[arg-type]  # validated by RunParams
         arc_step=None if arc_step_deg is None else math.radians(arc_step_deg),
+        align=align,
     )
 
 

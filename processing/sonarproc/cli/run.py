@@ -25,7 +25,9 @@ from sonarproc.cli.options import (
     CentreOption,
     DropCrosstalkOption,
     FiguresOption,
+    NoAlignOption,
     OrderOption,
+    PoseFrameOption,
     RobotOption,
     RunFitOption,
     RunOpsOption,
@@ -40,7 +42,18 @@ from sonarproc.cli.paths import check_output_dir
 
 __all__ = ["run_command"]
 
-_STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics", "report")
+_STAGES = (
+    "read",
+    "align",
+    "select",
+    "grid",
+    "rasterise",
+    "morphology",
+    "fit",
+    "metrics",
+    "quality",
+    "report",
+)
 
 
 class _DelayedProgress:
@@ -124,6 +137,27 @@ def _summary(doc: dict[str, Any], out: Path) -> None:
     if "precision_m" in m:
         table.add_row("precision", length_cm(m["precision_m"]))
         table.add_row("completeness", number(m["completeness"]))
+    q = doc.get("quality")
+    if q:
+        frac = q.get("explained_fraction")
+        table.add_row(
+            f"explained within {length_cm(q['tolerance_m'])}",
+            "n/a" if frac is None else f"{frac:.2f} of {q['explained_readings']} readings",
+        )
+        med, p90 = q.get("heldout_residual_median_m"), q.get("heldout_residual_p90_m")
+        table.add_row(
+            "held-out residual",
+            f"median {length_cm(med)}, p90 {length_cm(p90)}"
+            if med is not None and p90 is not None
+            else f"n/a ({q.get('reason')})",
+        )
+    al = doc.get("alignment")
+    if al:
+        table.add_row(
+            "drift correction",
+            f"applied: up to {length_cm(al['max_shift_m'])}" if al["applied"]
+            else f"not applied: {al['reason']}",
+        )  # fmt: skip
     table.add_row("t_cpu", seconds(m["t_cpu_s"]))
     table.add_row("report", str(out))
     Console().print(table)
@@ -150,6 +184,8 @@ def run_command(
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
     figures: FiguresOption = "png,svg",
+    no_align: NoAlignOption = False,
+    pose_frame: PoseFrameOption = None,
     degrees: Annotated[
         bool, typer.Option("--degrees", help="A readings CSV's theta and turret are in degrees.")
     ] = False,
@@ -194,14 +230,17 @@ def run_command(
             cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
             fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
             drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
-            span=span, arc_step_deg=arc_step,
+            span=span, arc_step_deg=arc_step, align=not no_align,
         )  # fmt: skip
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
         try:
-            read = {"sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees}
+            read = {
+                "sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees,
+                "pose_frame": pose_frame,
+            }  # fmt: skip
             result, record = run_log(log, params, mode, read=read, progress=progress)
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)

@@ -30,10 +30,10 @@ from sonarproc.pipeline.evaluation import fit_and_measure, map_counts, no_arc_me
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["STAGES", "MapBuilder", "MethodMap", "evaluate_map", "map_log"]
+__all__ = ["STAGES", "MapBuilder", "Measure", "MethodMap", "evaluate_map", "map_log"]
 
 #: Stage names reported to a progress callback, in order.
-STAGES = ("read", "select", "grid", "rasterise", "morphology", "fit", "metrics")
+STAGES = ("read", "align", "select", "grid", "rasterise", "morphology", "fit", "metrics", "quality")
 
 Stage = Callable[[str], None]
 
@@ -62,6 +62,8 @@ class MethodMap:
 #: A method's map builder: ``build(beams, grid, params, stage) -> MethodMap``; it may
 #: report its own stages (``"rasterise"``, ``"morphology"``) through ``stage``.
 MapBuilder = Callable[[Beams, Grid, RunParams, "Stage | None"], MethodMap]
+#: A measure of a finished map: ``measure(beams, grid, mmap, result)`` adds to ``result``.
+Measure = Callable[[Beams, Grid, MethodMap, RunResult], None]
 
 
 def evaluate_map(
@@ -180,6 +182,7 @@ def map_log(
     progress: Stage | None = None,
     cpu_start: float | None = None,
     empty_message: str | None = None,
+    measure: Measure | None = None,
 ) -> tuple[RunResult, MethodMap]:
     """Select the readings, lay the grid, build the map with ``build``, fit and measure.
 
@@ -197,6 +200,11 @@ def map_log(
         ``time.process_time()`` when the run began (default: now).
     empty_message : str, optional
         The error when the built map is empty (default: no arc touches the map or bbox).
+    measure : callable, optional
+        Called last as ``measure(beams, grid, mmap, result)`` to add a measure of the
+        map to the record (``sonarproc run``: its truth-free quality,
+        :mod:`sonarproc.quality`); its time is ``timings_s["quality"]``, outside
+        ``t_cpu_s``.
 
     Returns
     -------
@@ -227,6 +235,9 @@ def map_log(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,
     )  # fmt: skip
+    if measure is not None:
+        stage("quality")
+        measure(beams, grid, mmap, result)
     stage("done")
     timings.pop("done")
     result.timings_s = timings

@@ -16,6 +16,8 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import Evaluation
 
 if TYPE_CHECKING:
+    from sonarproc.pipeline.alignment import AlignmentRecord
+    from sonarproc.quality import Quality
     from sonarproc.surfaces import SurfaceSet
 
 __all__ = ["RunResult"]
@@ -48,6 +50,8 @@ class RunResult:
     surfaces: SurfaceSet | None = None
     auto: dict[str, Any] | None = None
     surface_metrics: dict[str, Any] | None = None
+    quality: Quality | None = None
+    alignment: AlignmentRecord | None = None
 
     @property
     def surfaces_fit(self) -> bool:

@@ -20,10 +20,12 @@ from pathlib import Path
 
 from sonarlog import SonarLog, read_log
 from sonarproc.errors import InputError, ParameterError
+from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.arcmap import build_arc_map
-from sonarproc.pipeline.mapping import map_log
+from sonarproc.pipeline.mapping import MethodMap, map_log
 from sonarproc.pipeline.result import RunResult
+from sonarproc.pipeline.selection import Beams
 
 __all__ = ["METHOD", "load_log", "process", "run_file"]
 
@@ -41,6 +43,11 @@ def process(
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
+    With ``params.align`` (the default) the poses are first aligned where the echoes
+    show odometry drift (:func:`sonarproc.pipeline.alignment.align_log`;
+    ``result.alignment`` says whether and why); ``t_cpu_s`` leaves it out (it measures
+    the paper's method), ``timings_s["align"]`` is its wall time.
+
     Parameters
     ----------
     log_ : sonarlog.SonarLog
@@ -55,6 +62,7 @@ def process(
     Returns
     -------
     RunResult
+        With its truth-free quality (:mod:`sonarproc.quality`) in ``.quality``.
 
     Raises
     ------
@@ -65,7 +73,31 @@ def process(
     ParameterError
         Parameters that cannot apply to this log (a map over ``max_cells``).
     """
-    result, _ = map_log(log_, params, build_arc_map, progress=progress, cpu_start=cpu_start)
+    cpu0 = time.process_time() if cpu_start is None else cpu_start
+    record = None
+    align_s = 0.0
+    if params.align:
+        from sonarproc.pipeline.alignment import align_log
+
+        if progress is not None:
+            progress("align")
+        t0, c0 = time.perf_counter(), time.process_time()
+        log_, record = align_log(log_)
+        align_s = time.perf_counter() - t0
+        cpu0 += time.process_time() - c0  # t_cpu_s is the paper's method's: not this
+    aligned = log_
+
+    def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
+        from sonarproc.quality import measure_quality
+
+        result.quality = measure_quality(aligned, params, build_arc_map, beams, grid, mmap, result)
+
+    result, _ = map_log(
+        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure
+    )
+    result.alignment = record
+    if record is not None:
+        result.timings_s = {"align": align_s, **result.timings_s}
     return result
 
 
@@ -76,6 +108,7 @@ def load_log(
     truth: str | Path | None = None,
     robot: str | None = None,
     degrees: bool = False,
+    pose_frame: str | None = None,
 ) -> SonarLog:
     """Read any log this tool reads, in memory.
 
@@ -83,7 +116,8 @@ def load_log(
     :func:`sonarlog.sources.read_source`, a ROS 1 bag, a ROS 2 bag directory or a Player
     log (``sensors``, a YAML, or ``robot``, a shipped preset such as ``pioneer3-dx``, then
     gives the mounts). ``truth``: a truth CSV replacing the log's. ``degrees``: a readings
-    CSV's ``theta`` and ``turret`` are in degrees.
+    CSV's ``theta`` and ``turret`` are in degrees. ``pose_frame``: a bag's poses in
+    this fixed frame of its tf tree (``map``), composed down to the robot's base frame.
 
     Raises
     ------
@@ -107,6 +141,8 @@ def load_log(
     is_sonarlog = p.is_file() and p.suffix.lower() in (".h5", ".hdf5")
     if robot is not None and is_sonarlog:
         raise ParameterError("robot", f"gives the mounts of a bag or a CSV log, not of {p}")
+    if pose_frame is not None and (is_sonarlog or p.suffix.lower() == ".csv"):
+        raise ParameterError("pose_frame", f"names a frame of a bag's tf tree; {p} is not a bag")
     if p.suffix.lower() == ".csv":
         sensors = sensors if sensors is not None else robot
         if sensors is None:
@@ -122,7 +158,7 @@ def load_log(
     if not is_sonarlog:
         from sonarlog.sources import read_source  # rosbags: only for the logs that need it
 
-        lg, _ = read_source(p, sensors=sensors, robot=robot)
+        lg, _ = read_source(p, sensors=sensors, robot=robot, pose_frame=pose_frame)
     else:
         lg = read_log(p)
     return lg if truth_xy is None else replace(lg, truth=truth_xy)
@@ -137,6 +173,7 @@ def run_file(
     robot: str | None = None,
     progress: Progress | None = None,
     degrees: bool = False,
+    pose_frame: str | None = None,
 ) -> RunResult:
     """Read a log (:func:`load_log`) and :func:`process` it; ``t_cpu_s`` includes reading.
 
@@ -150,7 +187,9 @@ def run_file(
     wall0 = time.perf_counter()
     if progress is not None:
         progress("read")
-    lg = load_log(path, sensors=sensors, truth=truth, robot=robot, degrees=degrees)
+    lg = load_log(
+        path, sensors=sensors, truth=truth, robot=robot, degrees=degrees, pose_frame=pose_frame
+    )
     read_s = time.perf_counter() - wall0
     result = process(lg, params, progress=progress, cpu_start=cpu0)
     result.timings_s = {"read": read_s, **result.timings_s}

@@ -12,11 +12,11 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from sonarproc.report.auto_record import auto_record_html
-from sonarproc.report.units import MISSING, length_cm, metric, seconds
+from sonarproc.report.units import MISSING, length_cm, metric, number, seconds
 
-__all__ = ["render_html", "surfaces_table"]
+__all__ = ["alignment_section", "quality_section", "render_html", "surfaces_table"]
 
-_STEMS = ("arcmap", "processed", "fit")
+_STEMS = ("arcmap", "processed", "fit", "alignment")
 _MIME = {"png": "image/png", "svg": "image/svg+xml"}
 
 _CSS = """
@@ -157,6 +157,58 @@ def _fit_section(doc: Mapping[str, Any]) -> str:
     )
 
 
+def quality_section(quality: Mapping[str, Any] | None) -> str:
+    """The truth-free quality (report.json's ``quality``): the map against its own readings.
+
+    >>> quality_section(None)
+    '<p>Not measured (a report from before quality was measured).</p>'
+    """
+    if not quality:
+        return "<p>Not measured (a report from before quality was measured).</p>"
+    tol = length_cm(quality.get("tolerance_m"))
+    frac = quality.get("explained_fraction")
+    rows = {
+        f"readings explained within {tol}": (
+            MISSING if frac is None else f"{frac:.3f} of {quality.get('explained_readings')}"
+        ),
+        "held-out range residual, median": length_cm(quality.get("heldout_residual_median_m")),
+        "held-out range residual, 90th percentile": length_cm(
+            quality.get("heldout_residual_p90_m")
+        ),
+        "held-out readings predicted": _fmt(quality.get("heldout_readings")),
+        "share the held-out map predicts": _fmt(quality.get("heldout_predicted_fraction")),
+        "held-out scheme": _fmt(quality.get("heldout_scheme")),
+    }
+    if quality.get("reason"):
+        rows["not measured"] = str(quality["reason"])
+    per = quality.get("surfaces") or []
+    table = ""
+    if per:
+        head = "<tr><th>surface</th><th>readings it echoes</th><th>explained</th></tr>"
+        body = "".join(
+            f"<tr><td>{html.escape(_fmt(e.get('surface')))}</td>"
+            f"<td>{html.escape(_fmt(e.get('readings')))}</td>"
+            f"<td>{html.escape(number(e.get('explained_fraction')))}</td></tr>"
+            for e in per
+        )
+        table = f'<table class="quality">{head}{body}</table>'
+    return _table(rows) + table
+
+
+def alignment_section(alignment: Mapping[str, Any] | None) -> str:
+    """The drift correction (report.json's ``alignment``), or nothing when not tried."""
+    if not alignment:
+        return ""
+    rows = {
+        "applied": _fmt(alignment.get("applied")),
+        "why": str(alignment.get("reason")),
+        "largest position shift": length_cm(alignment.get("max_shift_m")),
+        "mean position shift": length_cm(alignment.get("mean_shift_m")),
+        "largest heading shift": _fmt(alignment.get("max_turn_rad")) + " rad",
+    }
+    return "<h2>Odometry drift correction</h2>" + _table(rows)
+
+
 def _figure(name: str, data: bytes, caption: str) -> str:
     mime = _MIME[name.rsplit(".", 1)[-1]]
     uri = f"data:{mime};base64," + base64.b64encode(data).decode("ascii")
@@ -183,6 +235,7 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         "arcmap": "Arc map: number of arcs through each cell",
         "processed": "The processed map",
         "fit": "Processed map (grey), true surface (dashed), fit or surfaces (solid)",
+        "alignment": "Robot path: raw odometry and as corrected for drift",
     }
     shown = [
         next(f"{stem}.{ext}" for ext in ("png", "svg") if f"{stem}.{ext}" in images)
@@ -209,6 +262,9 @@ def render_html(doc: Mapping[str, Any], images: Mapping[str, bytes]) -> str:
         + _table(doc["metrics"], _METRIC_LABELS, human=True)
         + "<h2>Fit</h2>"
         + fit_html
+        + "<h2>Quality (no truth needed)</h2>"
+        + quality_section(doc.get("quality"))
+        + alignment_section(doc.get("alignment"))
         + (auto_record_html(doc["auto"]) if doc.get("auto") else "")
         + "<h2>Figures</h2>"
         + figures

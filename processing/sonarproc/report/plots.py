@@ -40,6 +40,7 @@ __all__ = [
     "FIGURES",
     "FIGURE_FORMATS",
     "MAX_DISPLAY",
+    "alignment_figure",
     "arcmap_figure",
     "block_max",
     "broken_at_jumps",
@@ -239,6 +240,33 @@ def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) ->
     return fig
 
 
+def alignment_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) -> Figure:
+    """The robot's path at the correction nodes, raw (dashed) and as corrected for drift
+    (solid), over the processed map (grey) of the corrected readings."""
+    from matplotlib.patches import Patch
+
+    record = result.alignment
+    raw = np.zeros((0, 2)) if record is None else record.raw_path
+    corrected = np.zeros((0, 2)) if record is None else record.corrected_path
+    with style.drawing():
+        extent = result.grid.extent
+        view = view_box(extent)
+        shift = 0.0 if record is None else record.max_shift_m
+        title = _title(result, f"drift correction, up to {length_cm(shift)}")
+        fig, ax, _ = style.map_figure(extent, title, legend_entries=3)
+        shown = style.cells_rgba(_shown(result, cells), style.CELL_GREY)
+        ax.imshow(shown, extent=extent, interpolation="none")
+        handles: list[Any] = [Patch(color=style.CELL_GREY, label="processed map")]
+        handles.append(
+            _line(ax, raw, view, color="black", ls="--", lw=1.2, label="raw odometry path")
+        )
+        handles.append(
+            _line(ax, corrected, view, color=style.PATH_COLOUR, lw=1.5, label="corrected path")
+        )
+        style.legend_below(fig, handles)
+    return fig
+
+
 def figure_bytes(fig: Figure, fmt: str) -> bytes:
     """``fig`` saved as ``fmt`` (``png`` at :data:`~sonarproc.report.style.DPI`, ``svg``)."""
     buf = io.BytesIO()
@@ -263,20 +291,25 @@ def render_figures(
     *,
     auto: Mapping[str, Any] | None = None,
 ) -> dict[str, bytes]:
-    """Every figure of :data:`FIGURES` in ``formats``: ``{"arcmap.png": ..., ...}``.
+    """Every figure of :data:`FIGURES` in ``formats``: ``{"arcmap.png": ..., ...}``; and
+    ``alignment`` (:func:`alignment_figure`) when the run's poses were corrected for drift.
 
     No format: no figure, and matplotlib is not imported.
     """
     if not formats:
         return {}
     cells = _shown(result, None)
-    figures = (
+    figures = [
         arcmap_figure(result),
         processed_figure(result, cells, auto=auto),
         fit_figure(result, cells),
-    )
+    ]
+    stems = list(FIGURES)
+    if result.alignment is not None and result.alignment.applied:
+        figures.append(alignment_figure(result, cells))
+        stems.append("alignment")
     return {
         f"{stem}.{fmt}": figure_bytes(fig, fmt)
-        for stem, fig in zip(FIGURES, figures, strict=True)
+        for stem, fig in zip(stems, figures, strict=True)
         for fmt in formats
     }

@@ -79,7 +79,9 @@ def report_dict(result: RunResult, *, auto: dict[str, Any] | None = None) -> dic
     ``grid``, ``counts``, ``log_state`` (``closed``, ``crashed``, ``cut``), ``intact_rows``,
     ``dropped_rows``, ``fit``, ``metrics`` (``e``, ``f_c``, ``t_cpu_s``, ``N``, ``N_k``
     and, when the log has a truth profile, ``E1_m``, ``E2``, ``sigma_y_m``), ``truth``,
-    ``timings_s``; with ``auto`` (``run --auto``'s record), ``auto``. A surfaces fit
+    ``timings_s``, ``quality`` (the truth-free figures of :mod:`sonarproc.quality`, None
+    when not measured); ``alignment`` when the poses were aligned (or alignment was
+    tried); with ``auto`` (``run --auto``'s record), ``auto``. A surfaces fit
     (``fit = "auto"`` on a room) has ``fit`` = ``{"kind": "surfaces", "ok": true,
     "surfaces": N, ...}``, a ``surfaces`` list (``kind``, ``model``, ``length_m``,
     ``rms_m``, ``support`` each) and, on a log with a truth, ``precision_m`` and
@@ -112,6 +114,9 @@ def report_dict(result: RunResult, *, auto: dict[str, Any] | None = None) -> dic
         "truth": result.truth is not None,
         "timings_s": {k: round(v, 6) for k, v in result.timings_s.items()},
     }
+    doc["quality"] = result.quality.to_json() if result.quality is not None else None
+    if result.alignment is not None:
+        doc["alignment"] = result.alignment.to_json()
     if result.auto is not None:
         doc["fit_choice"] = result.auto
     if auto is not None:
@@ -146,6 +151,7 @@ def upgrade_report(doc: dict[str, Any]) -> dict[str, Any]:
     from sonarproc.pipeline.surfacefit import surface_kind
 
     out = dict(doc)
+    out.setdefault("quality", None)  # reports before v3 measured no quality
     metrics = dict(out.get("metrics") or {})
     for key in ("precision_m", "completeness"):
         if key in out:

@@ -90,6 +90,10 @@ COLUMNS = (
     "surfaces",
     "precision_m",
     "completeness",
+    # the truth-free quality every run measures (report.json's quality)
+    "explained_fraction",
+    "heldout_residual_median_m",
+    "heldout_residual_p90_m",
 )
 
 
@@ -171,6 +175,12 @@ def _row(c: Combination, lg: Any, maps: SharedMaps | None = None) -> dict[str, A
         readings_used=r.counts["readings_used"],
         processed_cells=r.counts["processed_cells"],
     )
+    if r.quality is not None:
+        row.update(
+            explained_fraction=r.quality.explained_fraction,
+            heldout_residual_median_m=r.quality.heldout_median_m,
+            heldout_residual_p90_m=r.quality.heldout_p90_m,
+        )
     if r.truth is None and p.fit != "polar" and r.surfaces is None and r.points_x.size:
         try:
             _, scores = select_order_cv(

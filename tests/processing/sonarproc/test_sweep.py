@@ -189,7 +189,8 @@ def test_rows_equal_single_runs(
     assert header.startswith("index,input,ops,order,cell,fit,robust,span,smooth,")
     assert header.endswith(
         ",e,f_c,E1_m,E2,t_cpu_s,N,N_k,readings_used,processed_cells,cv_score,"
-        "surfaces,precision_m,completeness"
+        "surfaces,precision_m,completeness,"
+        "explained_fraction,heldout_residual_median_m,heldout_residual_p90_m"
     )
 
 

@@ -1,0 +1,131 @@
+"""Odometry drift correction in a run: align the poses where it helps, and say why.
+
+:func:`align_log` runs the pose-graph solver (:func:`sonarproc.align.align_poses`) on a
+log and keeps its correction only where the echoes say it is real: the solver must not
+refuse, and the echoes must agree *significantly* better with the correction than
+without it. A correction with ``p`` unknowns fitted to pure noise lowers the robust
+cost (half the sum of squared residuals in standard deviations) by about ``p / 2``:
+twice the reduction is chi-square with ``p`` degrees of freedom. The correction is
+applied when twice the reduction exceeds that distribution's 99th percentile
+(:data:`SIGNIFICANCE`); a drift-free log then keeps its poses exactly (its results do
+not move), while a drift of a few per cent of the distance passes by an order of
+magnitude.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarlog import SonarLog
+
+__all__ = ["SIGNIFICANCE", "AlignmentRecord", "align_log"]
+
+log = logging.getLogger(__name__)
+
+FloatArray = npt.NDArray[np.float64]
+
+#: A correction is kept when the chance that noise alone lowers the echoes' cost as much
+#: is below this.
+SIGNIFICANCE = 0.01
+
+
+@dataclass(frozen=True, eq=False)
+class AlignmentRecord:
+    """What the drift correction did to a run's poses (``report.json``'s ``alignment``).
+
+    Attributes
+    ----------
+    applied : bool
+        Whether the run mapped the corrected poses.
+    reason : str
+        Why it was (the echoes' agreement improved significantly) or was not.
+    raw_path, corrected_path : ndarray, shape (K, 2)
+        The robot's position at the correction nodes, raw and corrected (the same when
+        not applied); for the figure.
+    max_shift_m, mean_shift_m, max_turn_rad : float
+        Largest and mean position change of a reading, largest heading change, of the
+        applied correction (0 when not applied).
+    summary : dict
+        The solver's figures (:meth:`sonarproc.align.Alignment.summary`), of the
+        correction it found, applied or not.
+    unknowns : int
+        Unknowns of the correction (three per node after the first, two calibrations).
+    cost_drop_x2, threshold : float
+        Twice the echoes' cost reduction, and the chi-square percentile it had to pass.
+    """
+
+    applied: bool
+    reason: str
+    raw_path: FloatArray
+    corrected_path: FloatArray
+    max_shift_m: float
+    mean_shift_m: float
+    max_turn_rad: float
+    summary: dict[str, Any]
+    unknowns: int = 0
+    cost_drop_x2: float = 0.0
+    threshold: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready record (the contract in docs/formats.md)."""
+        return {
+            "applied": self.applied,
+            "reason": self.reason,
+            "max_shift_m": self.max_shift_m,
+            "mean_shift_m": self.mean_shift_m,
+            "max_turn_rad": self.max_turn_rad,
+            "unknowns": self.unknowns,
+            "cost_drop_x2": self.cost_drop_x2,
+            "threshold": self.threshold,
+            "summary": dict(self.summary),
+        }
+
+
+def align_log(log_: SonarLog) -> tuple[SonarLog, AlignmentRecord]:
+    """The log with its poses aligned where that helps, and the record of why.
+
+    Returns
+    -------
+    log : sonarlog.SonarLog
+        ``log_`` itself when the correction is not applied, else a copy whose readings
+        carry the corrected poses (:func:`sonarproc.align.corrected_readings`).
+    record : AlignmentRecord
+    """
+    from scipy.special import chdtri  # chi-square quantiles (scipy.stats is slow to load)
+
+    from sonarproc.align import align_poses, corrected_readings
+
+    a = align_poses(log_.readings, log_.sensors, speed_of_sound=log_.speed_of_sound)
+    summary = a.summary()
+    unknowns = 3 * (int(a.node_offsets.shape[0]) - 1) + int(a.calibration.size)
+    drop = 2.0 * (a.cost_before - a.cost_after)
+    threshold = float(chdtri(unknowns, SIGNIFICANCE)) if unknowns > 0 else 0.0
+    if a.reason:
+        applied, why = False, a.reason
+    elif not drop > threshold:
+        applied = False
+        why = (
+            f"the correction does not make the echoes agree significantly better (twice "
+            f"the cost drop {drop:.3g} <= {threshold:.3g}, the chance level of "
+            f"{unknowns} unknowns)"
+        )
+    else:
+        applied = True
+        why = f"the echoes agree better (twice the cost drop {drop:.3g} > {threshold:.3g})"
+    log.info("alignment %s: %s", "applied" if applied else "not applied", why)
+    if not applied:
+        path = np.asarray(a.raw_path, dtype=np.float64)
+        record = AlignmentRecord(False, why, path, path.copy(), 0.0, 0.0, 0.0, summary,
+                                 unknowns, drop, threshold)  # fmt: skip
+        return log_, record
+    record = AlignmentRecord(
+        True, why, np.asarray(a.raw_path), np.asarray(a.corrected_path),
+        a.path_difference_max_m, a.path_difference_mean_m, a.heading_difference_max_rad,
+        summary, unknowns, drop, threshold,
+    )  # fmt: skip
+    return replace(log_, readings=corrected_readings(log_.readings, a)), record
