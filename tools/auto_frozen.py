@@ -114,7 +114,7 @@ def best_from(page: str) -> dict[int, tuple[str, float]]:
     Examples
     --------
     >>> row = "| 7 | wall / ring | 59 | 1.33 | median/spline@1.6 | 0.68 | x | 1.27 | 1.88 |"
-    >>> best_from(row)
+    >>> {k: (m, round(e, 6)) for k, (m, e) in best_from(row).items()}
     {7: ('median/spline@1.6', 0.0068)}
     """
     out = {}
