@@ -9,9 +9,9 @@ chosen). The hull is judged on each setting's fit to the map of all the scored r
 points and may leave their hull where the whole fit does not. A guard can only raise a
 candidate's residual or exclude it, so it is judged from the top of the ranking down
 until a judged candidate is on top (:meth:`AutoChoice.next_ranked`): the same choice as
-judging every candidate, for one or two of them. :func:`run_auto` then runs the winner
-on every reading (the hull is checked again on that fit; a failure hands over to the
-runner-up) and refits it through the readings' echo points.
+judging every candidate, for a few of them. :func:`run_auto` then runs the winner on
+every reading (the hull is checked again on that fit; a failure hands over to the
+runner-up).
 
 Large logs are scored on a random subset of at most ``max_readings`` readings (whole
 firings), so ``--auto`` costs a few runs, whatever the log.
@@ -31,7 +31,7 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
-from sonarproc.auto.echo_refit import choose_refit, range_noise
+from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
 from sonarproc.auto.holdout import Split, heldout_splits, subset_beams
 from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.score import (
@@ -41,6 +41,7 @@ from sonarproc.auto.score import (
     TRIM,
     AutoChoice,
     Score,
+    paired_se,
 )
 from sonarproc.auto.scoring import WholeGuard, fold_scores, mean_count
 from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_map
@@ -49,7 +50,7 @@ from sonarproc.errors import NothingToMapError
 from sonarproc.fit import FitFailure, PolyFit, SplineFit
 from sonarproc.grid import Grid
 from sonarproc.methods import MethodResult
-from sonarproc.metrics import bin_stats
+from sonarproc.metrics import Bins, bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import measure_profile
 from sonarproc.pipeline.mapping import MethodMap, evaluate_map
@@ -67,6 +68,9 @@ FloatArray = npt.NDArray[np.float64]
 #: to :data:`MAX_REPEATS` times) so that about this many held-out predictions are scored.
 REPEAT_READINGS = 1_200
 MAX_REPEATS = 3
+#: The echo refit starts from the winner's profile and from the next runners-up's, this
+#: many profiles in all.
+REFIT_STARTS = 3
 
 
 def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[np.bool_]:
@@ -258,6 +262,7 @@ def run_auto(
     choice = choose(log_, base, **kwargs)
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
+    workers = kwargs.get("workers")
     per_fold = int(kwargs.get("heldout_per_fold", 300))
     last: tuple[MethodResult, Score] | None = None
     tried: list[Score] = []
@@ -283,7 +288,7 @@ def run_auto(
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
             return (
-                _refitted(log_, base, res, s, choice, max_readings, seed, per_fold),
+                _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold),
                 s,
                 choice,
             )
@@ -295,7 +300,7 @@ def run_auto(
         f"({s.excluded})"
     )
     # its refit through the echo points has guard rails of its own (the points' hull)
-    return _refitted(log_, base, res, s, choice, max_readings, seed, per_fold), s, choice
+    return _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold), s, choice
 
 
 def _refitted(
@@ -306,11 +311,12 @@ def _refitted(
     choice: AutoChoice,
     max_readings: int,
     seed: int,
+    workers: int | None,
     per_fold: int,
 ) -> MethodResult:
     """The run refitted through the echo points (:func:`_echo_refitted`), and the record
     of the map cells its profile left out."""
-    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, per_fold)
+    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold)
     left_out = refitted.run.counts.get(LEFT_OUT, 0)
     choice.left_out = {
         "rule": SEPARATION_RULE,
@@ -320,10 +326,49 @@ def _refitted(
     return refitted
 
 
+@dataclass
+class RefitStart:
+    """A profile the echo refit starts from: a candidate's fit, its map's columns, its grid."""
+
+    score: Score
+    fit: PolyFit | SplineFit
+    bins: Bins
+    grid: Grid
+
+
+def _refit_starts(choice: AutoChoice, winner: Score, grid: Grid) -> list[RefitStart]:
+    """The runners-up the echo refit also starts from (:data:`REFIT_STARTS` in all), each
+    at its chosen setting's fit to its map of the scored readings (no map is built again)."""
+    # by identity: Score is a dataclass whose equality would compare its arrays
+    ranked = [s for s in choice.ranked if np.isfinite(s.residual_m)]
+    tried = ranked[: next(i for i, s in enumerate(ranked) if s is winner) + 1]
+    starts: list[RefitStart] = []
+    while len(starts) < REFIT_STARTS - 1 and (s := choice.next_ranked(tried)) is not None:
+        tried.append(s)
+        fit = s.whole_fits.get(s.setting) if s.setting is not None else None
+        if s.excluded is None and isinstance(fit, PolyFit | SplineFit) and s.whole_bins:
+            starts.append(RefitStart(s, fit, s.whole_bins, grid))
+    return starts
+
+
 def _setting_losses(s: Score) -> FloatArray | None:
     """A score's held-out losses at its chosen setting, in the order of the folds."""
     losses = s.losses.get(s.setting) if s.setting is not None else None
     return np.concatenate(losses) if losses else None
+
+
+def _pick_start(refits: list[RefitChoice]) -> int:
+    """Which start's refit to keep: the winner's (index 0) unless another predicts the
+    held-out readings better by more than :data:`TIE_SE` paired standard errors."""
+    scored = {i: r.residual for i, r in enumerate(refits) if r.residual is not None}
+    if not scored:
+        return 0
+    best = min(scored, key=lambda i: scored[i])
+    mine, theirs = refits[0], refits[best]
+    if mine.residual is None or mine.heldout is None or theirs.heldout is None:
+        return best
+    gap = mine.residual - scored[best]
+    return best if gap > TIE_SE * np.nan_to_num(paired_se(mine.heldout, theirs.heldout)) else 0
 
 
 def _echo_refitted(
@@ -334,37 +379,65 @@ def _echo_refitted(
     choice: AutoChoice,
     max_readings: int,
     seed: int,
+    workers: int | None,
     per_fold: int,
 ) -> MethodResult:
     """The winner's run with a profile refitted through the echo points, if that wins.
 
-    The refit starts from the winner's profile (its fit to every reading): it finds its
-    echo points near that profile, and it is scored on the readings and folds the
-    candidates were scored on (:func:`sonarproc.auto.echo_refit.choose_refit`), judged
-    against the winner's held-out losses. The record says what it found.
+    The refit starts from the winner's profile and from the next runners-up's
+    (:func:`_refit_starts`): it finds its echo points near the profile it starts from,
+    and a rough start on a noisy log finds the wrong ones. Each start's refit is scored
+    on the readings and folds the candidates were scored on
+    (:func:`sonarproc.auto.echo_refit.choose_refit`) and judged against the winner's
+    held-out losses; the winner's start is kept unless another's refit predicts the
+    held-out readings better by more than :data:`TIE_SE` paired standard errors (then
+    that runner-up is run on every reading for its map). The record says what it found.
     """
     beams = choice.scored
     if beams is None:
         beams, _ = select_beams(log_, base)
         beams = subset_beams(beams, _sample_firings(beams.readings, max_readings, seed))
     r = res.run
+    # the winner's held-out losses, fold by fold as the refit's (same seeds and draws)
+    mine = _setting_losses(winner)
     cap = max(CAP_CELLS * r.grid.cell, 0.05)
     if not isinstance(r.fit, PolyFit | SplineFit):
         choice.echo_refit = choose_refit(
             r.fit, r.bins, beams, r.grid, chosen_residual=winner.residual_m, cap=cap
         ).to_json()  # says that there is no profile y(x) to refit
         return res
-    refit = choose_refit(
-        r.fit, r.bins, beams, r.grid, chosen_residual=winner.residual_m,
-        # the winner's held-out losses, fold by fold as the refit's (same seeds and draws)
-        chosen_losses=_setting_losses(winner), folds=choice.folds, repeats=choice.repeats,
-        heldout_per_fold=per_fold, cap=cap, seed=seed,
-        noise=range_noise(r.fit, beams, r.grid.cell),
-    )  # fmt: skip
+    starts = [RefitStart(winner, r.fit, r.bins, r.grid)]
+    starts += _refit_starts(choice, winner, r.grid)
+    # one noise estimate for every start, so that their refits differ only by the start:
+    # the lowest, from the profile that explains the readings best
+    noise = min(in_threads(lambda st: range_noise(st.fit, beams, st.grid.cell), starts, workers))
+
+    def refit_from(st: RefitStart) -> RefitChoice:
+        return choose_refit(
+            st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
+            chosen_losses=mine, folds=choice.folds,
+            repeats=choice.repeats, heldout_per_fold=per_fold, cap=cap, seed=seed, noise=noise,
+        )  # fmt: skip
+
+    refits = in_threads(refit_from, starts, workers)
+    pick = _pick_start(refits)
+    refit, start = refits[pick], starts[pick].score
     choice.echo_refit = record = refit.to_json()
-    record["start"] = _start_label(winner)
+    record["start"] = _start_label(start)
+    record["starts"] = [
+        {"start": _start_label(st.score), "residual_m": rf.residual, "fit_short": rf.fit_short}
+        for rf, st in zip(refits, starts, strict=True)
+    ]
+    if pick:
+        record["reason"] = (
+            f"started from {_start_label(start)}, whose refit beats the winner's by more "
+            f"than {TIE_SE:g} paired standard errors; " + refit.reason
+        )
     if not refit.applied or refit.fit is None or isinstance(refit.fit, FitFailure):
         return res
+    if pick:
+        res = run_candidate(log_, base, start)
+        r = res.run
     if isinstance(refit.fit, PolyFit):
         params = replace(r.params, fit="poly", order=refit.fit.order, smooth=None)
     else:

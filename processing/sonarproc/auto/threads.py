@@ -1,9 +1,10 @@
 """Independent pieces of ``--auto`` on a few threads.
 
-The folds' maps and fits do not depend on each other. Their work is numpy and scipy
-array operations, which release the GIL, so threads overlap them without copying the
-readings to other processes; each piece's results are gathered in order, so the
-outcome does not depend on the number of threads.
+The folds' maps and fits, the fit to all the scored readings and the echo refit's starts
+do not depend on each other. Their work is numpy and scipy array operations, which
+release the GIL, so threads overlap them without copying the readings to other
+processes; each piece's results are gathered in order, so the outcome does not depend
+on the number of threads.
 """
 
 from __future__ import annotations

@@ -18,6 +18,7 @@ from sonarproc.auto.echo_refit import (
     NOISE_WIDTHS,
     ROUNDS_M,
     TIE_SE,
+    RefitChoice,
     RefitSetting,
     choose_refit,
     echo_points,
@@ -481,14 +482,41 @@ def test_a_profile_few_readings_echo_from_is_not_refitted() -> None:
     assert f"(at least {MIN_ECHO_POINTS} needed)" in got.reason
 
 
+def _refit_with(residual: float | None, losses: np.ndarray | None) -> RefitChoice:
+    out = RefitChoice("echo")
+    out.residual, out.heldout = residual, losses
+    return out
+
+
+def test_the_winners_start_is_kept_unless_another_refit_is_clearly_better() -> None:
+    from sonarproc.auto.select import _pick_start
+
+    rng = np.random.default_rng(8)
+    mine = np.abs(rng.normal(0.0, 0.01, 400))
+    # a hair better, as scattered: tied, the winner's start is kept
+    close = rng.permutation(mine) * 0.999
+    tied = [_refit_with(robust_residual(mine), mine), _refit_with(robust_residual(close), close)]
+    assert _pick_start(tied) == 0
+    # half the loss on every reading: many paired errors better, that start is taken
+    better = mine * 0.5
+    refits = [*tied, _refit_with(robust_residual(better), better)]
+    assert _pick_start(refits) == 2
+    # the winner's own start found no refit: the best other one is taken
+    assert _pick_start([_refit_with(None, None), refits[1], refits[2]]) == 2
+    assert _pick_start([_refit_with(None, None), _refit_with(None, None)]) == 0
+
+
 def test_run_auto_records_the_refit_and_measures_what_it_returns(tmp_path: Path) -> None:
     path = tmp_path / "fig02.h5"
     simulate_to_log(ROOT / "configs/scenarios/fig02.yaml", path)
     res, chosen, choice = run_auto(load_log(path), RunParams())
     rec = choice.to_json(chosen)["echo_refit"]
     assert rec is not None and set(rec) >= {"criterion", "residuals_m", "applied", "reason"}
-    # the refit starts from the winner's profile, and says so
-    assert rec["start"].startswith(chosen.candidate.name + " (")
+    # the refit starts from the winner and from at most two runners-up, and says which won
+    starts = [s["start"] for s in rec["starts"]]
+    assert 1 <= len(starts) <= 3 and starts[0].startswith(chosen.candidate.name + " (")
+    assert rec["start"] in starts
+    assert ("started from" in rec["reason"]) == (rec["start"] != starts[0])
     # every tied refit says why it is tied; the best is one of them
     assert set(rec["tied_why"]) == set(rec["tied"]) and "the best" in rec["tied_why"].values()
     r = res.run
