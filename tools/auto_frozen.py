@@ -19,6 +19,12 @@ Usage::
     python tools/auto_frozen.py                 # the frozen block -> docs/auto-frozen.md
     python tools/auto_frozen.py --seeds dev     # the development seeds, printed only
     python tools/auto_frozen.py --seeds 0-49 --workers 2
+    python tools/auto_frozen.py --best-from other.md   # --auto only; the best from a page
+
+The best candidate does not depend on ``--auto``'s rules (every candidate is run on the
+whole log at every setting): ``--best-from`` takes each seed's best model and its E1
+from a page this tool wrote for the same seeds (another version's), and runs ``--auto``
+alone, at a fraction of the cost.
 """
 
 from __future__ import annotations
@@ -45,8 +51,11 @@ WITHIN = 1.25
 FAIL_ABOVE_M, FAIL_WHEN_BEST_BELOW_M = 0.05, 0.03
 
 
-def judge_seed(seed: int) -> dict[str, Any]:
-    """Simulate one random scene and judge every candidate and ``--auto`` on it by the truth."""
+def judge_seed(seed: int, best: tuple[str, float] | None = None) -> dict[str, Any]:
+    """Simulate one random scene and judge every candidate and ``--auto`` on it by the truth.
+
+    ``best``: the seed's best model and its E1 (m), known already; then only ``--auto`` is run.
+    """
     import yaml
 
     from sonarmorph_tools.auto_judge import auto_row
@@ -65,7 +74,7 @@ def judge_seed(seed: int) -> dict[str, Any]:
         "sigma_cm": 100 * scene["imperfections"]["range_noise_sigma"],
     }  # fmt: skip
     try:
-        judged = auto_row(log_)
+        judged = auto_row(log_) if best is None else _auto_only(log_, *best)
     except Exception as err:  # a failure is a row of the table, not the end of the block
         return {**row, "error": f"{type(err).__name__}: {err}"}
     best_e, auto_e = judged["best_error_m"], judged["auto_error_m"]
@@ -76,6 +85,44 @@ def judge_seed(seed: int) -> dict[str, Any]:
         **row, "best": judged["best"], "best_E1": best_e, "auto": judged["choice"],
         "auto_E1": auto_e, "ratio": auto_e / max(best_e, 1e-6), "auto_s": judged["auto_s"],
     }  # fmt: skip
+
+
+def _auto_only(log_: Any, best: str, best_error_m: float) -> dict[str, Any]:
+    """``--auto``'s pick and error on ``log_``, beside a best model known already."""
+    import time
+
+    from sonarmorph_tools.auto_judge import Judge
+    from sonarproc.auto import run_auto
+    from sonarproc.params import RunParams
+    from sonarproc.pipeline.selection import select_beams
+
+    base = RunParams()
+    t0 = time.perf_counter()
+    res, chosen, _ = run_auto(log_, base)
+    wall = time.perf_counter() - t0
+    auto_e, _ = Judge(log_, select_beams(log_, base)[0]).error(res.run)
+    setting = "" if chosen.candidate.family == "surfaces" else f"@{chosen.setting:g}"
+    return {
+        "choice": f"{chosen.candidate.name}{setting}", "auto_error_m": auto_e, "best": best,
+        "best_error_m": best_error_m, "auto_s": wall,
+    }  # fmt: skip
+
+
+def best_from(page: str) -> dict[int, tuple[str, float]]:
+    """Each seed's best model and its E1 (m) from a page this tool wrote.
+
+    Examples
+    --------
+    >>> row = "| 7 | wall / ring | 59 | 1.33 | median/spline@1.6 | 0.68 | x | 1.27 | 1.88 |"
+    >>> {k: (m, round(e, 6)) for k, (m, e) in best_from(row).items()}
+    {7: ('median/spline@1.6', 0.0068)}
+    """
+    out = {}
+    for line in page.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 9 and cells[0].isdigit() and cells[5] not in ("—", ""):
+            out[int(cells[0])] = (cells[4], float(cells[5]) / 100)
+    return out
 
 
 def _seeds(text: str) -> range:
@@ -150,10 +197,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default="frozen", help="frozen, dev, or LO-HI")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None, help="Markdown file to write")
+    ap.add_argument(
+        "--best-from", type=Path, default=None, metavar="PAGE",
+        help="take each seed's best model from this page (written by this tool for the "
+        "same seeds) and run --auto alone",
+    )  # fmt: skip
     args = ap.parse_args(argv)
     seeds = _seeds(args.seeds)
+    known = best_from(args.best_from.read_text(encoding="utf-8")) if args.best_from else {}
+    if args.best_from and not set(seeds) <= set(known):
+        missing = sorted(set(seeds) - set(known))
+        print(f"auto_frozen: error: --best-from: no best model for seeds {missing[:5]}...",
+              file=sys.stderr)  # fmt: skip
+        return 2
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        rows = list(pool.map(judge_seed, seeds))
+        rows = list(pool.map(judge_seed, seeds, [known.get(s) for s in seeds]))
     out = args.out
     if out is None and args.seeds == "frozen":
         out = ROOT / "docs" / "auto-frozen.md"

@@ -45,7 +45,7 @@ from sonarproc.auto.holdout import predicted_path
 from sonarproc.auto.score import HULL_CELLS
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
-from sonarproc.methods.echo_model import first_echo
+from sonarproc.methods.echo_model import MIN_PATH_GAIN, curve_echo_points
 from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
@@ -81,9 +81,6 @@ NOISE_MAX = 0.10
 HULL_NOISE_WIDTH = 2.0
 #: Readings the noise estimate looks at, at most (its median is then good to a few %).
 NOISE_READINGS = 1500
-#: A reading whose path changes by less than this per metre along the normal (grazing
-#: geometry, far off the bisector) says too little about the surface's distance.
-MIN_PATH_GAIN = 0.5
 
 #: A cluster of echo points at an end of the profile, cut from the rest by a gap wider than
 #: this (m) and holding less than :data:`END_SHARE` of them, is dropped (see
@@ -253,34 +250,14 @@ def echo_points(
     >>> rows.tolist(), np.round(pts[:, 1], 3).tolist()
     ([0], [1.0])
     """
-    curve = sample_curve(fit, span, step)
     p = beams.poses
     ids = np.arange(len(beams.path)) if among is None else among
-    measured = beams.path[ids]
-    path, at = first_echo(
+    hit, points = curve_echo_points(
         p.tx_xy[ids], p.tx_heading[ids], p.tx_half_beamwidth[ids], p.rx_xy[ids],
-        p.rx_heading[ids], p.rx_half_beamwidth[ids], curve, beams.readings["echo"][ids],
+        p.rx_heading[ids], p.rx_half_beamwidth[ids], beams.path[ids],
+        sample_curve(fit, span, step), tol=tol, rank=beams.readings["echo"][ids],
     )  # fmt: skip
-    ok = (at > 0) & (at < curve.shape[0] - 1) & (np.abs(measured - path) <= 2.0 * tol)
-    hit = np.flatnonzero(ok)
-    k = at[hit]
-    foot = curve[k]
-    tangent = curve[k + 1] - curve[k - 1]
-    normal = np.column_stack((-tangent[:, 1], tangent[:, 0]))
-    normal /= np.hypot(*normal.T)[:, None]
-    to_tx = foot - p.tx_xy[ids[hit]]
-    to_rx = foot - p.rx_xy[ids[hit]]
-    gain = np.einsum(
-        "ij,ij->i",
-        normal,
-        to_tx / np.hypot(*to_tx.T)[:, None] + to_rx / np.hypot(*to_rx.T)[:, None],
-    )
-    shift = (measured[hit] - path[hit]) / np.where(gain == 0.0, np.nan, gain)
-    # a small gain magnifies the path's error: the echo point must lie within the
-    # tolerance of the profile too, not only its path
-    good = (np.abs(gain) >= MIN_PATH_GAIN) & (np.abs(shift) <= tol)
-    hit, foot, normal, shift = hit[good], foot[good], normal[good], shift[good]
-    return ids[hit], foot + shift[:, None] * normal
+    return ids[hit], points
 
 
 def main_body(x: FloatArray) -> npt.NDArray[np.bool_]:

@@ -10,6 +10,7 @@ readings imply, or does no better than a constant or a straight line on its poin
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -217,6 +218,9 @@ class Score:
     function_folds: int = 0
     too_large: int = 0
     excluded: str | None = None
+    #: whether the guard rails' fits (hull, coverage) were judged: only the candidates
+    #: ranked at the top are (:class:`sonarproc.auto.scoring.WholeGuard`)
+    guarded: bool = False
 
     def absorb(self, fold: Score) -> None:
         """Append one fold's losses, scored on a fresh Score of the same candidate."""
@@ -282,6 +286,7 @@ class Score:
             "baseline_residual_m": _finite(self.baseline_m),
             "coverage": round(self.coverage_frac, 4),
             "excluded": self.excluded,
+            "guard_judged": self.guarded,
         }
 
 
@@ -306,11 +311,33 @@ class AutoChoice:
     fallback: str | None = None
     #: The scored readings (the echo refit is scored on the same ones and folds)
     scored: Beams | None = field(default=None, repr=False, compare=False)
+    #: Judges a candidate's guard rails when first needed (:meth:`next_ranked`)
+    guard: Callable[[Score], None] | None = field(default=None, repr=False, compare=False)
 
     @property
     def ranked(self) -> list[Score]:
         """Eligible candidates, best first (the ones the guard rails excluded last)."""
         return sorted(self.scores, key=lambda s: (s.excluded is not None, s.residual_m))
+
+    def next_ranked(self, tried: list[Score]) -> Score | None:
+        """The best-ranked candidate not in ``tried`` with a finite residual, its guard
+        rails judged (:attr:`guard`); None when none is left.
+
+        The top of the ranking is judged until a judged candidate is on top: judging can
+        only raise a candidate's residual or exclude it, so the candidates below the one
+        returned need not be judged.
+        """
+        while True:
+            left = [
+                s for s in self.ranked
+                if np.isfinite(s.residual_m) and not any(s is t for t in tried)
+            ]  # fmt: skip
+            if not left:
+                return None
+            top = left[0]
+            if top.guarded or self.guard is None:
+                return top
+            self.guard(top)
 
     def to_json(self, chosen: Score) -> dict[str, Any]:
         """The ``auto`` record of report.json."""

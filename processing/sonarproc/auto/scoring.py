@@ -34,7 +34,10 @@ from sonarproc.metrics import Bins, bin_stats
 from sonarproc.params import RunParams
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["FIT_COLUMNS", "fit_columns", "fold_scores", "implied_span", "mean_count", "whole_hulls"]
+__all__ = [
+    "FIT_COLUMNS", "WholeGuard", "fit_columns", "fold_scores", "implied_span", "mean_count",
+    "whole_fit", "whole_hulls",
+]  # fmt: skip
 
 log = logging.getLogger(__name__)
 
@@ -230,22 +233,57 @@ def _score_surfaces(
     s.losses.setdefault(setting, []).append(loss)
 
 
+class WholeGuard:
+    """The guard rails' fits, judged lazily: each profile candidate's settings fitted to
+    its method's map of all the scored readings, when :func:`sonarproc.auto.select`
+    first needs them (the maps are built once and shared by candidates of one method).
+
+    A candidate's residual within the guard rails is never below its residual without
+    them, so the candidates ranked below one already judged need not be: only the few
+    at the top of the ranking are (the choice is the same as judging every candidate;
+    the record says which were).
+    """
+
+    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
+        self.maps = _Maps(beams, grid, base)
+        self.beams, self.grid = beams, grid
+        self._implied: tuple[float, float] | None = None
+
+    def __call__(self, s: Score) -> None:
+        """Judge ``s``: its whole fits, their coverage and hull; then ``s.finish``."""
+        if s.guarded:
+            return
+        s.guarded = True
+        c = s.candidate
+        entry = None if c.family == "surfaces" else self.maps.get(c)[1]
+        if entry is not None:
+            if self._implied is None:
+                self._implied = implied_span(self.beams)
+            whole_fit(s, entry, self._implied, self.beams, self.grid)
+        s.finish(self.grid.cell)
+
+
+def whole_fit(
+    s: Score, entry: _MapEntry, implied: tuple[float, float], beams: Beams, grid: Grid
+) -> None:
+    """One profile candidate's settings fitted to its map of all the scored readings
+    (``entry``), their coverage of the ``implied`` columns and their hull excess."""
+    c = s.candidate
+    _, bins, px, py = entry
+    s.whole_bins = bins
+    mc = mean_count(bins)
+    for setting in c.settings:
+        fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
+        s.whole_fits[setting] = fit
+        s.coverage[setting] = _coverage(fit, implied)
+        if not isinstance(fit, FitFailure):
+            s.hull[setting] = data_hull_excess(fit, px, py, beams, grid.cell)
+
+
 def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
     """Each profile setting's hull excess and coverage of the implied columns
-    (:func:`implied_span`), fitted to its method's map of all ``beams``."""
-    maps = _Maps(beams, grid, base)
-    implied = implied_span(beams)
+    (:func:`implied_span`), fitted to its method's map of all ``beams``: every candidate
+    judged (:class:`WholeGuard` judges them one at a time)."""
+    guard = WholeGuard(beams, grid, base)
     for s in scores:
-        c = s.candidate
-        entry = None if c.family == "surfaces" else maps.get(c)[1]
-        if entry is None:
-            continue
-        _, bins, px, py = entry
-        s.whole_bins = bins
-        mc = mean_count(bins)
-        for setting in c.settings:
-            fit = _binned_fit(c.family, bins, setting, spline_lambda(setting, mc, grid.cell))
-            s.whole_fits[setting] = fit
-            s.coverage[setting] = _coverage(fit, implied)
-            if not isinstance(fit, FitFailure):
-                s.hull[setting] = data_hull_excess(fit, px, py, beams, grid.cell)
+        guard(s)

@@ -6,9 +6,12 @@ residual (:mod:`sonarproc.auto.holdout`) and applies the guard rails of
 columns the readings imply, or does no better than a constant or a line, is never
 chosen). The hull is judged on each setting's fit to the map of all the scored readings
 (the fit that would be chosen), not on the folds' fits: a fold's fit sees part of the
-points and may leave their hull where the whole fit does not. :func:`run_auto` then
-runs the winner on every reading (the hull is checked again on that fit; a failure
-hands over to the runner-up).
+points and may leave their hull where the whole fit does not. A guard can only raise a
+candidate's residual or exclude it, so it is judged from the top of the ranking down
+until a judged candidate is on top (:meth:`AutoChoice.next_ranked`): the same choice as
+judging every candidate, for a few of them. :func:`run_auto` then runs the winner on
+every reading (the hull is checked again on that fit; a failure hands over to the
+runner-up).
 
 Large logs are scored on a random subset of at most ``max_readings`` readings (whole
 firings), so ``--auto`` costs a few runs, whatever the log.
@@ -40,7 +43,7 @@ from sonarproc.auto.score import (
     Score,
     paired_se,
 )
-from sonarproc.auto.scoring import fold_scores, mean_count, whole_hulls
+from sonarproc.auto.scoring import WholeGuard, fold_scores, mean_count
 from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_map
 from sonarproc.auto.threads import in_threads
 from sonarproc.errors import NothingToMapError
@@ -95,6 +98,7 @@ def choose(
     seed: int = 0,
     folds_by: str = "firings",
     workers: int | None = None,
+    judge_all: bool = False,
 ) -> AutoChoice:
     """Score every candidate by its held-out range residual (no ground truth).
 
@@ -125,6 +129,10 @@ def choose(
     workers : int, optional
         Threads the folds are scored on (:func:`sonarproc.auto.threads.in_threads`;
         default: the CPUs, at most 4). The outcome is the same for any number.
+    judge_all : bool
+        Judge every candidate's guard rails (hull, coverage of the fits to the map of all
+        the scored readings), not only those at the top of the ranking: the choice is
+        the same, the record complete (:meth:`AutoChoice.next_ranked`).
 
     Returns
     -------
@@ -154,17 +162,22 @@ def choose(
         fold_scores(mine, beams, grid, base, split[0], split[1], cap)
         return mine
 
-    # the whole fit writes the hulls into `scores`, each fold its losses into its own
-    # Scores, gathered in the folds' order
-    jobs: list[Callable[[], list[Score] | None]] = [partial(whole_hulls, scores, beams, grid, base)]
-    jobs += [partial(one_fold, split) for split in splits]
-    for per_fold in in_threads(lambda job: job(), jobs, workers)[1:]:
-        for s, part in zip(scores, per_fold or (), strict=True):
+    # each fold writes its losses into its own Scores, gathered in the folds' order
+    jobs: list[Callable[[], list[Score]]] = [partial(one_fold, split) for split in splits]
+    for per_fold in in_threads(lambda job: job(), jobs, workers):
+        for s, part in zip(scores, per_fold, strict=True):
             s.absorb(part)
     for s in scores:
-        s.finish(grid.cell)
+        s.finish(grid.cell)  # without the guard rails' fits: a lower bound of the residual
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
-    return AutoChoice(scores, crit, n, folds, repeats, scored=beams)
+    choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams)
+    choice.guard = WholeGuard(beams, grid, base)
+    if judge_all:
+        for s in scores:
+            choice.guard(s)
+    else:
+        choice.next_ranked([])  # the best candidate, judged
+    return choice
 
 
 @dataclass
@@ -247,13 +260,14 @@ def run_auto(
         Every score; ``choice.to_json(chosen)`` is report.json's ``auto``.
     """
     choice = choose(log_, base, **kwargs)
-    ranked = [s for s in choice.ranked if np.isfinite(s.residual_m)]
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
     workers = kwargs.get("workers")
     per_fold = int(kwargs.get("heldout_per_fold", 300))
     last: tuple[MethodResult, Score] | None = None
-    for s in ranked:
+    tried: list[Score] = []
+    while (s := choice.next_ranked(tried)) is not None:
+        tried.append(s)
         if s.excluded is not None and last is not None:
             continue  # excluded while scoring: only the fallback is run
         try:
@@ -322,17 +336,19 @@ class RefitStart:
     grid: Grid
 
 
-def _refit_starts(ranked: list[Score], winner: Score, grid: Grid) -> list[RefitStart]:
+def _refit_starts(choice: AutoChoice, winner: Score, grid: Grid) -> list[RefitStart]:
     """The runners-up the echo refit also starts from (:data:`REFIT_STARTS` in all), each
     at its chosen setting's fit to its map of the scored readings (no map is built again)."""
     # by identity: Score is a dataclass whose equality would compare its arrays
-    after = next(i for i, s in enumerate(ranked) if s is winner) + 1
-    starts = []
-    for s in ranked[after:]:
+    ranked = [s for s in choice.ranked if np.isfinite(s.residual_m)]
+    tried = ranked[: next(i for i, s in enumerate(ranked) if s is winner) + 1]
+    starts: list[RefitStart] = []
+    while len(starts) < REFIT_STARTS - 1 and (s := choice.next_ranked(tried)) is not None:
+        tried.append(s)
         fit = s.whole_fits.get(s.setting) if s.setting is not None else None
         if s.excluded is None and isinstance(fit, PolyFit | SplineFit) and s.whole_bins:
             starts.append(RefitStart(s, fit, s.whole_bins, grid))
-    return starts[: REFIT_STARTS - 1]
+    return starts
 
 
 def _setting_losses(s: Score) -> FloatArray | None:
@@ -391,7 +407,7 @@ def _echo_refitted(
         ).to_json()  # says that there is no profile y(x) to refit
         return res
     starts = [RefitStart(winner, r.fit, r.bins, r.grid)]
-    starts += _refit_starts(choice.ranked, winner, r.grid)
+    starts += _refit_starts(choice, winner, r.grid)
     # one noise estimate for every start, so that their refits differ only by the start:
     # the lowest, from the profile that explains the readings best
     noise = min(in_threads(lambda st: range_noise(st.fit, beams, st.grid.cell), starts, workers))

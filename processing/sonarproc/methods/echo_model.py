@@ -10,6 +10,12 @@ of a perpendicular in a trough, or a crest). A reading of echo rank ``k`` (0: fi
 is predicted by the ``k``-th shortest. It predicts
 readings from a fitted profile (:mod:`sonarproc.auto`) and makes the analytic logs of
 the tests (:mod:`sonarproc.methods.testing`).
+
+:func:`curve_echo_points` is the one implementation of echo points on a sampled curve:
+each reading's first-echo point P on the curve (exact for a bistatic pair: the shortest
+stationary ``|TP| + |PR|``, not the midpoint's perpendicular), moved along the curve's
+normal until its path equals the measured one. ``--auto``'s echo refit and its noise
+estimates use it.
 """
 
 from __future__ import annotations
@@ -19,9 +25,15 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["beam_x_bounds", "first_echo", "first_echo_path"]
+__all__ = ["MIN_PATH_GAIN", "beam_x_bounds", "curve_echo_points", "first_echo", "first_echo_path"]
 
 FloatArray = npt.NDArray[np.float64]
+
+#: A reading whose path changes by less than this per metre along the surface's normal
+#: (grazing geometry, far off the bisector) says too little about the surface's distance:
+#: a range error e moves its echo point by e / gain, so below 0.5 it is magnified more
+#: than twice.
+MIN_PATH_GAIN = 0.5
 
 #: Work per chunk: readings x curve points.
 _CHUNK = 1 << 22
@@ -255,3 +267,84 @@ def first_echo_path(
     array([2.])
     """
     return first_echo(tx_xy, tx_heading, tx_half, rx_xy, rx_heading, rx_half, curve, rank)[0]
+
+
+def curve_echo_points(
+    tx_xy: npt.ArrayLike,
+    tx_heading: npt.ArrayLike,
+    tx_half: npt.ArrayLike,
+    rx_xy: npt.ArrayLike,
+    rx_heading: npt.ArrayLike,
+    rx_half: npt.ArrayLike,
+    path: npt.ArrayLike,
+    curve: npt.ArrayLike,
+    *,
+    tol: float,
+    rank: npt.ArrayLike | None = None,
+) -> tuple[npt.NDArray[np.intp], FloatArray]:
+    """Each reading's echo point on the surface near a sampled ``curve``.
+
+    The reading's first echo on the curve (:func:`first_echo`: its specular point P, the
+    path ``|TP| + |PR|``) is moved along the curve's normal ``n`` at P until its path
+    equals the measured one, to first order: the path grows by ``n . (u_T + u_R)`` per
+    metre along ``n`` (``u_T``, ``u_R`` the unit vectors from transmitter and receiver).
+    The echo point lies on the surface whatever the curve's offset; only where the curve
+    is wrong in slope does it slide along the surface.
+
+    Parameters
+    ----------
+    tx_xy, tx_heading, tx_half, rx_xy, rx_heading, rx_half : array_like
+        As :func:`first_echo`.
+    path : array_like, (N,)
+        Measured path lengths (m).
+    curve : array_like, (M, 2)
+        Samples of a curve near the surface, in order along it.
+    tol : float
+        Largest range residual (m, half the path) of a reading kept, and largest distance
+        of its echo point from the curve.
+    rank : array_like of int, (N,), optional
+        Echo rank of each reading (:func:`first_echo`).
+
+    Returns
+    -------
+    rows : ndarray of int, (E,)
+        The readings that echo from the curve (their path within ``2 tol`` of the
+        predicted one, a path gain of at least :data:`MIN_PATH_GAIN`).
+    points : ndarray, (E, 2)
+        Their echo points.
+
+    Examples
+    --------
+    A wall along y = 1, a sensor at (0.1, 0) looking up, range 1 m; the curve is 2 cm
+    short of the wall and tilted: the echo point is on the wall.
+
+    >>> xs = np.linspace(-1, 1, 201)
+    >>> near = np.column_stack((xs, 0.98 + 0.01 * xs))
+    >>> rows, pts = curve_echo_points([[0.1, 0]], [np.pi / 2], [0.2], [[0.1, 0]],
+    ...                               [np.pi / 2], [0.2], [2.0], near, tol=0.05)
+    >>> rows.tolist(), np.round(pts[:, 1], 3).tolist()
+    ([0], [1.0])
+    """
+    pts = np.asarray(curve, dtype=np.float64).reshape(-1, 2)
+    measured = np.asarray(path, dtype=np.float64).reshape(-1)
+    txy = np.asarray(tx_xy, dtype=np.float64).reshape(-1, 2)
+    rxy = np.asarray(rx_xy, dtype=np.float64).reshape(-1, 2)
+    predicted, at = first_echo(txy, tx_heading, tx_half, rxy, rx_heading, rx_half, pts, rank)
+    ok = (at > 0) & (at < pts.shape[0] - 1) & (np.abs(measured - predicted) <= 2.0 * tol)
+    hit = np.flatnonzero(ok)
+    k = at[hit]
+    foot = pts[k]
+    tangent = pts[k + 1] - pts[k - 1]
+    normal = np.column_stack((-tangent[:, 1], tangent[:, 0]))
+    normal /= np.hypot(*normal.T)[:, None]
+    to_tx, to_rx = foot - txy[hit], foot - rxy[hit]
+    gain = np.einsum(
+        "ij,ij->i",
+        normal,
+        to_tx / np.hypot(*to_tx.T)[:, None] + to_rx / np.hypot(*to_rx.T)[:, None],
+    )
+    shift = (measured[hit] - predicted[hit]) / np.where(gain == 0.0, np.nan, gain)
+    # a small gain magnifies the path's error: the echo point must lie within the
+    # tolerance of the curve too, not only its path
+    good = (np.abs(gain) >= MIN_PATH_GAIN) & (np.abs(shift) <= tol)
+    return hit[good], foot[good] + shift[good, None] * normal[good]

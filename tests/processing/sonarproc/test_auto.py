@@ -89,11 +89,12 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     assert [s.candidate.name for s in choice.scores] == [c.name for c in CANDIDATES]
     best = choice.ranked[0]
     assert best.excluded is None and np.isfinite(best.residual_m)
+    assert best.guarded  # the guard rails are judged from the top of the ranking down
     for s in choice.scores:
         if s.excluded is None:
             # never worse than a constant or a line, never out of its points' hull
             assert s.residual_m <= s.baseline_m + 0.25 * 0.01
-            assert s.hull_m <= HULL_CELLS * 0.01
+            assert s.hull_m <= HULL_CELLS * 0.01 or not s.guarded
     # the long wave defeats every polynomial of order <= 15: out of the hull, or far behind
     for s in choice.scores:
         if s.candidate.family == "poly":
@@ -133,6 +134,25 @@ def test_the_choice_is_the_same_on_one_thread_or_several(sparse: Path) -> None:
         np.testing.assert_array_equal(np.concatenate(a.base_losses), np.concatenate(b.base_losses))
 
 
+def test_judging_the_guard_rails_lazily_chooses_as_judging_every_candidate(sparse: Path) -> None:
+    """Only the top of the ranking is judged (a judged residual is never lower than the
+    unjudged one); the ranking's head is the one judging every candidate gives."""
+    lg = load_log(sparse)
+    lazy, full = choose(lg, RunParams()), choose(lg, RunParams(), judge_all=True)
+    assert all(s.guarded for s in full.scores)
+    assert 1 <= sum(s.guarded for s in lazy.scores) < len(CANDIDATES)
+    a, b = lazy.next_ranked([]), full.next_ranked([])
+    assert a is not None and b is not None
+    assert (a.candidate.name, a.setting, a.residual_m) == (
+        b.candidate.name,
+        b.setting,
+        b.residual_m,
+    )
+    for s in lazy.scores:  # unjudged: a lower bound of the judged residual
+        (t,) = [t for t in full.scores if t.candidate.name == s.candidate.name]
+        assert s.residual_m <= t.residual_m or s.guarded
+
+
 def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) -> None:
     lg = load_log(sparse)
     res, chosen, choice = run_auto(lg, RunParams())
@@ -145,8 +165,9 @@ def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) 
     beams, _ = select_beams(lg, RunParams())
     beams = subset_beams(beams, _sample_firings(beams.readings, 6_000, 0))
     implied = implied_span(beams)
+    assert chosen.guarded
     for s in choice.scores:
-        if s.candidate.family != "surfaces":
+        if s.candidate.family != "surfaces" and s.guarded:
             assert set(s.hull) <= set(s.candidate.settings) and s.hull
             assert all(np.isfinite(v) and v >= 0 for v in s.hull.values())
             assert set(s.coverage) == set(s.whole_fits) == set(s.candidate.settings)

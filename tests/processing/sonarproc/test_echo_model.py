@@ -81,3 +81,32 @@ def test_a_profile_gives_the_same_echoes_as_the_whole_curve(
     p = curve[at[hit]]
     via = np.hypot(*(p - t[hit]).T) + np.hypot(*(p - r[hit]).T)
     np.testing.assert_allclose(via, path[hit], rtol=0, atol=1e-9)
+
+
+def test_a_bistatic_pairs_echo_point_is_its_specular_point_not_the_midpoints_foot() -> None:
+    """A pair 0.4 m apart under a wall along y = 1 with a slope: the echo point is where
+    the wall's normal bisects the directions to both ends (the mirror image of the
+    receiver), found from a curve 2 cm short of the wall, and a reading 10 cm off the
+    predicted path is not one of the wall's echoes."""
+    from sonarproc.methods.echo_model import curve_echo_points
+
+    slope = 0.1
+    tx, rx = np.array([0.0, 0.0]), np.array([0.4, 0.0])
+    normal = np.array([-slope, 1.0]) / np.hypot(slope, 1.0)
+    # the mirror image of the receiver in the wall y = 1 + slope * x
+    image = rx + 2 * (1.0 - (rx @ normal) * np.hypot(slope, 1.0)) / np.hypot(slope, 1.0) * normal
+    d = image - tx
+    t = (1.0 - tx[1] + slope * tx[0]) / (d[1] - slope * d[0])
+    specular = tx + t * d
+    path = float(np.hypot(*(specular - tx)) + np.hypot(*(specular - rx)))
+    xs = np.linspace(-1.0, 1.5, 2501)
+    short = np.column_stack((xs, 0.98 + slope * xs))
+    up, half = np.pi / 2, 0.6
+    rows, pts = curve_echo_points(
+        [tx, tx], [up, up], [half, half], [rx, rx], [up, up], [half, half],
+        [path, path + 0.2], short, tol=0.05,
+    )  # fmt: skip
+    assert rows.tolist() == [0]
+    np.testing.assert_allclose(pts[0], specular, atol=2e-3)
+    above_midpoint = np.array([0.2, 1.0 + slope * 0.2])
+    assert np.hypot(*(specular - above_midpoint)) > 0.01
