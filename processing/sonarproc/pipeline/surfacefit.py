@@ -46,6 +46,7 @@ from sonarproc.surfaces import (
 from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
 from sonarproc.surfaces.echoes.tangents import tangent_lines
 from sonarproc.surfaces.extraction.coarse import coarse_counts
+from sonarproc.surfaces.reflectors.points import add_points, claim_points
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -196,7 +197,7 @@ def choose_fit(
     if decision.single_function:
         return AutoFit("function", str(criterion), None, detail)
     if beams is not None and found.surfaces:
-        found = refine_surfaces(found, beams, grid.cell)
+        found = refine_surfaces(found, beams, grid.cell, counts=(ex_counts, ex_grid))
         detail["surfaces"] = len(found.surfaces)
     return AutoFit("surfaces", str(criterion), found, detail)
 
@@ -210,8 +211,11 @@ def _lines_first(
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """
-    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
-    assert echoes.rows is not None  # made by from_beams
+    every = EchoGeometry.of_poses(beams.poses, beams.path)
+    assert every.rows is not None  # made by from_beams
+    points = claim_points(every, *coarse_counts(counts, grid, EXTRACT_CELL_M))
+    echoes = every.subset(~points.claimed)
+    assert echoes.rows is not None
     segs, claimed = tangent_lines(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
         min_spread_m=MIN_SPREAD_M,
@@ -224,6 +228,7 @@ def _lines_first(
     failures = [f for f in fitted if isinstance(f, SurfaceFailure)]
     rest = np.ones(beams.path.size, dtype=bool)
     rest[echoes.rows[claimed]] = False
+    rest[every.rows[points.claimed]] = False
     left = int(rest.sum())
     mapped = left >= max(MIN_ECHOES, RESIDUAL_SHARE * beams.path.size)
     if mapped:
@@ -240,6 +245,7 @@ def _lines_first(
     refined, refined_cells = refine_fits(
         fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped
     )
+    refined, refined_cells = add_points(refined, refined_cells, points, every)
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
     criterion = (
@@ -252,10 +258,28 @@ def _lines_first(
     return AutoFit("surfaces", criterion, found, detail)
 
 
-def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
-    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
+def refine_surfaces(
+    found: SurfaceSet,
+    beams: Beams,
+    cell: float,
+    *,
+    counts: tuple[npt.NDArray[Any], Grid] | None = None,
+) -> SurfaceSet:
+    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go).
+
+    Given the arc ``counts`` and their grid, the point reflectors (corners, edges) are
+    found first and their readings kept out of the refits
+    (:mod:`sonarproc.surfaces.reflectors`); they are appended as surfaces of one point.
+    """
     echoes = EchoGeometry.of_poses(beams.poses, beams.path)
-    fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    if counts is None:
+        fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    else:
+        points = claim_points(echoes, *counts)
+        fits, cells = refine_fits(
+            found.surfaces, found.cells, echoes.subset(~points.claimed), cell=cell
+        )
+        fits, cells = add_points(fits, cells, points, echoes)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0
     return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)

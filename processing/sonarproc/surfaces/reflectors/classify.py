@@ -1,0 +1,180 @@
+"""Point reflectors checked against the fitted surfaces, and told apart: corner or edge.
+
+:func:`confirm_points` gives each point only the readings no fitted surface explains: a
+reading whose range equals its sensor's distance to a fitted surface, at a foot inside
+that surface and inside its beam, is that surface's specular echo (near a concave
+corner the two walls' readings together can look like a point in front of it; at a
+wall's end, the readings from near its normal read the distance to the end as well).
+The point is refitted on the rest and tested again
+(:func:`sonarproc.surfaces.reflectors.rcd.point_feature`).
+
+:func:`point_kind` says which kind of point it is, from the fitted straight surfaces
+(planes) that end at it (an end within :data:`END_REACH_M` of the point, the point within
+:data:`LINE_REACH_M` of the plane's line):
+
+* two such planes: a **corner** (concave) when each plane's far end lies on the side of
+  the other that the sensors saw it from (the sensors inside the angle), else an
+  **edge** (a convex box corner seen from outside);
+* one plane: an **edge** when sensors past its end (beyond the point along the plane)
+  heard the point, which only a free end or a convex corner allows (behind a concave
+  corner's other wall there is no room for a sensor), or when at least
+  :data:`MIN_CROSSINGS` beams crossed the place of the other wall a right-angled concave
+  corner would have there (from :data:`OTHER_WALL_M`, from the point towards the sensors'
+  side: a reading's axis crossing it before its echo saw free space there); else a
+  **corner** whose other wall was not fitted;
+* no plane: a **corner** when its sensors all lie in one half-plane round it (a
+  concave corner is heard only from inside its opening, of at most 180 degrees), an
+  **edge** when they surround it by more.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature, point_feature
+
+__all__ = ["END_REACH_M", "LINE_REACH_M", "confirm_points", "point_kind"]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: A plane ends at a point when its nearer end lies within this (m) of it: a wall refitted
+#: through its echo points stops where the last perpendicular from a sensor met it, up to
+#: a beam footprint short of the corner (a quarter of a 2 m range's 0.9 m footprint).
+END_REACH_M = 0.25
+#: ... and the point lies within this (m) of the plane's line: the ranges' tolerance.
+LINE_REACH_M = 2 * RANGE_TOL_M
+#: A sensor is past a plane's end when it lies beyond the point along the plane by more
+#: than this (m): the range tolerance.
+PAST_END_M = RANGE_TOL_M
+#: The other wall of a concave corner is looked for over this stretch (m) from the
+#: point: from twice the range tolerance (beams aimed at the corner itself graze it) to
+#: a beam's footprint at 1 m (2 x 1 m x tan 12.5 deg, about 0.45 m).
+OTHER_WALL_M = (2 * RANGE_TOL_M, 0.45)
+#: Beams crossing that stretch that say it is free space (one may be a stray echo).
+MIN_CROSSINGS = 2
+
+
+def confirm_points(
+    points: list[PointFeature], echoes: EchoGeometry, surfaces: list[SurfaceFit]
+) -> list[PointFeature]:
+    """``points`` refitted on the readings no fitted surface explains (module notes).
+
+    Parameters
+    ----------
+    points : list of PointFeature
+        From :func:`~sonarproc.surfaces.reflectors.rcd.find_point_features`.
+    echoes : EchoGeometry
+        The readings the points index.
+    surfaces : list of SurfaceFit
+        The fitted surfaces (lines, arcs, splines).
+
+    Returns
+    -------
+    list of PointFeature
+        The points that still pass every test, in the order given.
+    """
+    polys = [s.polyline for s in surfaces if s.polyline.shape[0] >= 2]
+    closed = [s.closed for s in surfaces if s.polyline.shape[0] >= 2]
+    out: list[PointFeature] = []
+    for f in points:
+        idx = f.readings
+        if polys:
+            mine = np.zeros(echoes.size, dtype=bool)
+            mine[idx] = True
+            sub = echoes.subset(mine)
+            explained = np.zeros(idx.size, dtype=bool)
+            for got in echo_points(polys, closed, sub, tol=RANGE_TOL_M):
+                explained[got.readings] = True
+            idx = idx[~explained]
+        new = point_feature(echoes, idx, f.xy)
+        if new is not None:
+            out.append(new)
+    return out
+
+
+def _ends_at(fit: SurfaceFit, p: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """The plane's (end near ``p``, far end) when it ends at ``p``, else None."""
+    if fit.model != "line" or fit.closed or fit.polyline.shape[0] < 2:
+        return None
+    a, b = fit.polyline[0], fit.polyline[-1]
+    near, far = (a, b) if math.dist(a, p) <= math.dist(b, p) else (b, a)
+    if math.dist(near, p) > END_REACH_M:
+        return None
+    u = far - near
+    length = float(np.hypot(*u))
+    if length <= 0:
+        return None
+    u = u / length
+    if abs(float(u[0] * (p[1] - near[1]) - u[1] * (p[0] - near[0]))) > LINE_REACH_M:
+        return None
+    return near, far
+
+
+def _side(a: FloatArray, b: FloatArray, q: FloatArray) -> npt.NDArray[np.float64]:
+    """Signed side of points ``q`` (N, 2) of the line through ``a`` and ``b``."""
+    u = b - a
+    return np.asarray(u[0] * (q[..., 1] - a[1]) - u[1] * (q[..., 0] - a[0]), dtype=np.float64)
+
+
+def _crossings(echoes: EchoGeometry, a: FloatArray, b: FloatArray) -> int:
+    """Readings whose beam axis crosses the segment ``a b`` before their echo."""
+    h = np.column_stack((np.cos(echoes.heading), np.sin(echoes.heading)))
+    v = b - a
+    den = h[:, 0] * v[1] - h[:, 1] * v[0]
+    ok = np.abs(den) > 1e-9
+    d = a - echoes.xy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (d[:, 0] * v[1] - d[:, 1] * v[0]) / den  # along the beam (m)
+        u = (d[:, 0] * h[:, 1] - d[:, 1] * h[:, 0]) / den  # along the segment (0..1)
+    hit = ok & (t > 0) & (t < echoes.range_m - RANGE_TOL_M) & (u >= 0) & (u <= 1)
+    return int(np.count_nonzero(hit))
+
+
+def point_kind(point: PointFeature, echoes: EchoGeometry, surfaces: list[SurfaceFit]) -> str:
+    """``corner`` (concave) or ``edge`` (convex) for a point reflector (module notes).
+
+    Examples
+    --------
+    Two walls meeting at (0, 0), sensors inside the right angle: a corner; outside it, an
+    edge.
+
+    >>> a = SurfaceFit("line", np.array([[0.0, 0.0], [2.0, 0.0]]), 2.0, 0.0, 9, 9)
+    >>> b = SurfaceFit("line", np.array([[0.0, 0.0], [0.0, 2.0]]), 2.0, 0.0, 9, 9)
+    >>> inside = EchoGeometry(np.array([[1.0, 1.0], [1.5, 0.5]]), np.zeros(2), np.zeros(2),
+    ...                       np.zeros(2))
+    >>> f = PointFeature(np.zeros(2), np.arange(2), 2, 0.0, 1.0, 0.5)
+    >>> point_kind(f, inside, [a, b])
+    'corner'
+    >>> outside = EchoGeometry(-inside.xy, np.zeros(2), np.zeros(2), np.zeros(2))
+    >>> point_kind(f, outside, [a, b])
+    'edge'
+    """
+    p = point.xy
+    sensors = echoes.xy[point.readings]
+    ends = [e for e in (_ends_at(s, p) for s in surfaces) if e is not None]
+    if len(ends) >= 2:
+        # the two longest planes ending here
+        ends.sort(key=lambda e: -math.dist(e[0], e[1]))
+        (na, fa), (nb, fb) = ends[:2]
+        side_a = float(np.median(np.sign(_side(na, fa, sensors))))
+        side_b = float(np.median(np.sign(_side(nb, fb, sensors))))
+        concave = side_a * float(_side(na, fa, fb)) > 0 and side_b * float(_side(nb, fb, fa)) > 0
+        return "corner" if concave else "edge"
+    if len(ends) == 1:
+        near, far = ends[0]
+        u = (near - far) / max(math.dist(near, far), 1e-12)
+        past = (sensors - p) @ u > PAST_END_M
+        if bool(past.any()):
+            return "edge"
+        # the other wall of a concave corner: perpendicular to this one, on the sensors' side
+        w = np.array([-u[1], u[0]])
+        if float(np.median((sensors - p) @ w)) < 0:
+            w = -w
+        a, b = p + OTHER_WALL_M[0] * w, p + OTHER_WALL_M[1] * w
+        return "edge" if _crossings(echoes, a, b) >= MIN_CROSSINGS else "corner"
+    return "corner" if point.span_rad <= math.pi else "edge"

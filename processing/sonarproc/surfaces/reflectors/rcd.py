@@ -1,0 +1,317 @@
+"""Point reflectors from regions of constant depth (Leonard & Durrant-Whyte 1991).
+
+A concave corner retro-reflects and a convex edge diffracts: each answers a sonar from
+one point, whatever the sensor's position, so its readings all lie on arcs through that
+point (a *region of constant depth*: a sensor sweeping across it reads one range). A
+plane answers from the foot of the perpendicular, a different point for each pose. So a
+point reflector is a point ``p`` such that many readings from distinct poses have ranges
+equal to their sensor's distance to ``p`` (within the range noise) and hold ``p`` inside
+their beams, while no plane explains the same ranges.
+
+:func:`find_point_features` looks for them:
+
+1. **Candidates** are the local maxima of the arc count map (every arc through ``p``
+   adds a vote at ``p``), strongest first, at least :data:`MIN_READINGS` votes.
+2. **Gathering**: the readings whose range is within :data:`RANGE_TOL_M` of their
+   sensor's distance to the candidate, and whose beam (its half-width times
+   :data:`BEAM_SLACK`) holds it.
+3. **Position**: ``p`` by least squares on those ranges
+   (:func:`scipy.optimize.least_squares`, soft-L1 loss at the range noise, so one stray
+   echo does not pull it), gathering again round the new ``p``, twice.
+4. **Tests**, each with its physical reason:
+
+   * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
+     sensor positions (positions in one :data:`RANGE_TOL_M` cell give the same range to
+     any point, so they add no geometry);
+   * the best plane through the same readings (range = the distance to a line, for any
+     line) leaves an RMS residual above :data:`PLANE_NOISE_FACTOR` times the range noise
+     and above :data:`PLANE_POINT_RATIO` times the point's: a plane would explain them as
+     well, so they are a plane's (a wall seen from near its normal also reads its
+     distance to the foot);
+   * a circle through them (range = distance to a centre minus a radius) has a radius
+     under :data:`MAX_POINT_RADIUS_M` or within two standard errors of zero: a larger
+     one is a cylinder, left to the arc fits.
+
+   The readings of an accepted point are claimed by it (a reading has one first echo),
+   so weaker candidates nearby are tested on the rest.
+
+Which kind of point it is (a concave ``corner`` or a convex ``edge``) is decided against
+the fitted planes by :mod:`sonarproc.surfaces.reflectors.classify`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from scipy.optimize import least_squares
+
+from sonarproc.grid import Grid
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+
+__all__ = [
+    "BEAM_SLACK",
+    "MIN_POSES",
+    "MIN_READINGS",
+    "RANGE_TOL_M",
+    "PointFeature",
+    "find_point_features",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: A reading passes through a point when its range is within this (m) of the distance
+#: from its sensor: a robot's 1-inch range steps (+-1.27 cm), a few mm of noise and the
+#: time walk of a weak echo (up to about 1.5 cm long, Kleeman & Kuc 1995) add up to it.
+#: It is the last echo round's tolerance of the plane refits too
+#: (:data:`sonarproc.surfaces.echoes.refine.ROUNDS_M`).
+RANGE_TOL_M = 0.03
+#: The range noise (m) a reading's residual is weighed by: the 1-inch quantisation's
+#: uniform error alone is 2.54 cm / sqrt(12) = 7.3 mm; with a few mm of noise, 1 cm.
+RANGE_NOISE_M = 0.01
+#: A point echo is heard beyond the nominal half-width of the beam: the effective beam
+#: of a Polaroid transducer widens close by (16 degrees at 0.5 m for a nominal 12.5,
+#: Kuc & Siegel 1987), most for strong echoes such as a corner's.
+BEAM_SLACK = 1.3
+#: Fewest readings of a point: a sonar ring fires about eight times per 0.4 m of travel
+#: at a reflector 2 m away within its beam; fewer are a chance crossing of arcs.
+MIN_READINGS = 8
+#: Fewest distinct sensor positions: a point has two unknowns, and so has a plane's
+#: tangent line; five positions leave three ranges to tell them apart and outvote one
+#: stray echo.
+MIN_POSES = 5
+#: The best plane must leave residuals this many times the range noise...
+PLANE_NOISE_FACTOR = 1.5
+#: ... and this many times the point's own residual (a wall seen from near its normal
+#: fits both about equally).
+PLANE_POINT_RATIO = 1.5
+#: A circle through the readings with a larger radius (m) than this, and more than two
+#: standard errors from zero, is a cylinder: a pillar, not a point.
+MAX_POINT_RADIUS_M = 0.05
+#: Local maxima of the counts closer than this (m) are one candidate: the arcs through a
+#: point spread their votes over the range tolerance round it.
+CANDIDATE_SPACING_M = 2 * RANGE_TOL_M
+#: An accepted point's readings are gathered again this many times round the new
+#: position.
+GATHER_ROUNDS = 2
+#: Most candidates tested, strongest first: a point reflector is among the strongest
+#: local maxima of the map; the weakest are the many chance crossings of arcs.
+MAX_CANDIDATES = 400
+
+
+@dataclass(frozen=True, eq=False)
+class PointFeature:
+    """A point reflector: its position, the readings that echo from it, their geometry.
+
+    Attributes
+    ----------
+    xy : ndarray, shape (2,)
+        Position (m).
+    readings : ndarray of int
+        The readings echoing from it (indices into the :class:`EchoGeometry` given).
+    poses : int
+        Distinct sensor positions among them.
+    rms_m : float
+        RMS range residual of the point (m).
+    plane_rms_m : float
+        RMS range residual of the best plane through the same readings (m).
+    span_rad : float
+        Angle the sensors span as seen from the point (rad).
+    """
+
+    xy: FloatArray
+    readings: IntArray
+    poses: int
+    rms_m: float
+    plane_rms_m: float
+    span_rad: float
+
+    @property
+    def support(self) -> int:
+        """Readings echoing from the point."""
+        return int(self.readings.size)
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return np.asarray((a + np.pi) % (2 * np.pi) - np.pi, dtype=np.float64)
+
+
+def _gather(echoes: EchoGeometry, free: npt.NDArray[np.bool_], p: FloatArray) -> IntArray:
+    """Free readings whose arcs pass within :data:`RANGE_TOL_M` of ``p`` inside their beams."""
+    d = echoes.xy - p
+    dist = np.hypot(d[:, 0], d[:, 1])
+    near = free & (np.abs(dist - echoes.range_m) <= RANGE_TOL_M)
+    idx = np.flatnonzero(near)
+    if idx.size == 0:
+        return idx
+    bearing = np.arctan2(-d[idx, 1], -d[idx, 0])
+    off = np.abs(_wrap(bearing - echoes.heading[idx]))
+    return idx[off <= BEAM_SLACK * echoes.half_beam[idx]]
+
+
+def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatArray, float]:
+    """Least-squares point through the ranges, and its RMS residual (m)."""
+
+    def res(p: FloatArray) -> FloatArray:
+        return np.asarray(np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - rng, dtype=np.float64)
+
+    sol = least_squares(res, p0, loss="soft_l1", f_scale=RANGE_NOISE_M)
+    p = np.asarray(sol.x, dtype=np.float64)
+    return p, float(np.sqrt(np.mean(res(p) ** 2)))
+
+
+def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
+    """RMS residual (m) of the best plane's ranges: ``range = d - n . sensor`` for a unit ``n``.
+
+    For a direction ``n`` the best ``d`` is the mean of ``range + n . sensor``, and the
+    residual is that sum's spread; the spread is a quadratic form in ``(cos a, sin a)``,
+    evaluated at every half degree.
+
+    Examples
+    --------
+    >>> xy = np.c_[np.linspace(-1, 1, 9), np.zeros(9)]
+    >>> round(plane_rms(xy, np.full(9, 2.0)), 9)        # a wall parallel to the poses
+    0.0
+    >>> plane_rms(xy, np.hypot(xy[:, 0], 2.0)) > 0.1    # a point 2 m ahead
+    True
+    """
+    c = np.cov(np.column_stack((xy, rng)).T, bias=True)
+    a = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+    ca, sa = np.cos(a), np.sin(a)
+    var = (c[2, 2] + 2 * (ca * c[0, 2] + sa * c[1, 2])
+           + ca * ca * c[0, 0] + 2 * ca * sa * c[0, 1] + sa * sa * c[1, 1])  # fmt: skip
+    return float(math.sqrt(max(float(var.min()), 0.0)))
+
+
+def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
+    """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
+
+    def res(q: FloatArray) -> FloatArray:
+        return np.asarray(np.hypot(xy[:, 0] - q[0], xy[:, 1] - q[1]) - q[2] - rng, np.float64)
+
+    sol = least_squares(res, np.r_[p, 0.0], loss="soft_l1", f_scale=RANGE_NOISE_M)
+    radius = float(sol.x[2])
+    if radius <= MAX_POINT_RADIUS_M:
+        return False
+    jtj = sol.jac.T @ sol.jac
+    try:
+        cov = np.linalg.inv(jtj) * RANGE_NOISE_M**2
+    except np.linalg.LinAlgError:
+        return False
+    return radius > 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0))
+
+
+def _distinct_poses(xy: FloatArray) -> int:
+    cells = np.floor(xy / RANGE_TOL_M).astype(np.int64)
+    return int(np.unique(cells, axis=0).shape[0])
+
+
+def _span(xy: FloatArray, p: FloatArray) -> float:
+    """Angle (rad) the sensors span as seen from ``p`` (the complement of the largest gap)."""
+    b = np.sort(np.arctan2(xy[:, 1] - p[1], xy[:, 0] - p[0]))
+    if b.size < 2:
+        return 0.0
+    gaps = np.diff(np.r_[b, b[0] + 2 * np.pi])
+    return float(2 * np.pi - gaps.max())
+
+
+def candidates(counts: npt.ArrayLike, grid: Grid) -> FloatArray:
+    """Local maxima of the counts with at least :data:`MIN_READINGS` votes, strongest first.
+
+    Examples
+    --------
+    >>> g = Grid(x0=0.0, y0=0.0, cell=0.02, nx=20, ny=10)
+    >>> c = np.zeros(g.shape, int); c[5, 7] = 12; c[5, 8] = 11; c[2, 15] = 3
+    >>> candidates(c, g).round(3).tolist()
+    [[0.14, 0.1]]
+    """
+    c = np.asarray(counts)
+    size = max(3, 2 * round(CANDIDATE_SPACING_M / grid.cell) + 1)
+    peak = (c == ndimage.maximum_filter(c, size=size, mode="constant")) & (c >= MIN_READINGS)
+    iy, ix = np.nonzero(peak)
+    order = np.argsort(-c[iy, ix], kind="stable")[:MAX_CANDIDATES]
+    x, y = grid.to_world(iy[order], ix[order])
+    return np.column_stack((x, y)).astype(np.float64)
+
+
+def find_point_features(
+    echoes: EchoGeometry, counts: npt.ArrayLike, grid: Grid
+) -> list[PointFeature]:
+    """Point reflectors of a log (see the module notes), strongest first.
+
+    Parameters
+    ----------
+    echoes : EchoGeometry
+        The readings.
+    counts : array_like of int, shape grid.shape
+        Arc counts per cell (any cell size; a 2 cm map is plenty).
+    grid : Grid
+        The counts' grid.
+
+    Returns
+    -------
+    list of PointFeature
+        Each reading belongs to at most one of them.
+    """
+    free = np.ones(echoes.size, dtype=bool)
+    found: list[PointFeature] = []
+    for c in candidates(counts, grid):
+        if found and min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M:
+            continue
+        feature = _test_point(echoes, free, c)
+        if feature is not None:
+            free[feature.readings] = False
+            found.append(feature)
+    return found
+
+
+def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
+    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+    if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
+        return False
+    return plane_rms(echoes.xy[idx], echoes.range_m[idx]) >= PLANE_NOISE_FACTOR * RANGE_NOISE_M
+
+
+def _test_point(
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], start: FloatArray
+) -> PointFeature | None:
+    """The point reflector the free readings make round ``start``, or None (module notes)."""
+    p = start
+    idx = _gather(echoes, free, p)
+    # the cheap tests first: most candidates lie on walls, whose readings a plane explains
+    for _ in range(GATHER_ROUNDS):
+        if not _enough(echoes, idx):
+            return None
+        p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
+        idx = _gather(echoes, free, p)
+    return point_feature(echoes, idx, p)
+
+
+def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> PointFeature | None:
+    """The point through the readings ``idx`` if it passes every test (module notes), else None.
+
+    Parameters
+    ----------
+    echoes : EchoGeometry
+        The readings.
+    idx : ndarray of int
+        The readings to fit (indices into ``echoes``).
+    start : array_like, shape (2,)
+        Where the least squares start (m).
+
+    Returns
+    -------
+    PointFeature or None
+    """
+    if not _enough(echoes, idx):
+        return None
+    xy, rng = echoes.xy[idx], echoes.range_m[idx]
+    p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
+    prms = plane_rms(xy, rng)
+    if prms < PLANE_POINT_RATIO * rms or _radius_says_cylinder(xy, rng, p):
+        return None
+    return PointFeature(p, idx, _distinct_poses(xy), rms, prms, _span(xy, p))
