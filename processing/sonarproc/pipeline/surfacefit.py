@@ -211,15 +211,20 @@ def _lines_first(
     of a building; the ridge of the arc map is then extracted from the arcs of the
     readings they leave, and the two refitted together through the echo points.
     """
-    every = EchoGeometry.of_poses(beams.poses, beams.path)
-    assert every.rows is not None  # made by from_beams
-    points = claim_points(every, *coarse_counts(counts, grid, EXTRACT_CELL_M))
-    echoes = every.subset(~points.claimed)
-    assert echoes.rows is not None
+    echoes = EchoGeometry.of_poses(beams.poses, beams.path)
+    assert echoes.rows is not None  # made by from_beams
     segs, claimed = tangent_lines(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
         min_spread_m=MIN_SPREAD_M,
     )  # fmt: skip
+    # point reflectors (corners, edges) from the readings the walls do not own, outside them
+    own = np.zeros(echoes.size, dtype=bool)
+    for g in segs:
+        own[g.readings] = True
+    walls = [(g.points[0], g.points[-1]) for g in segs]
+    points = claim_points(echoes, *coarse_counts(counts, grid, EXTRACT_CELL_M), free=~own,
+                          walls=walls)  # fmt: skip
+    claimed |= points.claimed
     sets = [SurfaceCells(g.points[:, 0], g.points[:, 1], g.along, np.ones(g.along.size), False)
             for g in segs]  # fmt: skip
     fitted = fit_surfaces(sets, cell=grid.cell)
@@ -228,7 +233,6 @@ def _lines_first(
     failures = [f for f in fitted if isinstance(f, SurfaceFailure)]
     rest = np.ones(beams.path.size, dtype=bool)
     rest[echoes.rows[claimed]] = False
-    rest[every.rows[points.claimed]] = False
     left = int(rest.sum())
     mapped = left >= max(MIN_ECHOES, RESIDUAL_SHARE * beams.path.size)
     if mapped:
@@ -243,9 +247,10 @@ def _lines_first(
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
     refined, refined_cells = refine_fits(
-        fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped
-    )
-    refined, refined_cells = add_points(refined, refined_cells, points, every)
+        fits, cells, echoes.subset(~points.claimed), cell=grid.cell, rounds=rounds,
+        screen=mapped,
+    )  # fmt: skip
+    refined, refined_cells = add_points(refined, refined_cells, points, echoes)
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
     criterion = (

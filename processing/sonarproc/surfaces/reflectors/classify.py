@@ -6,7 +6,8 @@ that surface and inside its beam, is that surface's specular echo (near a concav
 corner the two walls' readings together can look like a point in front of it; at a
 wall's end, the readings from near its normal read the distance to the end as well).
 The point is refitted on the rest and tested again
-(:func:`sonarproc.surfaces.reflectors.rcd.point_feature`).
+(:func:`sonarproc.surfaces.reflectors.rcd.point_feature`). A point inside a fitted plane
+(:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes.
 
 :func:`point_kind` says which kind of point it is, from the fitted straight surfaces
 (planes) that end at it (an end within :data:`END_REACH_M` of the point, the point within
@@ -37,17 +38,12 @@ import numpy.typing as npt
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature, point_feature
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, LINE_REACH_M, inside_walls
 
-__all__ = ["END_REACH_M", "LINE_REACH_M", "confirm_points", "point_kind"]
+__all__ = ["confirm_points", "line_ends", "point_kind"]
 
 FloatArray = npt.NDArray[np.float64]
 
-#: A plane ends at a point when its nearer end lies within this (m) of it: a wall refitted
-#: through its echo points stops where the last perpendicular from a sensor met it, up to
-#: a beam footprint short of the corner (a quarter of a 2 m range's 0.9 m footprint).
-END_REACH_M = 0.25
-#: ... and the point lies within this (m) of the plane's line: the ranges' tolerance.
-LINE_REACH_M = 2 * RANGE_TOL_M
 #: A sensor is past a plane's end when it lies beyond the point along the plane by more
 #: than this (m): the range tolerance.
 PAST_END_M = RANGE_TOL_M
@@ -80,21 +76,29 @@ def confirm_points(
     """
     polys = [s.polyline for s in surfaces if s.polyline.shape[0] >= 2]
     closed = [s.closed for s in surfaces if s.polyline.shape[0] >= 2]
+    walls = line_ends(surfaces)
+    points = [f for f in points if not (walls and bool(inside_walls(f.xy, walls)[0]))]
+    explained = np.zeros(echoes.size, dtype=bool)
+    if polys and points:
+        # the points' readings at once (each belongs to one point)
+        mine = np.zeros(echoes.size, dtype=bool)
+        for f in points:
+            mine[f.readings] = True
+        rows = np.flatnonzero(mine)
+        for got in echo_points(polys, closed, echoes.subset(mine), tol=RANGE_TOL_M):
+            explained[rows[got.readings]] = True
     out: list[PointFeature] = []
     for f in points:
-        idx = f.readings
-        if polys:
-            mine = np.zeros(echoes.size, dtype=bool)
-            mine[idx] = True
-            sub = echoes.subset(mine)
-            explained = np.zeros(idx.size, dtype=bool)
-            for got in echo_points(polys, closed, sub, tol=RANGE_TOL_M):
-                explained[got.readings] = True
-            idx = idx[~explained]
-        new = point_feature(echoes, idx, f.xy)
+        new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is not None:
             out.append(new)
     return out
+
+
+def line_ends(surfaces: list[SurfaceFit]) -> list[tuple[FloatArray, FloatArray]]:
+    """The two ends of each open straight surface (plane)."""
+    return [(s.polyline[0], s.polyline[-1]) for s in surfaces
+            if s.model == "line" and not s.closed and s.polyline.shape[0] >= 2]  # fmt: skip
 
 
 def _ends_at(fit: SurfaceFit, p: FloatArray) -> tuple[FloatArray, FloatArray] | None:

@@ -29,6 +29,9 @@ from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.classify import confirm_points, point_kind
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, inside_walls
+
+FloatArray = npt.NDArray[np.float64]
 
 __all__ = ["POINT_MODELS", "ClaimedPoints", "add_points", "claim_points", "point_fit"]
 
@@ -45,7 +48,14 @@ class ClaimedPoints:
     claimed: npt.NDArray[np.bool_]
 
 
-def claim_points(echoes: EchoGeometry, counts: npt.ArrayLike, grid: Grid) -> ClaimedPoints:
+def claim_points(
+    echoes: EchoGeometry,
+    counts: npt.ArrayLike,
+    grid: Grid,
+    *,
+    free: npt.NDArray[np.bool_] | None = None,
+    walls: list[tuple[FloatArray, FloatArray]] | None = None,
+) -> ClaimedPoints:
     """The point reflectors of the readings and the readings they explain (module notes).
 
     Parameters
@@ -56,12 +66,27 @@ def claim_points(echoes: EchoGeometry, counts: npt.ArrayLike, grid: Grid) -> Cla
         The arc count map the candidates come from.
     grid : Grid
         Its grid.
+    free : ndarray of bool, optional
+        The readings a point may take (default: all; not those of walls found already).
+    walls : list of (ndarray, ndarray), optional
+        The ends of walls found already: points are looked for only near their ends
+        (:func:`~sonarproc.surfaces.reflectors.walls.near_ends`), where corners and edges
+        are (the rest of a long log's readings go to the map).
 
     Returns
     -------
     ClaimedPoints
     """
-    points = find_point_features(echoes, counts, grid)
+    skip, around = None, None
+    if walls is not None:
+        known = list(walls)
+        around = np.array([e for w in known for e in w], dtype=np.float64).reshape(-1, 2)
+
+        def skip(xy: FloatArray) -> npt.NDArray[np.bool_]:
+            return inside_walls(xy, known)
+
+    points = find_point_features(echoes, counts, grid, free=free, skip=skip, around=around,
+                                 reach=END_REACH_M)  # fmt: skip
     claimed = np.zeros(echoes.size, dtype=bool)
     for p in points:
         claimed[p.readings] = True

@@ -16,8 +16,7 @@ their beams, while no plane explains the same ranges.
    sensor's distance to the candidate, and whose beam (its half-width times
    :data:`BEAM_SLACK`) holds it.
 3. **Position**: ``p`` by least squares on those ranges
-   (:func:`scipy.optimize.least_squares`, soft-L1 loss at the range noise, so one stray
-   echo does not pull it), gathering again round the new ``p``, twice.
+   (:func:`scipy.optimize.least_squares`), gathering again round the new ``p``, twice.
 4. **Tests**, each with its physical reason:
 
    * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
@@ -42,12 +41,14 @@ the fitted planes by :mod:`sonarproc.surfaces.reflectors.classify`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
 from scipy.optimize import least_squares
+from scipy.spatial import cKDTree
 
 from sonarproc.grid import Grid
 from sonarproc.surfaces.echoes.specular import EchoGeometry
@@ -140,26 +141,67 @@ def _wrap(a: FloatArray) -> FloatArray:
     return np.asarray((a + np.pi) % (2 * np.pi) - np.pi, dtype=np.float64)
 
 
-def _gather(echoes: EchoGeometry, free: npt.NDArray[np.bool_], p: FloatArray) -> IntArray:
+class _ArcIndex:
+    """The readings whose arcs may pass near a point: k-d trees of the arcs' midpoints.
+
+    Every point of a reading's arc (within :data:`BEAM_SLACK` times its half beam) lies
+    within the arc's chord of its midpoint; readings are grouped by that reach (doubling
+    classes), one tree per class, so a query asks each tree for its class's reach.
+    """
+
+    def __init__(self, echoes: EchoGeometry, free: npt.NDArray[np.bool_]) -> None:
+        idx = np.flatnonzero(free)
+        half = np.minimum(BEAM_SLACK * echoes.half_beam[idx], 0.5 * np.pi)
+        rng = echoes.range_m[idx]
+        h = echoes.heading[idx]
+        mid = echoes.xy[idx] + rng[:, None] * np.column_stack((np.cos(h), np.sin(h)))
+        reach = 2.0 * rng * np.sin(0.5 * half) + RANGE_TOL_M
+        cls = np.ceil(np.log2(np.maximum(reach, 0.05) / 0.05)).astype(np.int64)
+        self.groups: list[tuple[IntArray, cKDTree, float]] = []
+        for k in np.unique(cls):
+            sel = np.flatnonzero(cls == k)
+            rows = idx[sel]
+            self.groups.append((rows, cKDTree(mid[sel]), float(reach[sel].max())))
+
+    def near(self, p: FloatArray) -> IntArray:
+        """Readings whose arcs may pass within :data:`RANGE_TOL_M` of ``p``."""
+        parts = [rows[tree.query_ball_point(p, r)] for rows, tree, r in self.groups]
+        return np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)
+
+
+def _gather(
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], p: FloatArray, index: _ArcIndex | None
+) -> IntArray:
     """Free readings whose arcs pass within :data:`RANGE_TOL_M` of ``p`` inside their beams."""
-    d = echoes.xy - p
+    idx = np.flatnonzero(free) if index is None else np.sort(index.near(p))
+    if index is not None:
+        idx = idx[free[idx]]
+    d = echoes.xy[idx] - p
     dist = np.hypot(d[:, 0], d[:, 1])
-    near = free & (np.abs(dist - echoes.range_m) <= RANGE_TOL_M)
-    idx = np.flatnonzero(near)
+    near = np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M
+    idx, d = idx[near], d[near]
     if idx.size == 0:
         return idx
-    bearing = np.arctan2(-d[idx, 1], -d[idx, 0])
+    bearing = np.arctan2(-d[:, 1], -d[:, 0])
     off = np.abs(_wrap(bearing - echoes.heading[idx]))
     return idx[off <= BEAM_SLACK * echoes.half_beam[idx]]
 
 
 def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatArray, float]:
-    """Least-squares point through the ranges, and its RMS residual (m)."""
+    """Least-squares point through the ranges, and its RMS residual (m).
+
+    The readings were gathered within :data:`RANGE_TOL_M` of a first estimate, so no
+    residual is wild: plain least squares (Levenberg-Marquardt) suffices.
+    """
 
     def res(p: FloatArray) -> FloatArray:
         return np.asarray(np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - rng, dtype=np.float64)
 
-    sol = least_squares(res, p0, loss="soft_l1", f_scale=RANGE_NOISE_M)
+    def jac(p: FloatArray) -> FloatArray:
+        d = p - xy
+        return np.asarray(d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None])
+
+    sol = least_squares(res, p0, jac=jac, method="lm")
     p = np.asarray(sol.x, dtype=np.float64)
     return p, float(np.sqrt(np.mean(res(p) ** 2)))
 
@@ -174,12 +216,14 @@ def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
     Examples
     --------
     >>> xy = np.c_[np.linspace(-1, 1, 9), np.zeros(9)]
-    >>> round(plane_rms(xy, np.full(9, 2.0)), 9)        # a wall parallel to the poses
-    0.0
+    >>> plane_rms(xy, np.full(9, 2.0)) < 1e-6          # a wall parallel to the poses
+    True
     >>> plane_rms(xy, np.hypot(xy[:, 0], 2.0)) > 0.1    # a point 2 m ahead
     True
     """
-    c = np.cov(np.column_stack((xy, rng)).T, bias=True)
+    m = np.column_stack((xy, rng))
+    m = m - m.mean(axis=0)
+    c = (m.T @ m) / m.shape[0]
     a = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
     ca, sa = np.cos(a), np.sin(a)
     var = (c[2, 2] + 2 * (ca * c[0, 2] + sa * c[1, 2])
@@ -193,7 +237,12 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
     def res(q: FloatArray) -> FloatArray:
         return np.asarray(np.hypot(xy[:, 0] - q[0], xy[:, 1] - q[1]) - q[2] - rng, np.float64)
 
-    sol = least_squares(res, np.r_[p, 0.0], loss="soft_l1", f_scale=RANGE_NOISE_M)
+    def jac(q: FloatArray) -> FloatArray:
+        d = q[:2] - xy
+        u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+        return np.column_stack((u, -np.ones(xy.shape[0])))
+
+    sol = least_squares(res, np.r_[p, 0.0], jac=jac, method="lm")
     radius = float(sol.x[2])
     if radius <= MAX_POINT_RADIUS_M:
         return False
@@ -219,8 +268,15 @@ def _span(xy: FloatArray, p: FloatArray) -> float:
     return float(2 * np.pi - gaps.max())
 
 
-def candidates(counts: npt.ArrayLike, grid: Grid) -> FloatArray:
+def candidates(
+    counts: npt.ArrayLike, grid: Grid, *, around: FloatArray | None = None, reach: float = 0.0
+) -> FloatArray:
     """Local maxima of the counts with at least :data:`MIN_READINGS` votes, strongest first.
+
+    A plateau of equal maxima, or maxima closer than :data:`CANDIDATE_SPACING_M`, give
+    their strongest (first) one. With ``around`` (P, 2), only the maxima within ``reach``
+    (m) of one of those points are looked for (in windows of the map: a long log's map is
+    millions of cells).
 
     Examples
     --------
@@ -228,18 +284,58 @@ def candidates(counts: npt.ArrayLike, grid: Grid) -> FloatArray:
     >>> c = np.zeros(g.shape, int); c[5, 7] = 12; c[5, 8] = 11; c[2, 15] = 3
     >>> candidates(c, g).round(3).tolist()
     [[0.14, 0.1]]
+    >>> candidates(c, g, around=np.array([[0.3, 0.04]]), reach=0.05).tolist()
+    []
     """
     c = np.asarray(counts)
     size = max(3, 2 * round(CANDIDATE_SPACING_M / grid.cell) + 1)
-    peak = (c == ndimage.maximum_filter(c, size=size, mode="constant")) & (c >= MIN_READINGS)
-    iy, ix = np.nonzero(peak)
-    order = np.argsort(-c[iy, ix], kind="stable")[:MAX_CANDIDATES]
-    x, y = grid.to_world(iy[order], ix[order])
-    return np.column_stack((x, y)).astype(np.float64)
+    if around is None:
+        windows = [(slice(0, grid.ny), slice(0, grid.nx))]
+    else:
+        pad = math.ceil(reach / grid.cell) + size
+        iy, ix = grid.to_index(around[:, 0], around[:, 1])
+        windows = [(slice(max(0, y - pad), max(0, y + pad + 1)),
+                    slice(max(0, x - pad), max(0, x + pad + 1)))
+                   for y, x in zip(iy.tolist(), ix.tolist(), strict=True)]  # fmt: skip
+    rows, cols, votes = [], [], []
+    for wy, wx in windows:
+        part = c[wy, wx]
+        if part.size == 0:
+            continue
+        peak = (part == ndimage.maximum_filter(part, size=size, mode="constant")) & (
+            part >= MIN_READINGS
+        )
+        py, px = np.nonzero(peak)
+        rows.append(py + wy.start)
+        cols.append(px + wx.start)
+        votes.append(part[py, px])
+    if not rows:
+        return np.zeros((0, 2))
+    iy_all, ix_all, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(votes)
+    order = np.argsort(-v, kind="stable")
+    x, y = grid.to_world(iy_all[order], ix_all[order])
+    pts_xy = np.column_stack((x, y)).astype(np.float64)
+    _, first = np.unique(pts_xy, axis=0, return_index=True)  # windows overlap
+    pts_xy = pts_xy[np.sort(first)]
+    if around is not None:
+        gap = pts_xy[:, None, :] - around[None, :, :]
+        pts_xy = pts_xy[np.hypot(gap[..., 0], gap[..., 1]).min(axis=1) <= reach]
+    keep = np.ones(pts_xy.shape[0], dtype=bool)
+    for i, near in enumerate(cKDTree(pts_xy).query_ball_point(pts_xy, CANDIDATE_SPACING_M)):
+        if keep[i]:
+            keep[[j for j in near if j > i]] = False
+    return pts_xy[keep][:MAX_CANDIDATES]
 
 
 def find_point_features(
-    echoes: EchoGeometry, counts: npt.ArrayLike, grid: Grid
+    echoes: EchoGeometry,
+    counts: npt.ArrayLike,
+    grid: Grid,
+    *,
+    free: npt.NDArray[np.bool_] | None = None,
+    skip: Callable[[FloatArray], npt.NDArray[np.bool_]] | None = None,
+    around: FloatArray | None = None,
+    reach: float = 0.0,
 ) -> list[PointFeature]:
     """Point reflectors of a log (see the module notes), strongest first.
 
@@ -251,18 +347,29 @@ def find_point_features(
         Arc counts per cell (any cell size; a 2 cm map is plenty).
     grid : Grid
         The counts' grid.
+    free : ndarray of bool, optional
+        The readings a point may take (default: all).
+    skip : callable, optional
+        Given the candidates (C, 2), true for those not to test (inside walls found
+        already: :func:`sonarproc.surfaces.reflectors.walls.inside_walls`).
+    around, reach : ndarray (P, 2) and float, optional
+        Look only within ``reach`` (m) of these points (see :func:`candidates`).
 
     Returns
     -------
     list of PointFeature
         Each reading belongs to at most one of them.
     """
-    free = np.ones(echoes.size, dtype=bool)
+    free = np.ones(echoes.size, dtype=bool) if free is None else free.copy()
     found: list[PointFeature] = []
-    for c in candidates(counts, grid):
+    starts = candidates(counts, grid, around=around, reach=reach)
+    if skip is not None and starts.size:
+        starts = starts[~skip(starts)]
+    index = _ArcIndex(echoes, free) if starts.size else None
+    for c in starts:
         if found and min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M:
             continue
-        feature = _test_point(echoes, free, c)
+        feature = _test_point(echoes, free, c, index)
         if feature is not None:
             free[feature.readings] = False
             found.append(feature)
@@ -277,17 +384,17 @@ def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
 
 
 def _test_point(
-    echoes: EchoGeometry, free: npt.NDArray[np.bool_], start: FloatArray
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], start: FloatArray, index: _ArcIndex | None
 ) -> PointFeature | None:
     """The point reflector the free readings make round ``start``, or None (module notes)."""
     p = start
-    idx = _gather(echoes, free, p)
+    idx = _gather(echoes, free, p, index)
     # the cheap tests first: most candidates lie on walls, whose readings a plane explains
     for _ in range(GATHER_ROUNDS):
         if not _enough(echoes, idx):
             return None
         p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
-        idx = _gather(echoes, free, p)
+        idx = _gather(echoes, free, p, index)
     return point_feature(echoes, idx, p)
 
 
