@@ -45,6 +45,7 @@ from sonarproc.surfaces import (
 )
 from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
 from sonarproc.surfaces.echoes.tangents import tangent_lines
+from sonarproc.surfaces.evaluation.writers import kind_of
 from sonarproc.surfaces.extraction.coarse import coarse_counts
 from sonarproc.surfaces.reflectors.points import add_points, claim_points
 
@@ -83,11 +84,6 @@ LINE_MIN_VOTES = 20
 #: all (fewer are stray echoes: a surface the map could find needs many readings in a
 #: long log, and the map costs as much for a few arcs as for many).
 RESIDUAL_SHARE = 0.001
-#: The kind of reflector each fitted model stands for (Contract 2, v3): a straight wall is
-#: a plane; a circular arc is the section of a cylinder (a pillar, a round wall); a spline
-#: is a free curve. Corners and edges (point reflectors) are kinds of their own.
-MODEL_KINDS = {"line": "plane", "arc": "cylinder", "spline": "curve",
-               "corner": "corner", "edge": "edge"}  # fmt: skip
 #: A wall's echo points further apart than this (m) start a new wall (a doorway).
 BRIDGE_M = 0.30
 
@@ -312,7 +308,7 @@ def surface_kind(model: str | None) -> str:
     >>> surface_kind("corner"), surface_kind(None)
     ('corner', 'curve')
     """
-    return MODEL_KINDS.get(str(model), "curve")
+    return kind_of(model)
 
 
 def surfaces_fit_record(found: SurfaceSet) -> dict[str, Any]:
