@@ -47,7 +47,7 @@ from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
 from sonarproc.surfaces.echoes.tangents import tangent_lines
 from sonarproc.surfaces.evaluation.writers import kind_of
 from sonarproc.surfaces.extraction.coarse import coarse_counts
-from sonarproc.surfaces.reflectors.points import add_points, claim_points
+from sonarproc.surfaces.reflectors.points import claim_points, refine_with_points
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -219,7 +219,7 @@ def _lines_first(
         own[g.readings] = True
     walls = [(g.points[0], g.points[-1]) for g in segs]
     points = claim_points(echoes, *coarse_counts(counts, grid, EXTRACT_CELL_M), free=~own,
-                          walls=walls)  # fmt: skip
+                          walls=walls, ends_only=True)  # fmt: skip
     claimed |= points.claimed
     sets = [SurfaceCells(g.points[:, 0], g.points[:, 1], g.along, np.ones(g.along.size), False)
             for g in segs]  # fmt: skip
@@ -242,11 +242,10 @@ def _lines_first(
     # the walls lie on their readings' echo points already: without the map's ridges (and
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
-    refined, refined_cells = refine_fits(
-        fits, cells, echoes.subset(~points.claimed), cell=grid.cell, rounds=rounds,
-        screen=mapped,
+    refined, refined_cells = refine_with_points(
+        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped),
+        echoes, points,
     )  # fmt: skip
-    refined, refined_cells = add_points(refined, refined_cells, points, echoes)
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
     criterion = (
@@ -277,10 +276,9 @@ def refine_surfaces(
         fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
     else:
         points = claim_points(echoes, *counts)
-        fits, cells = refine_fits(
-            found.surfaces, found.cells, echoes.subset(~points.claimed), cell=cell
+        fits, cells = refine_with_points(
+            lambda e: refine_fits(found.surfaces, found.cells, e, cell=cell), echoes, points
         )
-        fits, cells = add_points(fits, cells, points, echoes)
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0
     return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)

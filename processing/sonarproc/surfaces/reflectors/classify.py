@@ -4,7 +4,8 @@
 reading whose range equals its sensor's distance to a fitted surface, at a foot inside
 that surface and inside its beam, is that surface's specular echo (near a concave
 corner the two walls' readings together can look like a point in front of it; at a
-wall's end, the readings from near its normal read the distance to the end as well).
+wall's end, the readings from near its normal read the distance to the end as well); so
+is a reading whose beam axis meets a fitted surface at its range (a diffuse echo off it).
 The point is refitted on the rest and tested again
 (:func:`sonarproc.surfaces.reflectors.rcd.point_feature`). A point inside a fitted plane
 (:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes.
@@ -37,8 +38,17 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature, point_feature
-from sonarproc.surfaces.reflectors.walls import END_REACH_M, LINE_REACH_M, inside_walls
+from sonarproc.surfaces.reflectors.rcd import (
+    RANGE_TOL_M,
+    PointFeature,
+    point_feature,
+)
+from sonarproc.surfaces.reflectors.walls import (
+    END_REACH_M,
+    LINE_REACH_M,
+    inside_walls,
+    on_wall_lines,
+)
 
 __all__ = ["confirm_points", "line_ends", "point_kind"]
 
@@ -57,7 +67,7 @@ MIN_CROSSINGS = 2
 
 def confirm_points(
     points: list[PointFeature], echoes: EchoGeometry, surfaces: list[SurfaceFit]
-) -> list[PointFeature]:
+) -> list[tuple[int, PointFeature]]:
     """``points`` refitted on the readings no fitted surface explains (module notes).
 
     Parameters
@@ -71,28 +81,67 @@ def confirm_points(
 
     Returns
     -------
-    list of PointFeature
-        The points that still pass every test, in the order given.
+    list of (int, PointFeature)
+        The points that still pass every test (their index in ``points``, the refitted
+        point), in the order given.
     """
     polys = [s.polyline for s in surfaces if s.polyline.shape[0] >= 2]
     closed = [s.closed for s in surfaces if s.polyline.shape[0] >= 2]
     walls = line_ends(surfaces)
-    points = [f for f in points if not (walls and bool(inside_walls(f.xy, walls)[0]))]
+    todo = [k for k, f in enumerate(points) if not (walls and bool(inside_walls(f.xy, walls)[0]))]
     explained = np.zeros(echoes.size, dtype=bool)
-    if polys and points:
+    if polys and todo:
         # the points' readings at once (each belongs to one point)
         mine = np.zeros(echoes.size, dtype=bool)
-        for f in points:
-            mine[f.readings] = True
+        for k in todo:
+            mine[points[k].readings] = True
         rows = np.flatnonzero(mine)
         for got in echo_points(polys, closed, echoes.subset(mine), tol=RANGE_TOL_M):
             explained[rows[got.readings]] = True
-    out: list[PointFeature] = []
-    for f in points:
+        explained[rows[_axis_meets(echoes.subset(mine), polys)]] = True
+    out: list[tuple[int, PointFeature]] = []
+    for k in todo:
+        f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
-        if new is not None:
-            out.append(new)
+        if new is not None and _anchored(new, walls):
+            out.append((k, new))
     return out
+
+
+def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bool:
+    """Whether a point is where a fitted plane ends.
+
+    A point reflector is the end of a wall (a corner, a box's edge, a jamb): it lies on a
+    fitted plane's line at or past one of its ends
+    (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`), not inside it (there it
+    is the plane's own echo). A point no plane leads to is not reported: the arcs of
+    several surfaces cross by chance at points, a few times each, and what is seen of a
+    real reflector without any wall (a thin post) is fitted as a curve by the map.
+    """
+    if not walls or bool(inside_walls(f.xy, walls)[0]):
+        return False
+    return bool(on_wall_lines(f.xy, walls)[0])
+
+
+def _axis_meets(echoes: EchoGeometry, polys: list[FloatArray]) -> npt.NDArray[np.bool_]:
+    """Readings whose beam axis meets a fitted surface at their range (a diffuse echo off it).
+
+    The axis is a ray from the sensor; each polyline's segments are tested, and a reading
+    is explained when the nearest crossing lies within :data:`RANGE_TOL_M` of its range.
+    """
+    h = np.column_stack((np.cos(echoes.heading), np.sin(echoes.heading)))
+    first = np.full(echoes.size, np.inf)
+    for poly in polys:
+        a, b = poly[:-1], poly[1:]
+        v = b - a  # (S, 2)
+        den = h[:, None, 0] * v[None, :, 1] - h[:, None, 1] * v[None, :, 0]
+        d = a[None, :, :] - echoes.xy[:, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (d[..., 0] * v[None, :, 1] - d[..., 1] * v[None, :, 0]) / den
+            u = (d[..., 0] * h[:, None, 1] - d[..., 1] * h[:, None, 0]) / den
+        hit = (np.abs(den) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+        first = np.minimum(first, np.where(hit, t, np.inf).min(axis=1))
+    return np.asarray(np.abs(first - echoes.range_m) <= RANGE_TOL_M)
 
 
 def line_ends(surfaces: list[SurfaceFit]) -> list[tuple[FloatArray, FloatArray]]:

@@ -8,8 +8,11 @@ The surface stage runs in two steps round the walls' echo refits:
    echo point of a corner's or an edge's reading lies along its beam's axis, not on any
    surface, and through a bundle of them a line would be fitted (the diagonal phantom
    lines through a corner's arcs).
-2. :func:`add_points` checks each point against the fitted surfaces and gives it its
-   kind (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
+2. :func:`refine_with_points` refits the surfaces without those readings, checks each
+   point against the fitted surfaces, drops those in a
+   row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples of a diffusely
+   scattering surface), gives each its kind
+   (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
    distinct sensor positions, ``rms_m`` its RMS range residual, and ``params``
@@ -18,6 +21,7 @@ The surface stage runs in two steps round the walls' echo refits:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,11 +33,11 @@ from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.classify import confirm_points, point_kind
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
-from sonarproc.surfaces.reflectors.walls import END_REACH_M, inside_walls
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls
 
 FloatArray = npt.NDArray[np.float64]
 
-__all__ = ["POINT_MODELS", "ClaimedPoints", "add_points", "claim_points", "point_fit"]
+__all__ = ["POINT_MODELS", "ClaimedPoints", "claim_points", "point_fit", "refine_with_points"]
 
 #: The models (and kinds) of point reflectors.
 POINT_MODELS = ("corner", "edge")
@@ -55,6 +59,7 @@ def claim_points(
     *,
     free: npt.NDArray[np.bool_] | None = None,
     walls: list[tuple[FloatArray, FloatArray]] | None = None,
+    ends_only: bool = False,
 ) -> ClaimedPoints:
     """The point reflectors of the readings and the readings they explain (module notes).
 
@@ -69,9 +74,12 @@ def claim_points(
     free : ndarray of bool, optional
         The readings a point may take (default: all; not those of walls found already).
     walls : list of (ndarray, ndarray), optional
-        The ends of walls found already: points are looked for only near their ends
-        (:func:`~sonarproc.surfaces.reflectors.walls.near_ends`), where corners and edges
-        are (the rest of a long log's readings go to the map).
+        The ends of walls found already: no point is looked for inside them
+        (:func:`~sonarproc.surfaces.reflectors.walls.inside_walls`: a wall that scatters
+        diffusely would give a point at every place of it).
+    ends_only : bool
+        Look only near the ``walls``' ends, where corners and edges are (a long log's
+        walls come from its readings, and what they leave goes to the map).
 
     Returns
     -------
@@ -80,7 +88,8 @@ def claim_points(
     skip, around = None, None
     if walls is not None:
         known = list(walls)
-        around = np.array([e for w in known for e in w], dtype=np.float64).reshape(-1, 2)
+        if ends_only:
+            around = np.array([e for w in known for e in w], dtype=np.float64).reshape(-1, 2)
 
         def skip(xy: FloatArray) -> npt.NDArray[np.bool_]:
             return inside_walls(xy, known)
@@ -115,31 +124,46 @@ def point_fit(point: PointFeature, kind: str) -> SurfaceFit:
                       False, params)  # fmt: skip
 
 
-def add_points(
-    fits: list[SurfaceFit],
-    cells: list[SurfaceCells],
-    found: ClaimedPoints,
+def refine_with_points(
+    refine: Callable[[EchoGeometry], tuple[list[SurfaceFit], list[SurfaceCells]]],
     echoes: EchoGeometry,
+    found: ClaimedPoints,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
-    """The fitted surfaces followed by the confirmed, classified point reflectors.
+    """The surfaces refitted without the points' readings, then the confirmed points.
+
+    ``refine`` refits the surfaces through the readings it is given. It is given the
+    readings no point claimed; the points are then checked against its surfaces
+    (:func:`~sonarproc.surfaces.reflectors.classify.confirm_points`; those in a row,
+    :func:`~sonarproc.surfaces.reflectors.walls.in_rows`, go too). When some point goes,
+    its readings were a surface's after all, and the surfaces are refitted once more
+    without the readings of the points that stay only.
 
     Parameters
     ----------
-    fits, cells : list of SurfaceFit, list of SurfaceCells
-        The fitted surfaces (without the points' readings) and their cells.
-    found : ClaimedPoints
-        From :func:`claim_points` on the same ``echoes``.
+    refine : callable
+        ``refine(readings) -> (fits, cells)``.
     echoes : EchoGeometry
         The readings.
+    found : ClaimedPoints
+        From :func:`claim_points` on the same ``echoes``.
 
     Returns
     -------
     fits, cells : list of SurfaceFit, list of SurfaceCells
-        Each point is one more surface, its cell its position.
+        The surfaces, then each point as one more surface (its cell its position).
     """
-    points = confirm_points(found.points, echoes, fits)
+    fits, cells = refine(echoes.subset(~found.claimed) if found.points else echoes)
+    kept = confirm_points(found.points, echoes, fits)
+    if kept:
+        rows = in_rows(np.array([p.xy for _, p in kept]))
+        kept = [kp for kp, r in zip(kept, rows.tolist(), strict=True) if not r]
+    if len(kept) < len(found.points):
+        claimed = np.zeros(echoes.size, dtype=bool)
+        for k, _ in kept:
+            claimed[found.points[k].readings] = True
+        fits, cells = refine(echoes.subset(~claimed))
     out, out_cells = list(fits), list(cells)
-    for p in points:
+    for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))
         one = np.ones(1)
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))

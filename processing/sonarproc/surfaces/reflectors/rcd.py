@@ -27,6 +27,13 @@ their beams, while no plane explains the same ranges.
      and above :data:`PLANE_POINT_RATIO` times the point's: a plane would explain them as
      well, so they are a plane's (a wall seen from near its normal also reads its
      distance to the foot);
+   * no diffusely scattering wall through the point explains them either: such a wall
+     answers each reading from where its beam's axis meets it, so every point of it is
+     seen from many poses at its own distance, like a point reflector; the best line
+     through ``p`` whose distances along the readings' axes match their ranges must leave
+     an RMS residual above :data:`PLANE_POINT_RATIO` times the point's (a point
+     reflector is heard off the axis too, anywhere in the beam, where those distances
+     differ from its range);
    * a circle through them (range = distance to a centre minus a radius) has a radius
      under :data:`MAX_POINT_RADIUS_M` or within two standard errors of zero: a larger
      one is a cylinder, left to the arc fits.
@@ -231,6 +238,32 @@ def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
     return float(math.sqrt(max(float(var.min()), 0.0)))
 
 
+def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
+    """RMS residual (m) of the best diffusely scattering line through ``p``.
+
+    For a line through ``p`` with unit normal ``n`` (every half degree), a reading's
+    predicted range is the distance along its beam's axis to the line,
+    ``n . (p - s) / n . h``; axes within 3 degrees of the line's direction, or meeting
+    it behind the sensor, count as a 1 m miss (so do larger misses).
+
+    Examples
+    --------
+    >>> s = np.c_[np.linspace(-1.0, 1.0, 9), np.zeros(9)]
+    >>> h = np.full(9, np.pi / 2)                         # looking straight at y = 2
+    >>> round(diffuse_rms(s, h, np.full(9, 2.0), [0.0, 2.0]), 6)
+    0.0
+    """
+    q = np.asarray(p, dtype=np.float64)
+    a = np.linspace(0.0, np.pi, 360, endpoint=False)
+    n = np.column_stack((np.cos(a), np.sin(a)))
+    num = (q - xy) @ n.T
+    den = np.column_stack((np.cos(heading), np.sin(heading))) @ n.T
+    ok = np.abs(den) > math.sin(math.radians(3.0))
+    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
+    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
+    return float(np.sqrt(np.mean(miss * miss, axis=0)).min())
+
+
 def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
     """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
 
@@ -419,6 +452,10 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
     prms = plane_rms(xy, rng)
-    if prms < PLANE_POINT_RATIO * rms or _radius_says_cylinder(xy, rng, p):
+    if prms < PLANE_POINT_RATIO * rms:
+        return None
+    if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
+        return None
+    if _radius_says_cylinder(xy, rng, p):
         return None
     return PointFeature(p, idx, _distinct_poses(xy), rms, prms, _span(xy, p))
