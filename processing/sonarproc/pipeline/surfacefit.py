@@ -243,7 +243,8 @@ def _lines_first(
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
     refined, refined_cells = refine_with_points(
-        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped),
+        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped,
+                              witnesses=echoes),
         echoes, points,
     )  # fmt: skip
     reason = None if refined else "no reading echoes from any surface found"
@@ -277,7 +278,9 @@ def refine_surfaces(
     else:
         points = claim_points(echoes, *counts)
         fits, cells = refine_with_points(
-            lambda e: refine_fits(found.surfaces, found.cells, e, cell=cell), echoes, points
+            lambda e: refine_fits(found.surfaces, found.cells, e, cell=cell, witnesses=echoes),
+            echoes,
+            points,
         )
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0

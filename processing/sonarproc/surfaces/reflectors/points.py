@@ -31,9 +31,9 @@ from sonarproc.grid import Grid
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.reflectors.classify import confirm_points, point_kind
+from sonarproc.surfaces.reflectors.classify import confirm_points, line_ends, point_kind
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
-from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -162,6 +162,9 @@ def refine_with_points(
         for k, _ in kept:
             claimed[found.points[k].readings] = True
         fits, cells = refine(echoes.subset(~claimed))
+        # a point is where a plane ends: one of the first fits may have gone
+        walls = line_ends(fits)
+        kept = [(k, p) for k, p in kept if walls and bool(on_wall_lines(p.xy, walls)[0])]
     out, out_cells = list(fits), list(cells)
     for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))

@@ -30,13 +30,16 @@ FloatArray = npt.NDArray[np.float64]
 #: through its echo points stops where the last perpendicular from a sensor met it, up to
 #: a beam footprint short of the corner (a quarter of a 2 m range's 0.9 m footprint).
 END_REACH_M = 0.25
-#: ... and the point lies within this (m) of the wall's line: twice the ranges' tolerance.
-LINE_REACH_M = 2 * RANGE_TOL_M
+#: ... and the point lies within this (m) of the wall's line: the ranges' tolerance (both
+#: the wall and the point are fitted to ranges within it).
+LINE_REACH_M = RANGE_TOL_M
 #: A wall refitted through its echo points stops where the last perpendicular from a
-#: sensor met it: a robot passing a metre from a room's walls stops seeing them
-#: specularly about a metre short of the corner. A point reflector this far (m) beyond a
-#: wall's end along its line is where the wall ends.
-WALL_GAP_M = 1.0
+#: sensor met it, which may be metres short of the corner it runs into (the robot never
+#: faced that stretch), while the corner retro-reflects from anywhere inside its opening.
+#: A point reflector up to this far (m) beyond a wall's end along its line, a Polaroid
+#: sonar's reach for a corner (about 5 m at the usual detection threshold), is where the
+#: wall ends.
+WALL_GAP_M = 5.0
 #: Points closer than this (m) along one line are samples of one surface: a sonar cannot
 #: resolve reflectors closer together than its beam's footprint (2 r tan 12.5 deg, 0.45 m
 #: at 1 m).
