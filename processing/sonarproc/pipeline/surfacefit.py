@@ -243,9 +243,8 @@ def _lines_first(
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
     refined, refined_cells = refine_with_points(
-        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped,
-                              witnesses=echoes),
-        echoes, points,
+        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped),
+        echoes, points, exclude=False,
     )  # fmt: skip
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)

@@ -98,7 +98,10 @@ def confirm_points(
         rows = np.flatnonzero(mine)
         for got in echo_points(polys, closed, echoes.subset(mine), tol=RANGE_TOL_M):
             explained[rows[got.readings]] = True
-        explained[rows[_axis_meets(echoes.subset(mine), polys)]] = True
+        coarse = [np.stack((a, b)) for a, b in walls]
+        coarse += [_decimated(s.polyline) for s in surfaces
+                   if s.model != "line" and s.polyline.shape[0] >= 2]  # fmt: skip
+        explained[rows[_axis_meets(echoes.subset(mine), coarse)]] = True
     out: list[tuple[int, PointFeature]] = []
     for k in todo:
         f = points[k]
@@ -121,6 +124,19 @@ def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bo
     if not walls or bool(inside_walls(f.xy, walls)[0]):
         return False
     return bool(on_wall_lines(f.xy, walls)[0])
+
+
+#: Curved surfaces are tested for diffuse echoes along chords about this long (m): the
+#: range tolerance's worth of sagitta on a 0.3 m radius.
+CHORD_M = 0.08
+
+
+def _decimated(poly: FloatArray) -> FloatArray:
+    """Every few vertices of a polyline, chords about :data:`CHORD_M` long, both ends kept."""
+    step = float(np.median(np.hypot(*np.diff(poly, axis=0).T)))
+    k = max(1, round(CHORD_M / max(step, 1e-9)))
+    idx = np.unique(np.r_[np.arange(0, poly.shape[0], k), poly.shape[0] - 1])
+    return np.asarray(poly[idx], dtype=np.float64)
 
 
 def _axis_meets(echoes: EchoGeometry, polys: list[FloatArray]) -> npt.NDArray[np.bool_]:

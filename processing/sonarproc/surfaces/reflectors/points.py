@@ -128,6 +128,8 @@ def refine_with_points(
     refine: Callable[[EchoGeometry], tuple[list[SurfaceFit], list[SurfaceCells]]],
     echoes: EchoGeometry,
     found: ClaimedPoints,
+    *,
+    exclude: bool = True,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
     """The surfaces refitted without the points' readings, then the confirmed points.
 
@@ -146,18 +148,24 @@ def refine_with_points(
         The readings.
     found : ClaimedPoints
         From :func:`claim_points` on the same ``echoes``.
+    exclude : bool
+        Refit without the points' readings (default). A long log's walls, found from
+        the readings' tangent votes, need not: its surfaces to refit were found without
+        the points' readings already, and a reading echoes from a surface only at the
+        foot of its perpendicular, which a point's reading is not.
 
     Returns
     -------
     fits, cells : list of SurfaceFit, list of SurfaceCells
         The surfaces, then each point as one more surface (its cell its position).
     """
-    fits, cells = refine(echoes.subset(~found.claimed) if found.points else echoes)
+    exclude = exclude and bool(found.points)
+    fits, cells = refine(echoes.subset(~found.claimed) if exclude else echoes)
     kept = confirm_points(found.points, echoes, fits)
     if kept:
         rows = in_rows(np.array([p.xy for _, p in kept]))
         kept = [kp for kp, r in zip(kept, rows.tolist(), strict=True) if not r]
-    if len(kept) < len(found.points):
+    if exclude and len(kept) < len(found.points):
         claimed = np.zeros(echoes.size, dtype=bool)
         for k, _ in kept:
             claimed[found.points[k].readings] = True
