@@ -11,8 +11,9 @@ The point is refitted on the rest and tested again
 (:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes.
 
 :func:`point_kind` says which kind of point it is, from the fitted straight surfaces
-(planes) that end at it (an end within :data:`END_REACH_M` of the point, the point within
-:data:`LINE_REACH_M` of the plane's line):
+(planes) that end at it (the point on the plane's line, within :data:`LINE_REACH_M`, at
+or past its nearer end, from :data:`END_REACH_M` inside it:
+:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`):
 
 * two such planes: a **corner** (concave) when each plane's far end lies on the side of
   the other that the sensors saw it from (the sensors inside the angle), else an
@@ -44,8 +45,6 @@ from sonarproc.surfaces.reflectors.rcd import (
     point_feature,
 )
 from sonarproc.surfaces.reflectors.walls import (
-    END_REACH_M,
-    LINE_REACH_M,
     inside_walls,
     on_wall_lines,
 )
@@ -167,21 +166,18 @@ def line_ends(surfaces: list[SurfaceFit]) -> list[tuple[FloatArray, FloatArray]]
 
 
 def _ends_at(fit: SurfaceFit, p: FloatArray) -> tuple[FloatArray, FloatArray] | None:
-    """The plane's (end near ``p``, far end) when it ends at ``p``, else None."""
+    """The plane's (end near ``p``, far end) when it ends at ``p``, else None.
+
+    It ends at ``p`` when ``p`` lies on its line at or past its nearer end
+    (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`): a wall refitted through
+    its echo points may stop well short of the corner it runs into.
+    """
     if fit.model != "line" or fit.closed or fit.polyline.shape[0] < 2:
         return None
     a, b = fit.polyline[0], fit.polyline[-1]
-    near, far = (a, b) if math.dist(a, p) <= math.dist(b, p) else (b, a)
-    if math.dist(near, p) > END_REACH_M:
+    if math.dist(a, b) <= 0 or not bool(on_wall_lines(p, [(a, b)])[0]):
         return None
-    u = far - near
-    length = float(np.hypot(*u))
-    if length <= 0:
-        return None
-    u = u / length
-    if abs(float(u[0] * (p[1] - near[1]) - u[1] * (p[0] - near[0]))) > LINE_REACH_M:
-        return None
-    return near, far
+    return (a, b) if math.dist(a, p) <= math.dist(b, p) else (b, a)
 
 
 def _side(a: FloatArray, b: FloatArray, q: FloatArray) -> npt.NDArray[np.float64]:
@@ -190,8 +186,16 @@ def _side(a: FloatArray, b: FloatArray, q: FloatArray) -> npt.NDArray[np.float64
     return np.asarray(u[0] * (q[..., 1] - a[1]) - u[1] * (q[..., 0] - a[0]), dtype=np.float64)
 
 
-def _crossings(echoes: EchoGeometry, a: FloatArray, b: FloatArray) -> int:
-    """Readings whose beam axis crosses the segment ``a b`` before their echo."""
+def _crossings(
+    echoes: EchoGeometry, a: FloatArray, b: FloatArray, own: npt.NDArray[np.intp]
+) -> int:
+    """Readings (not ``own``) whose beam axis crosses the segment ``a b`` well before their echo.
+
+    Well before: the range reaches beyond ``t / cos(half beam) + tolerance`` for a
+    crossing at ``t`` along the axis, so a wall there would have answered first from
+    anywhere in the beam (a reading grazing past a corner at the edge of its beam does not
+    count).
+    """
     h = np.column_stack((np.cos(echoes.heading), np.sin(echoes.heading)))
     v = b - a
     den = h[:, 0] * v[1] - h[:, 1] * v[0]
@@ -200,7 +204,9 @@ def _crossings(echoes: EchoGeometry, a: FloatArray, b: FloatArray) -> int:
     with np.errstate(divide="ignore", invalid="ignore"):
         t = (d[:, 0] * v[1] - d[:, 1] * v[0]) / den  # along the beam (m)
         u = (d[:, 0] * h[:, 1] - d[:, 1] * h[:, 0]) / den  # along the segment (0..1)
-    hit = ok & (t > 0) & (t < echoes.range_m - RANGE_TOL_M) & (u >= 0) & (u <= 1)
+    reach = t / np.cos(np.minimum(echoes.half_beam, 1.5)) + RANGE_TOL_M
+    hit = ok & (t > 0) & (reach < echoes.range_m) & (u >= 0) & (u <= 1)
+    hit[own] = False
     return int(np.count_nonzero(hit))
 
 
@@ -245,5 +251,5 @@ def point_kind(point: PointFeature, echoes: EchoGeometry, surfaces: list[Surface
         if float(np.median((sensors - p) @ w)) < 0:
             w = -w
         a, b = p + OTHER_WALL_M[0] * w, p + OTHER_WALL_M[1] * w
-        return "edge" if _crossings(echoes, a, b) >= MIN_CROSSINGS else "corner"
+        return "edge" if _crossings(echoes, a, b, point.readings) >= MIN_CROSSINGS else "corner"
     return "corner" if point.span_rad <= math.pi else "edge"
