@@ -181,7 +181,7 @@ def test_layers_import_downwards_only(typing_only: bool) -> None:
 
 #: The surface stage's subpackages, in the order they may import each other (each from
 #: those before it only).
-SURFACE_ORDER = ["planar", "extraction", "fitting", "echoes", "evaluation"]
+SURFACE_ORDER = ["planar", "extraction", "fitting", "echoes", "evaluation", "reflectors"]
 
 
 def test_surface_subpackages_import_in_order() -> None:

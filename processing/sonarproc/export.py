@@ -359,10 +359,17 @@ def fitted_polylines(result: MethodResult) -> list[npt.NDArray[np.float64]]:
 def write_rosbag2(
     result: MethodResult, log: SonarLog, path: str | Path, *, force: bool = False
 ) -> Path:
-    """A ROS 2 bag replaying ``log``'s readings (Range + tf) over the fitted surfaces."""
+    """A ROS 2 bag replaying ``log``'s readings (Range + tf) over the fitted surfaces.
+
+    Corners and edges are markers of their own (a sphere each, namespace their kind).
+    """
     from sonarlog.sources import write_rosbag2 as write_bag
 
-    write_bag(log, path, surfaces=fitted_polylines(result), force=force)
+    points: dict[str, list[list[float]]] = {}
+    for s in result.surfaces or []:
+        if s.model in ("corner", "edge"):
+            points.setdefault(s.model, []).append(np.asarray(s.polyline)[0].tolist())
+    write_bag(log, path, surfaces=fitted_polylines(result), points=points, force=force)
     return Path(path)
 
 

@@ -10,7 +10,8 @@ The bag holds, all stamped with the readings' times:
   transient-local so a late subscriber still gets it;
 * ``/map/surfaces``: one ``visualization_msgs/MarkerArray`` of ``LINE_STRIP`` markers in
   the ``odom`` frame: the surfaces the caller gives (namespace ``surfaces``) and the log's
-  true profile when it has one (namespace ``truth``).
+  true profile when it has one (namespace ``truth``), and a ``SPHERE_LIST`` per kind of
+  point reflector the caller gives (namespaces ``corner`` and ``edge``).
 
 Readings whose transmitter and receiver differ (crosstalk pairs) have no ``Range`` form
 and are counted in :attr:`RosbagExport.skipped_bistatic`.
@@ -21,7 +22,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,10 @@ ODOM_FRAME = "odom"
 BASE_FRAME = "base_link"
 TURRET_FRAME = "turret"
 SURFACES_TOPIC = "/map/surfaces"
+#: Point reflectors' marker namespaces and colours (RGBA): corners red, edges magenta.
+POINT_NAMESPACES = {"corner": (0.84, 0.15, 0.16, 1.0), "edge": (0.8, 0.2, 0.8, 1.0)}
+#: Diameter (m) of a point reflector's sphere.
+POINT_SIZE_M = 0.08
 
 
 def sonar_frame(sensor_id: int) -> str:
@@ -103,14 +108,18 @@ class _Msgs:
     def line_strip(
         self, t: float, ns: str, mid: int, pts: npt.NDArray[np.float64], rgba: tuple[float, ...]
     ) -> Any:
+        # a LINE_STRIP (type 4) for a surface; a SPHERE_LIST (type 7) for point reflectors
         T = self.T
+        points = ns in POINT_NAMESPACES
+        size = POINT_SIZE_M if points else 0.02
         return T["visualization_msgs/msg/Marker"](
-            header=self.header(t, ODOM_FRAME), ns=ns, id=mid, type=4, action=0,
+            header=self.header(t, ODOM_FRAME), ns=ns, id=mid, type=7 if points else 4, action=0,
             pose=T["geometry_msgs/msg/Pose"](
                 position=T["geometry_msgs/msg/Point"](x=0.0, y=0.0, z=0.0),
                 orientation=self.quat(0.0),
             ),
-            scale=T["geometry_msgs/msg/Vector3"](x=0.02, y=0.0, z=0.0),
+            scale=T["geometry_msgs/msg/Vector3"](x=size, y=size if points else 0.0,
+                                                 z=size if points else 0.0),
             color=T["std_msgs/msg/ColorRGBA"](r=rgba[0], g=rgba[1], b=rgba[2], a=rgba[3]),
             lifetime=T["builtin_interfaces/msg/Duration"](sec=0, nanosec=0), frame_locked=False,
             points=[T["geometry_msgs/msg/Point"](x=float(p[0]), y=float(p[1]), z=0.0) for p in pts],
@@ -170,6 +179,7 @@ def write_rosbag2(
     out: str | os.PathLike[str],
     *,
     surfaces: Sequence[npt.ArrayLike] = (),
+    points: Mapping[str, npt.ArrayLike] | None = None,
     storage: str = "sqlite3",
     force: bool = False,
 ) -> RosbagExport:
@@ -183,6 +193,9 @@ def write_rosbag2(
         The bag directory to create.
     surfaces : sequence of array_like, each (N, 2)
         Surfaces in the world (odom) frame, one ``LINE_STRIP`` each.
+    points : mapping of str to array_like (N, 2), optional
+        Point reflectors by kind (``corner``, ``edge``), one ``SPHERE_LIST`` per kind
+        (its namespace the kind, spheres of :data:`POINT_SIZE_M`).
     storage : {"sqlite3", "mcap"}
         The rosbag2 storage plugin.
     force : bool
@@ -235,6 +248,10 @@ def write_rosbag2(
         ]), tf_type)  # fmt: skip
 
         marks = [("surfaces", p, (0.1, 0.4, 1.0, 1.0)) for s in surfaces for p in _polylines(s)]
+        for kind, xy in sorted((points or {}).items()):
+            pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+            if kind in POINT_NAMESPACES and pts.size:
+                marks.append((kind, pts, POINT_NAMESPACES[kind]))
         if log.truth is not None:
             marks += [("truth", p, (0.1, 0.8, 0.1, 1.0)) for p in _polylines(log.truth)]
         if marks:

@@ -45,7 +45,9 @@ from sonarproc.surfaces import (
 )
 from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
 from sonarproc.surfaces.echoes.tangents import tangent_lines
+from sonarproc.surfaces.evaluation.writers import kind_of
 from sonarproc.surfaces.extraction.coarse import coarse_counts
+from sonarproc.surfaces.reflectors.points import claim_points, refine_with_points
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -82,11 +84,6 @@ LINE_MIN_VOTES = 20
 #: all (fewer are stray echoes: a surface the map could find needs many readings in a
 #: long log, and the map costs as much for a few arcs as for many).
 RESIDUAL_SHARE = 0.001
-#: The kind of reflector each fitted model stands for (Contract 2, v3): a straight wall is
-#: a plane; a circular arc is the section of a cylinder (a pillar, a round wall); a spline
-#: is a free curve. Corners and edges (point reflectors) are kinds of their own.
-MODEL_KINDS = {"line": "plane", "arc": "cylinder", "spline": "curve",
-               "corner": "corner", "edge": "edge"}  # fmt: skip
 #: A wall's echo points further apart than this (m) start a new wall (a doorway).
 BRIDGE_M = 0.30
 
@@ -196,7 +193,7 @@ def choose_fit(
     if decision.single_function:
         return AutoFit("function", str(criterion), None, detail)
     if beams is not None and found.surfaces:
-        found = refine_surfaces(found, beams, grid.cell)
+        found = refine_surfaces(found, beams, grid.cell, counts=(ex_counts, ex_grid))
         detail["surfaces"] = len(found.surfaces)
     return AutoFit("surfaces", str(criterion), found, detail)
 
@@ -216,6 +213,14 @@ def _lines_first(
         echoes, tol=TANGENT_TOL_M, min_votes=LINE_MIN_VOTES, bridge_m=BRIDGE_M,
         min_spread_m=MIN_SPREAD_M,
     )  # fmt: skip
+    # point reflectors (corners, edges) from the readings the walls do not own, outside them
+    own = np.zeros(echoes.size, dtype=bool)
+    for g in segs:
+        own[g.readings] = True
+    walls = [(g.points[0], g.points[-1]) for g in segs]
+    points = claim_points(echoes, *coarse_counts(counts, grid, EXTRACT_CELL_M), free=~own,
+                          walls=walls, ends_only=True)  # fmt: skip
+    claimed |= points.claimed
     sets = [SurfaceCells(g.points[:, 0], g.points[:, 1], g.along, np.ones(g.along.size), False)
             for g in segs]  # fmt: skip
     fitted = fit_surfaces(sets, cell=grid.cell)
@@ -237,9 +242,10 @@ def _lines_first(
     # the walls lie on their readings' echo points already: without the map's ridges (and
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
-    refined, refined_cells = refine_fits(
-        fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped
-    )
+    refined, refined_cells = refine_with_points(
+        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped),
+        echoes, points, exclude=False,
+    )  # fmt: skip
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
     criterion = (
@@ -252,10 +258,29 @@ def _lines_first(
     return AutoFit("surfaces", criterion, found, detail)
 
 
-def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
-    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
+def refine_surfaces(
+    found: SurfaceSet,
+    beams: Beams,
+    cell: float,
+    *,
+    counts: tuple[npt.NDArray[Any], Grid] | None = None,
+) -> SurfaceSet:
+    """``found`` refitted through the readings' echo points (surfaces nothing echoes from go).
+
+    Given the arc ``counts`` and their grid, the point reflectors (corners, edges) are
+    found first and their readings kept out of the refits
+    (:mod:`sonarproc.surfaces.reflectors`); they are appended as surfaces of one point.
+    """
     echoes = EchoGeometry.of_poses(beams.poses, beams.path)
-    fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    if counts is None:
+        fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    else:
+        points = claim_points(echoes, *counts)
+        fits, cells = refine_with_points(
+            lambda e: refine_fits(found.surfaces, found.cells, e, cell=cell, witnesses=echoes),
+            echoes,
+            points,
+        )
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0
     return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)
@@ -283,7 +308,7 @@ def surface_kind(model: str | None) -> str:
     >>> surface_kind("corner"), surface_kind(None)
     ('corner', 'curve')
     """
-    return MODEL_KINDS.get(str(model), "curve")
+    return kind_of(model)
 
 
 def surfaces_fit_record(found: SurfaceSet) -> dict[str, Any]:

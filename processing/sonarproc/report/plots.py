@@ -114,7 +114,7 @@ def fit_title(result: RunResult) -> str:
     """
     fit, m = result.fit, result.metrics
     if result.surfaces is not None:
-        what = f"{len(result.surfaces.surfaces)} surfaces, a line, arc or spline each"
+        what = _surfaces_what(result.surfaces.surfaces)
         if result.surface_metrics is not None:
             sm = result.surface_metrics
             what += f", precision {length_cm(sm.get('precision_m'))}"
@@ -130,6 +130,17 @@ def fit_title(result: RunResult) -> str:
     return what
 
 
+def _surfaces_what(surfaces: Sequence[Any]) -> str:
+    """``N surfaces, a line, arc or spline each``, then the point reflectors, if any."""
+    points = [s for s in surfaces if s.model in style.POINT_MARKERS]
+    what = f"{len(surfaces) - len(points)} surfaces, a line, arc or spline each"
+    for kind in style.POINT_MARKERS:
+        n = sum(1 for s in points if s.model == kind)
+        if n:
+            what += f", {n} {kind}{'s' if n > 1 else ''}"
+    return what
+
+
 def _title(result: RunResult, what: str) -> str:
     return f"{Path(result.source).name or result.source}: {what}"
 
@@ -142,6 +153,20 @@ def _line(ax: Axes, xy: npt.NDArray[np.float64], view: tuple[float, ...], **kw: 
     """Plot ``xy`` cut to ``view``; the Line2D (with no points if none is inside)."""
     cut = clip_polyline(xy, view)  # type: ignore[arg-type]
     return ax.plot(cut[:, 0], cut[:, 1], **kw)[0]
+
+
+def _point(
+    ax: Axes, xy: npt.NDArray[np.float64], view: tuple[float, ...], kind: str, colour: str, k: int
+) -> Any:
+    """A point reflector as its kind's marker (no marker when it lies outside ``view``)."""
+    p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)[:1]
+    x0, x1, y0, y1 = view[:4]
+    inside = (x0 <= p[:, 0]) & (p[:, 0] <= x1) & (y0 <= p[:, 1]) & (p[:, 1] <= y1)
+    p = p[inside]
+    return ax.plot(
+        p[:, 0], p[:, 1], ls="none", marker=style.POINT_MARKERS[kind], ms=style.POINT_SIZE,
+        mfc=colour, mec="black", mew=0.8, label=f"surface {k} ({kind})", zorder=3,
+    )[0]  # fmt: skip
 
 
 def arcmap_figure(result: RunResult) -> Figure:
@@ -224,6 +249,9 @@ def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) ->
         if surfaces is not None and surfaces.surfaces:
             for k, s in enumerate(surfaces.surfaces):
                 colour, dash = style.surface_style(k)
+                if s.model in style.POINT_MARKERS:
+                    handles.append(_point(ax, s.polyline, view, s.model, colour, k))
+                    continue
                 handles.append(
                     _line(
                         ax, s.polyline, view, color=colour, ls=dash, lw=style.FIT_WIDTH,

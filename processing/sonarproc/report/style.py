@@ -33,6 +33,8 @@ __all__ = [
     "FIT_COLOUR",
     "LINE_STYLES",
     "PATH_COLOUR",
+    "POINT_MARKERS",
+    "POINT_SIZE",
     "RC",
     "SURFACE_COLOURS",
     "TITLE_SIZE",
@@ -111,6 +113,10 @@ COUNT_CMAP = "Greys"
 TRUTH_STYLE: dict[str, Any] = {"color": "black", "linestyle": (0, (5, 3)), "linewidth": 1.3}
 #: Width of fitted curves and surfaces (points).
 FIT_WIDTH = 1.8
+#: Point reflectors are drawn as markers, one shape per kind (a concave corner a square,
+#: a convex edge a triangle), filled with the surface's colour and outlined in black.
+POINT_MARKERS = {"corner": "s", "edge": "^"}
+POINT_SIZE = 7.0
 
 
 def surface_style(k: int) -> tuple[str, str]:

@@ -50,7 +50,7 @@ def test_corridor_gets_surfaces(
     assert "E1_m" not in doc["metrics"]  # the truth is several surfaces
     assert doc["metrics"]["precision_m"] <= 0.03 and doc["metrics"]["completeness"] >= 0.8
     rows = (out / "surfaces.csv").read_text().splitlines()
-    assert rows[0] == "surface,x,y" and len(rows) > 100
+    assert rows[0] == "surface,kind,x,y" and len(rows) > 100
     geo = json.loads((out / "surfaces.geojson").read_text())
     assert geo["type"] == "FeatureCollection" and len(geo["features"]) == len(doc["surfaces"])
 

@@ -150,6 +150,7 @@ def refine_fits(
     rounds: tuple[float, ...] = ROUNDS_M,
     min_echoes: int = MIN_ECHOES,
     screen: bool = True,
+    witnesses: EchoGeometry | None = None,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
     """Refit surfaces through their readings' echo points (see the module notes).
 
@@ -170,6 +171,10 @@ def refine_fits(
     screen : bool
         Drop the straight pieces no reading echoes from before the rounds (the chance
         ridges of a map; surfaces found from the readings themselves need no screen).
+    witnesses : EchoGeometry, optional
+        The readings the last test for surfaces seen through counts (default:
+        ``echoes``): every reading, when ``echoes`` leaves out those of point
+        reflectors (they echo from no surface, but their sound crossed free space).
 
     Returns
     -------
@@ -217,7 +222,7 @@ def refine_fits(
     through = count_seen_through(
         [cur[i].polyline for i in weak],
         [cur[i].closed for i in weak],
-        echoes,
+        echoes if witnesses is None else witnesses,
         tol=rounds[-1],
         confirmed=[np.stack((pts_cells[i].x, pts_cells[i].y), axis=1) for i in weak],
     )

@@ -195,10 +195,10 @@ def test_writers_write_the_contract(tmp_path: Path) -> None:
     m[20:55, 50] = True
     found = find_surfaces(m, grid)
     csv = write_surfaces_csv(found.surfaces, tmp_path / "surfaces.csv").read_text().splitlines()
-    assert csv[0] == "surface,x,y"
+    assert csv[0] == "surface,kind,x,y"
     ids = np.array([int(r.split(",")[0]) for r in csv[1:]])
     assert sorted(set(ids.tolist())) == [0, 1] and np.all(np.diff(ids) >= 0)
-    first = np.array([[float(v) for v in r.split(",")[1:]] for r in csv[1:] if r.startswith("0,")])
+    first = np.array([[float(v) for v in r.split(",")[2:]] for r in csv[1:] if r.startswith("0,")])
     steps = np.hypot(*np.diff(first, axis=0).T)
     assert np.all(steps <= CELL + 1e-9) and steps[:-1].min() >= CELL - 1e-9
     doc = json.loads(write_surfaces_geojson(found.surfaces, tmp_path / "s.geojson").read_text())

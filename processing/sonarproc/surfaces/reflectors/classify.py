@@ -1,0 +1,255 @@
+"""Point reflectors checked against the fitted surfaces, and told apart: corner or edge.
+
+:func:`confirm_points` gives each point only the readings no fitted surface explains: a
+reading whose range equals its sensor's distance to a fitted surface, at a foot inside
+that surface and inside its beam, is that surface's specular echo (near a concave
+corner the two walls' readings together can look like a point in front of it; at a
+wall's end, the readings from near its normal read the distance to the end as well); so
+is a reading whose beam axis meets a fitted surface at its range (a diffuse echo off it).
+The point is refitted on the rest and tested again
+(:func:`sonarproc.surfaces.reflectors.rcd.point_feature`). A point inside a fitted plane
+(:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes.
+
+:func:`point_kind` says which kind of point it is, from the fitted straight surfaces
+(planes) that end at it (the point on the plane's line, within :data:`LINE_REACH_M`, at
+or past its nearer end, from :data:`END_REACH_M` inside it:
+:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`):
+
+* two such planes: a **corner** (concave) when each plane's far end lies on the side of
+  the other that the sensors saw it from (the sensors inside the angle), else an
+  **edge** (a convex box corner seen from outside);
+* one plane: an **edge** when sensors past its end (beyond the point along the plane)
+  heard the point, which only a free end or a convex corner allows (behind a concave
+  corner's other wall there is no room for a sensor), or when at least
+  :data:`MIN_CROSSINGS` beams crossed the place of the other wall a right-angled concave
+  corner would have there (from :data:`OTHER_WALL_M`, from the point towards the sensors'
+  side: a reading's axis crossing it before its echo saw free space there); else a
+  **corner** whose other wall was not fitted;
+* no plane: a **corner** when its sensors all lie in one half-plane round it (a
+  concave corner is heard only from inside its opening, of at most 180 degrees), an
+  **edge** when they surround it by more.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.rcd import (
+    RANGE_TOL_M,
+    PointFeature,
+    point_feature,
+)
+from sonarproc.surfaces.reflectors.walls import (
+    inside_walls,
+    on_wall_lines,
+)
+
+__all__ = ["confirm_points", "line_ends", "point_kind"]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: A sensor is past a plane's end when it lies beyond the point along the plane by more
+#: than this (m): the range tolerance.
+PAST_END_M = RANGE_TOL_M
+#: The other wall of a concave corner is looked for over this stretch (m) from the
+#: point: from twice the range tolerance (beams aimed at the corner itself graze it) to
+#: a beam's footprint at 1 m (2 x 1 m x tan 12.5 deg, about 0.45 m).
+OTHER_WALL_M = (2 * RANGE_TOL_M, 0.45)
+#: Beams crossing that stretch that say it is free space (one may be a stray echo).
+MIN_CROSSINGS = 2
+
+
+def confirm_points(
+    points: list[PointFeature], echoes: EchoGeometry, surfaces: list[SurfaceFit]
+) -> list[tuple[int, PointFeature]]:
+    """``points`` refitted on the readings no fitted surface explains (module notes).
+
+    Parameters
+    ----------
+    points : list of PointFeature
+        From :func:`~sonarproc.surfaces.reflectors.rcd.find_point_features`.
+    echoes : EchoGeometry
+        The readings the points index.
+    surfaces : list of SurfaceFit
+        The fitted surfaces (lines, arcs, splines).
+
+    Returns
+    -------
+    list of (int, PointFeature)
+        The points that still pass every test (their index in ``points``, the refitted
+        point), in the order given.
+    """
+    polys = [s.polyline for s in surfaces if s.polyline.shape[0] >= 2]
+    closed = [s.closed for s in surfaces if s.polyline.shape[0] >= 2]
+    walls = line_ends(surfaces)
+    todo = [k for k, f in enumerate(points) if not (walls and bool(inside_walls(f.xy, walls)[0]))]
+    explained = np.zeros(echoes.size, dtype=bool)
+    if polys and todo:
+        # the points' readings at once (each belongs to one point)
+        mine = np.zeros(echoes.size, dtype=bool)
+        for k in todo:
+            mine[points[k].readings] = True
+        rows = np.flatnonzero(mine)
+        for got in echo_points(polys, closed, echoes.subset(mine), tol=RANGE_TOL_M):
+            explained[rows[got.readings]] = True
+        coarse = [np.stack((a, b)) for a, b in walls]
+        coarse += [_decimated(s.polyline) for s in surfaces
+                   if s.model != "line" and s.polyline.shape[0] >= 2]  # fmt: skip
+        explained[rows[_axis_meets(echoes.subset(mine), coarse)]] = True
+    out: list[tuple[int, PointFeature]] = []
+    for k in todo:
+        f = points[k]
+        new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
+        if new is not None and _anchored(new, walls):
+            out.append((k, new))
+    return out
+
+
+def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bool:
+    """Whether a point is where a fitted plane ends.
+
+    A point reflector is the end of a wall (a corner, a box's edge, a jamb): it lies on a
+    fitted plane's line at or past one of its ends
+    (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`), not inside it (there it
+    is the plane's own echo). A point no plane leads to is not reported: the arcs of
+    several surfaces cross by chance at points, a few times each, and what is seen of a
+    real reflector without any wall (a thin post) is fitted as a curve by the map.
+    """
+    if not walls or bool(inside_walls(f.xy, walls)[0]):
+        return False
+    return bool(on_wall_lines(f.xy, walls)[0])
+
+
+#: Curved surfaces are tested for diffuse echoes along chords about this long (m): the
+#: range tolerance's worth of sagitta on a 0.3 m radius.
+CHORD_M = 0.08
+
+
+def _decimated(poly: FloatArray) -> FloatArray:
+    """Every few vertices of a polyline, chords about :data:`CHORD_M` long, both ends kept."""
+    step = float(np.median(np.hypot(*np.diff(poly, axis=0).T)))
+    k = max(1, round(CHORD_M / max(step, 1e-9)))
+    idx = np.unique(np.r_[np.arange(0, poly.shape[0], k), poly.shape[0] - 1])
+    return np.asarray(poly[idx], dtype=np.float64)
+
+
+def _axis_meets(echoes: EchoGeometry, polys: list[FloatArray]) -> npt.NDArray[np.bool_]:
+    """Readings whose beam axis meets a fitted surface at their range (a diffuse echo off it).
+
+    The axis is a ray from the sensor; each polyline's segments are tested, and a reading
+    is explained when the nearest crossing lies within :data:`RANGE_TOL_M` of its range.
+    """
+    h = np.column_stack((np.cos(echoes.heading), np.sin(echoes.heading)))
+    first = np.full(echoes.size, np.inf)
+    for poly in polys:
+        a, b = poly[:-1], poly[1:]
+        v = b - a  # (S, 2)
+        den = h[:, None, 0] * v[None, :, 1] - h[:, None, 1] * v[None, :, 0]
+        d = a[None, :, :] - echoes.xy[:, None, :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (d[..., 0] * v[None, :, 1] - d[..., 1] * v[None, :, 0]) / den
+            u = (d[..., 0] * h[:, None, 1] - d[..., 1] * h[:, None, 0]) / den
+        hit = (np.abs(den) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+        first = np.minimum(first, np.where(hit, t, np.inf).min(axis=1))
+    return np.asarray(np.abs(first - echoes.range_m) <= RANGE_TOL_M)
+
+
+def line_ends(surfaces: list[SurfaceFit]) -> list[tuple[FloatArray, FloatArray]]:
+    """The two ends of each open straight surface (plane)."""
+    return [(s.polyline[0], s.polyline[-1]) for s in surfaces
+            if s.model == "line" and not s.closed and s.polyline.shape[0] >= 2]  # fmt: skip
+
+
+def _ends_at(fit: SurfaceFit, p: FloatArray) -> tuple[FloatArray, FloatArray] | None:
+    """The plane's (end near ``p``, far end) when it ends at ``p``, else None.
+
+    It ends at ``p`` when ``p`` lies on its line at or past its nearer end
+    (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`): a wall refitted through
+    its echo points may stop well short of the corner it runs into.
+    """
+    if fit.model != "line" or fit.closed or fit.polyline.shape[0] < 2:
+        return None
+    a, b = fit.polyline[0], fit.polyline[-1]
+    if math.dist(a, b) <= 0 or not bool(on_wall_lines(p, [(a, b)])[0]):
+        return None
+    return (a, b) if math.dist(a, p) <= math.dist(b, p) else (b, a)
+
+
+def _side(a: FloatArray, b: FloatArray, q: FloatArray) -> npt.NDArray[np.float64]:
+    """Signed side of points ``q`` (N, 2) of the line through ``a`` and ``b``."""
+    u = b - a
+    return np.asarray(u[0] * (q[..., 1] - a[1]) - u[1] * (q[..., 0] - a[0]), dtype=np.float64)
+
+
+def _crossings(
+    echoes: EchoGeometry, a: FloatArray, b: FloatArray, own: npt.NDArray[np.intp]
+) -> int:
+    """Readings (not ``own``) whose beam axis crosses the segment ``a b`` well before their echo.
+
+    Well before: the range reaches beyond ``t / cos(half beam) + tolerance`` for a
+    crossing at ``t`` along the axis, so a wall there would have answered first from
+    anywhere in the beam (a reading grazing past a corner at the edge of its beam does not
+    count).
+    """
+    h = np.column_stack((np.cos(echoes.heading), np.sin(echoes.heading)))
+    v = b - a
+    den = h[:, 0] * v[1] - h[:, 1] * v[0]
+    ok = np.abs(den) > 1e-9
+    d = a - echoes.xy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (d[:, 0] * v[1] - d[:, 1] * v[0]) / den  # along the beam (m)
+        u = (d[:, 0] * h[:, 1] - d[:, 1] * h[:, 0]) / den  # along the segment (0..1)
+    reach = t / np.cos(np.minimum(echoes.half_beam, 1.5)) + RANGE_TOL_M
+    hit = ok & (t > 0) & (reach < echoes.range_m) & (u >= 0) & (u <= 1)
+    hit[own] = False
+    return int(np.count_nonzero(hit))
+
+
+def point_kind(point: PointFeature, echoes: EchoGeometry, surfaces: list[SurfaceFit]) -> str:
+    """``corner`` (concave) or ``edge`` (convex) for a point reflector (module notes).
+
+    Examples
+    --------
+    Two walls meeting at (0, 0), sensors inside the right angle: a corner; outside it, an
+    edge.
+
+    >>> a = SurfaceFit("line", np.array([[0.0, 0.0], [2.0, 0.0]]), 2.0, 0.0, 9, 9)
+    >>> b = SurfaceFit("line", np.array([[0.0, 0.0], [0.0, 2.0]]), 2.0, 0.0, 9, 9)
+    >>> inside = EchoGeometry(np.array([[1.0, 1.0], [1.5, 0.5]]), np.zeros(2), np.zeros(2),
+    ...                       np.zeros(2))
+    >>> f = PointFeature(np.zeros(2), np.arange(2), 2, 0.0, 1.0, 0.5)
+    >>> point_kind(f, inside, [a, b])
+    'corner'
+    >>> outside = EchoGeometry(-inside.xy, np.zeros(2), np.zeros(2), np.zeros(2))
+    >>> point_kind(f, outside, [a, b])
+    'edge'
+    """
+    p = point.xy
+    sensors = echoes.xy[point.readings]
+    ends = [e for e in (_ends_at(s, p) for s in surfaces) if e is not None]
+    if len(ends) >= 2:
+        # the two longest planes ending here
+        ends.sort(key=lambda e: -math.dist(e[0], e[1]))
+        (na, fa), (nb, fb) = ends[:2]
+        side_a = float(np.median(np.sign(_side(na, fa, sensors))))
+        side_b = float(np.median(np.sign(_side(nb, fb, sensors))))
+        concave = side_a * float(_side(na, fa, fb)) > 0 and side_b * float(_side(nb, fb, fa)) > 0
+        return "corner" if concave else "edge"
+    if len(ends) == 1:
+        near, far = ends[0]
+        u = (near - far) / max(math.dist(near, far), 1e-12)
+        past = (sensors - p) @ u > PAST_END_M
+        if bool(past.any()):
+            return "edge"
+        # the other wall of a concave corner: perpendicular to this one, on the sensors' side
+        w = np.array([-u[1], u[0]])
+        if float(np.median((sensors - p) @ w)) < 0:
+            w = -w
+        a, b = p + OTHER_WALL_M[0] * w, p + OTHER_WALL_M[1] * w
+        return "edge" if _crossings(echoes, a, b, point.readings) >= MIN_CROSSINGS else "corner"
+    return "corner" if point.span_rad <= math.pi else "edge"

@@ -1,0 +1,461 @@
+"""Point reflectors from regions of constant depth (Leonard & Durrant-Whyte 1991).
+
+A concave corner retro-reflects and a convex edge diffracts: each answers a sonar from
+one point, whatever the sensor's position, so its readings all lie on arcs through that
+point (a *region of constant depth*: a sensor sweeping across it reads one range). A
+plane answers from the foot of the perpendicular, a different point for each pose. So a
+point reflector is a point ``p`` such that many readings from distinct poses have ranges
+equal to their sensor's distance to ``p`` (within the range noise) and hold ``p`` inside
+their beams, while no plane explains the same ranges.
+
+:func:`find_point_features` looks for them:
+
+1. **Candidates** are the local maxima of the arc count map (every arc through ``p``
+   adds a vote at ``p``), strongest first, at least :data:`MIN_READINGS` votes.
+2. **Gathering**: the readings whose range is within :data:`RANGE_TOL_M` of their
+   sensor's distance to the candidate, and whose beam (its half-width times
+   :data:`BEAM_SLACK`) holds it.
+3. **Position**: ``p`` by least squares on those ranges
+   (:func:`scipy.optimize.least_squares`), gathering again round the new ``p``, twice.
+4. **Tests**, each with its physical reason:
+
+   * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
+     sensor positions (positions in one :data:`RANGE_TOL_M` cell give the same range to
+     any point, so they add no geometry);
+   * the best plane through the same readings (range = the distance to a line, for any
+     line) leaves an RMS residual above :data:`PLANE_NOISE_FACTOR` times the range noise
+     and above :data:`PLANE_POINT_RATIO` times the point's: a plane would explain them as
+     well, so they are a plane's (a wall seen from near its normal also reads its
+     distance to the foot);
+   * no diffusely scattering wall through the point explains them either: such a wall
+     answers each reading from where its beam's axis meets it, so every point of it is
+     seen from many poses at its own distance, like a point reflector; the best line
+     through ``p`` whose distances along the readings' axes match their ranges must leave
+     an RMS residual above :data:`PLANE_POINT_RATIO` times the point's (a point
+     reflector is heard off the axis too, anywhere in the beam, where those distances
+     differ from its range);
+   * a circle through them (range = distance to a centre minus a radius) has a radius
+     under :data:`MAX_POINT_RADIUS_M` or within two standard errors of zero: a larger
+     one is a cylinder, left to the arc fits.
+
+   The readings of an accepted point are claimed by it (a reading has one first echo),
+   so weaker candidates nearby are tested on the rest.
+
+Which kind of point it is (a concave ``corner`` or a convex ``edge``) is decided against
+the fitted planes by :mod:`sonarproc.surfaces.reflectors.classify`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy import ndimage
+from scipy.optimize import least_squares
+from scipy.spatial import cKDTree
+
+from sonarproc.grid import Grid
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+
+__all__ = [
+    "BEAM_SLACK",
+    "MIN_POSES",
+    "MIN_READINGS",
+    "RANGE_TOL_M",
+    "PointFeature",
+    "find_point_features",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: A reading passes through a point when its range is within this (m) of the distance
+#: from its sensor: a robot's 1-inch range steps (+-1.27 cm), a few mm of noise and the
+#: time walk of a weak echo (up to about 1.5 cm long, Kleeman & Kuc 1995) add up to it.
+#: It is the last echo round's tolerance of the plane refits too
+#: (:data:`sonarproc.surfaces.echoes.refine.ROUNDS_M`).
+RANGE_TOL_M = 0.03
+#: The range noise (m) a reading's residual is weighed by: the 1-inch quantisation's
+#: uniform error alone is 2.54 cm / sqrt(12) = 7.3 mm; with a few mm of noise, 1 cm.
+RANGE_NOISE_M = 0.01
+#: A point echo is heard beyond the nominal half-width of the beam: the effective beam
+#: of a Polaroid transducer widens close by (16 degrees at 0.5 m for a nominal 12.5,
+#: Kuc & Siegel 1987), most for strong echoes such as a corner's.
+BEAM_SLACK = 1.3
+#: Fewest readings of a point: a sonar ring fires about eight times per 0.4 m of travel
+#: at a reflector 2 m away within its beam; fewer are a chance crossing of arcs.
+MIN_READINGS = 8
+#: Fewest distinct sensor positions: a point has two unknowns, and so has a plane's
+#: tangent line; five positions leave three ranges to tell them apart and outvote one
+#: stray echo.
+MIN_POSES = 5
+#: The best plane must leave residuals this many times the range noise...
+PLANE_NOISE_FACTOR = 1.5
+#: ... and this many times the point's own residual (a wall seen from near its normal
+#: fits both about equally).
+PLANE_POINT_RATIO = 1.5
+#: A circle through the readings with a larger radius (m) than this, and more than two
+#: standard errors from zero, is a cylinder: a pillar, not a point.
+MAX_POINT_RADIUS_M = 0.05
+#: Local maxima of the counts closer than this (m) are one candidate: the arcs through a
+#: point spread their votes over the range tolerance round it.
+CANDIDATE_SPACING_M = 2 * RANGE_TOL_M
+#: An accepted point's readings are gathered again this many times round the new
+#: position.
+GATHER_ROUNDS = 2
+#: Most candidates tested, strongest first: a point reflector is among the strongest
+#: local maxima of the map; the weakest are the many chance crossings of arcs.
+MAX_CANDIDATES = 400
+
+
+@dataclass(frozen=True, eq=False)
+class PointFeature:
+    """A point reflector: its position, the readings that echo from it, their geometry.
+
+    Attributes
+    ----------
+    xy : ndarray, shape (2,)
+        Position (m).
+    readings : ndarray of int
+        The readings echoing from it (indices into the :class:`EchoGeometry` given).
+    poses : int
+        Distinct sensor positions among them.
+    rms_m : float
+        RMS range residual of the point (m).
+    plane_rms_m : float
+        RMS range residual of the best plane through the same readings (m).
+    span_rad : float
+        Angle the sensors span as seen from the point (rad).
+    """
+
+    xy: FloatArray
+    readings: IntArray
+    poses: int
+    rms_m: float
+    plane_rms_m: float
+    span_rad: float
+
+    @property
+    def support(self) -> int:
+        """Readings echoing from the point."""
+        return int(self.readings.size)
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    return np.asarray((a + np.pi) % (2 * np.pi) - np.pi, dtype=np.float64)
+
+
+class _ArcIndex:
+    """The readings whose arcs may pass near a point: k-d trees of the arcs' midpoints.
+
+    Every point of a reading's arc (within :data:`BEAM_SLACK` times its half beam) lies
+    within the arc's chord of its midpoint; readings are grouped by that reach (doubling
+    classes), one tree per class, so a query asks each tree for its class's reach.
+    """
+
+    def __init__(self, echoes: EchoGeometry, free: npt.NDArray[np.bool_]) -> None:
+        idx = np.flatnonzero(free)
+        half = np.minimum(BEAM_SLACK * echoes.half_beam[idx], 0.5 * np.pi)
+        rng = echoes.range_m[idx]
+        h = echoes.heading[idx]
+        mid = echoes.xy[idx] + rng[:, None] * np.column_stack((np.cos(h), np.sin(h)))
+        reach = 2.0 * rng * np.sin(0.5 * half) + RANGE_TOL_M
+        cls = np.ceil(np.log2(np.maximum(reach, 0.05) / 0.05)).astype(np.int64)
+        self.groups: list[tuple[IntArray, cKDTree, float]] = []
+        for k in np.unique(cls):
+            sel = np.flatnonzero(cls == k)
+            rows = idx[sel]
+            self.groups.append((rows, cKDTree(mid[sel]), float(reach[sel].max())))
+
+    def near(self, p: FloatArray) -> IntArray:
+        """Readings whose arcs may pass within :data:`RANGE_TOL_M` of ``p``."""
+        parts = [rows[tree.query_ball_point(p, r)] for rows, tree, r in self.groups]
+        return np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)
+
+
+def _gather(
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], p: FloatArray, index: _ArcIndex | None
+) -> IntArray:
+    """Free readings whose arcs pass within :data:`RANGE_TOL_M` of ``p`` inside their beams."""
+    idx = np.flatnonzero(free) if index is None else np.sort(index.near(p))
+    if index is not None:
+        idx = idx[free[idx]]
+    d = echoes.xy[idx] - p
+    dist = np.hypot(d[:, 0], d[:, 1])
+    near = np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M
+    idx, d = idx[near], d[near]
+    if idx.size == 0:
+        return idx
+    bearing = np.arctan2(-d[:, 1], -d[:, 0])
+    off = np.abs(_wrap(bearing - echoes.heading[idx]))
+    return idx[off <= BEAM_SLACK * echoes.half_beam[idx]]
+
+
+def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatArray, float]:
+    """Least-squares point through the ranges, and its RMS residual (m).
+
+    The readings were gathered within :data:`RANGE_TOL_M` of a first estimate, so no
+    residual is wild: plain least squares (Levenberg-Marquardt) suffices.
+    """
+
+    def res(p: FloatArray) -> FloatArray:
+        return np.asarray(np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - rng, dtype=np.float64)
+
+    def jac(p: FloatArray) -> FloatArray:
+        d = p - xy
+        return np.asarray(d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None])
+
+    sol = least_squares(res, p0, jac=jac, method="lm")
+    p = np.asarray(sol.x, dtype=np.float64)
+    return p, float(np.sqrt(np.mean(res(p) ** 2)))
+
+
+def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
+    """RMS residual (m) of the best plane's ranges: ``range = d - n . sensor`` for a unit ``n``.
+
+    For a direction ``n`` the best ``d`` is the mean of ``range + n . sensor``, and the
+    residual is that sum's spread; the spread is a quadratic form in ``(cos a, sin a)``,
+    evaluated at every half degree.
+
+    Examples
+    --------
+    >>> xy = np.c_[np.linspace(-1, 1, 9), np.zeros(9)]
+    >>> plane_rms(xy, np.full(9, 2.0)) < 1e-6          # a wall parallel to the poses
+    True
+    >>> round(plane_rms(xy, np.hypot(xy[:, 0], 2.0)), 3)  # a point 2 m ahead
+    0.086
+    """
+    m = np.column_stack((xy, rng))
+    m = m - m.mean(axis=0)
+    c = (m.T @ m) / m.shape[0]
+    a = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+    ca, sa = np.cos(a), np.sin(a)
+    var = (c[2, 2] + 2 * (ca * c[0, 2] + sa * c[1, 2])
+           + ca * ca * c[0, 0] + 2 * ca * sa * c[0, 1] + sa * sa * c[1, 1])  # fmt: skip
+    return float(math.sqrt(max(float(var.min()), 0.0)))
+
+
+def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
+    """RMS residual (m) of the best diffusely scattering line through ``p``.
+
+    For a line through ``p`` with unit normal ``n`` (every half degree), a reading's
+    predicted range is the distance along its beam's axis to the line,
+    ``n . (p - s) / n . h``; axes within 3 degrees of the line's direction, or meeting
+    it behind the sensor, count as a 1 m miss (so do larger misses).
+
+    Examples
+    --------
+    >>> s = np.c_[np.linspace(-1.0, 1.0, 9), np.zeros(9)]
+    >>> h = np.full(9, np.pi / 2)                         # looking straight at y = 2
+    >>> round(diffuse_rms(s, h, np.full(9, 2.0), [0.0, 2.0]), 6)
+    0.0
+    """
+    q = np.asarray(p, dtype=np.float64)
+    a = np.linspace(0.0, np.pi, 360, endpoint=False)
+    n = np.column_stack((np.cos(a), np.sin(a)))
+    num = (q - xy) @ n.T
+    den = np.column_stack((np.cos(heading), np.sin(heading))) @ n.T
+    ok = np.abs(den) > math.sin(math.radians(3.0))
+    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
+    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
+    return float(np.sqrt(np.mean(miss * miss, axis=0)).min())
+
+
+def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
+    """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
+
+    def res(q: FloatArray) -> FloatArray:
+        return np.asarray(np.hypot(xy[:, 0] - q[0], xy[:, 1] - q[1]) - q[2] - rng, np.float64)
+
+    def jac(q: FloatArray) -> FloatArray:
+        d = q[:2] - xy
+        u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+        return np.column_stack((u, -np.ones(xy.shape[0])))
+
+    sol = least_squares(res, np.r_[p, 0.0], jac=jac, method="lm")
+    radius = float(sol.x[2])
+    if radius <= MAX_POINT_RADIUS_M:
+        return False
+    jtj = sol.jac.T @ sol.jac
+    try:
+        cov = np.linalg.inv(jtj) * RANGE_NOISE_M**2
+    except np.linalg.LinAlgError:
+        return False
+    return radius > 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0))
+
+
+def _distinct_poses(xy: FloatArray) -> int:
+    cells = np.floor(xy / RANGE_TOL_M).astype(np.int64)
+    return int(np.unique(cells, axis=0).shape[0])
+
+
+def _span(xy: FloatArray, p: FloatArray) -> float:
+    """Angle (rad) the sensors span as seen from ``p`` (the complement of the largest gap)."""
+    b = np.sort(np.arctan2(xy[:, 1] - p[1], xy[:, 0] - p[0]))
+    if b.size < 2:
+        return 0.0
+    gaps = np.diff(np.r_[b, b[0] + 2 * np.pi])
+    return float(2 * np.pi - gaps.max())
+
+
+def candidates(
+    counts: npt.ArrayLike, grid: Grid, *, around: FloatArray | None = None, reach: float = 0.0
+) -> FloatArray:
+    """Local maxima of the counts with at least :data:`MIN_READINGS` votes, strongest first.
+
+    A plateau of equal maxima, or maxima closer than :data:`CANDIDATE_SPACING_M`, give
+    their strongest (first) one. With ``around`` (P, 2), only the maxima within ``reach``
+    (m) of one of those points are looked for (in windows of the map: a long log's map is
+    millions of cells).
+
+    Examples
+    --------
+    >>> g = Grid(x0=0.0, y0=0.0, cell=0.02, nx=20, ny=10)
+    >>> c = np.zeros(g.shape, int); c[5, 7] = 12; c[5, 8] = 11; c[2, 15] = 3
+    >>> candidates(c, g).round(3).tolist()
+    [[0.14, 0.1]]
+    >>> candidates(c, g, around=np.array([[0.3, 0.04]]), reach=0.05).tolist()
+    []
+    """
+    c = np.asarray(counts)
+    size = max(3, 2 * round(CANDIDATE_SPACING_M / grid.cell) + 1)
+    if around is None:
+        windows = [(slice(0, grid.ny), slice(0, grid.nx))]
+    else:
+        pad = math.ceil(reach / grid.cell) + size
+        iy, ix = grid.to_index(around[:, 0], around[:, 1])
+        windows = [(slice(max(0, y - pad), max(0, y + pad + 1)),
+                    slice(max(0, x - pad), max(0, x + pad + 1)))
+                   for y, x in zip(iy.tolist(), ix.tolist(), strict=True)]  # fmt: skip
+    rows, cols, votes = [], [], []
+    for wy, wx in windows:
+        part = c[wy, wx]
+        if part.size == 0:
+            continue
+        peak = (part == ndimage.maximum_filter(part, size=size, mode="constant")) & (
+            part >= MIN_READINGS
+        )
+        py, px = np.nonzero(peak)
+        rows.append(py + wy.start)
+        cols.append(px + wx.start)
+        votes.append(part[py, px])
+    if not rows:
+        return np.zeros((0, 2))
+    iy_all, ix_all, v = np.concatenate(rows), np.concatenate(cols), np.concatenate(votes)
+    order = np.argsort(-v, kind="stable")
+    x, y = grid.to_world(iy_all[order], ix_all[order])
+    pts_xy = np.column_stack((x, y)).astype(np.float64)
+    _, first = np.unique(pts_xy, axis=0, return_index=True)  # windows overlap
+    pts_xy = pts_xy[np.sort(first)]
+    if around is not None:
+        gap = pts_xy[:, None, :] - around[None, :, :]
+        pts_xy = pts_xy[np.hypot(gap[..., 0], gap[..., 1]).min(axis=1) <= reach]
+    keep = np.ones(pts_xy.shape[0], dtype=bool)
+    for i, near in enumerate(cKDTree(pts_xy).query_ball_point(pts_xy, CANDIDATE_SPACING_M)):
+        if keep[i]:
+            keep[[j for j in near if j > i]] = False
+    return pts_xy[keep][:MAX_CANDIDATES]
+
+
+def find_point_features(
+    echoes: EchoGeometry,
+    counts: npt.ArrayLike,
+    grid: Grid,
+    *,
+    free: npt.NDArray[np.bool_] | None = None,
+    skip: Callable[[FloatArray], npt.NDArray[np.bool_]] | None = None,
+    around: FloatArray | None = None,
+    reach: float = 0.0,
+) -> list[PointFeature]:
+    """Point reflectors of a log (see the module notes), strongest first.
+
+    Parameters
+    ----------
+    echoes : EchoGeometry
+        The readings.
+    counts : array_like of int, shape grid.shape
+        Arc counts per cell (any cell size; a 2 cm map is plenty).
+    grid : Grid
+        The counts' grid.
+    free : ndarray of bool, optional
+        The readings a point may take (default: all).
+    skip : callable, optional
+        Given the candidates (C, 2), true for those not to test (inside walls found
+        already: :func:`sonarproc.surfaces.reflectors.walls.inside_walls`).
+    around, reach : ndarray (P, 2) and float, optional
+        Look only within ``reach`` (m) of these points (see :func:`candidates`).
+
+    Returns
+    -------
+    list of PointFeature
+        Each reading belongs to at most one of them.
+    """
+    free = np.ones(echoes.size, dtype=bool) if free is None else free.copy()
+    found: list[PointFeature] = []
+    starts = candidates(counts, grid, around=around, reach=reach)
+    if skip is not None and starts.size:
+        starts = starts[~skip(starts)]
+    index = _ArcIndex(echoes, free) if starts.size else None
+    for c in starts:
+        if found and min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M:
+            continue
+        feature = _test_point(echoes, free, c, index)
+        if feature is not None:
+            free[feature.readings] = False
+            found.append(feature)
+    return found
+
+
+def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
+    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+    if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
+        return False
+    return plane_rms(echoes.xy[idx], echoes.range_m[idx]) >= PLANE_NOISE_FACTOR * RANGE_NOISE_M
+
+
+def _test_point(
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], start: FloatArray, index: _ArcIndex | None
+) -> PointFeature | None:
+    """The point reflector the free readings make round ``start``, or None (module notes)."""
+    p = start
+    idx = _gather(echoes, free, p, index)
+    # the cheap tests first: most candidates lie on walls, whose readings a plane explains
+    for _ in range(GATHER_ROUNDS):
+        if not _enough(echoes, idx):
+            return None
+        p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
+        idx = _gather(echoes, free, p, index)
+    return point_feature(echoes, idx, p)
+
+
+def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> PointFeature | None:
+    """The point through the readings ``idx`` if it passes every test (module notes), else None.
+
+    Parameters
+    ----------
+    echoes : EchoGeometry
+        The readings.
+    idx : ndarray of int
+        The readings to fit (indices into ``echoes``).
+    start : array_like, shape (2,)
+        Where the least squares start (m).
+
+    Returns
+    -------
+    PointFeature or None
+    """
+    if not _enough(echoes, idx):
+        return None
+    xy, rng = echoes.xy[idx], echoes.range_m[idx]
+    p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
+    prms = plane_rms(xy, rng)
+    if prms < PLANE_POINT_RATIO * rms:
+        return None
+    if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
+        return None
+    if _radius_says_cylinder(xy, rng, p):
+        return None
+    return PointFeature(p, idx, _distinct_poses(xy), rms, prms, _span(xy, p))
