@@ -55,6 +55,7 @@ __all__ = [
     "column_spans",
     "measure_surfaces",
     "refine_surfaces",
+    "silent_geometry",
     "surface_kind",
     "surfaces_fit_record",
 ]
@@ -238,8 +239,9 @@ def _lines_first(
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
     refined, refined_cells = refine_fits(
-        fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped
-    )
+        fits, cells, echoes, cell=grid.cell, rounds=rounds, screen=mapped,
+        silent=silent_geometry(beams),
+    )  # fmt: skip
     reason = None if refined else "no reading echoes from any surface found"
     found = SurfaceSet(refined, failures, int(np.count_nonzero(counts)), 0, reason, refined_cells)
     criterion = (
@@ -255,10 +257,21 @@ def _lines_first(
 def refine_surfaces(found: SurfaceSet, beams: Beams, cell: float) -> SurfaceSet:
     """``found`` refitted through the readings' echo points (surfaces nothing echoes from go)."""
     echoes = EchoGeometry.of_poses(beams.poses, beams.path)
-    fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+    fits, cells = refine_fits(
+        found.surfaces, found.cells, echoes, cell=cell, silent=silent_geometry(beams)
+    )
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0
     return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)
+
+
+def silent_geometry(beams: Beams) -> EchoGeometry | None:
+    """The readings that heard nothing, each as a sensor with its largest range."""
+    p = beams.silent
+    if p is None:
+        return None
+    hb = np.minimum(p.tx_half_beamwidth, p.rx_half_beamwidth)
+    return EchoGeometry(p.tx_xy, p.tx_heading, hb, np.asarray(p.max_range, dtype=np.float64))
 
 
 def measure_surfaces(
