@@ -1,4 +1,4 @@
-"""Openings are never bridged: free space cuts a fitted wall.
+"""Openings are never bridged, closed stretches are: free space cuts and joins walls.
 
 A straight wall refitted through its echo points is one line from its first echo to its
 last, stretched a little over its ridge. Where it passes a doorway, the readings facing
@@ -17,6 +17,16 @@ The pieces keep the line of the whole fit (both sides of a doorway are one wall,
 line through all their echo points is the better estimate); a piece whose echoes no
 longer make a surface (too few, from too few viewpoints, or spread over too little) is
 dropped, as the refinement drops such surfaces.
+
+The other way round, :func:`join_pieces` joins refitted surfaces that are pieces of one
+wall (:func:`~sonarproc.surfaces.fitting.merge.collinear_groups`: on one line within their
+fits' uncertainty, and no gap between them that readings from two viewpoints saw
+through), however long the gap. A sparse log leaves a wall in pieces, some of which
+are fitted as flat arcs or splines; a surface counts as straight here when its echo
+points lie within :data:`STRAIGHT_SHARE` of the range tolerance (RMS) of a line, the
+RMS of points spread evenly over that tolerance either side: the echoes cannot tell it
+from a line. The pooled echo points are fitted again (model chosen by the same
+criterion).
 """
 
 from __future__ import annotations
@@ -27,14 +37,20 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.extraction.extract import SurfaceCells
-from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.merge import collinear_groups, pool_cells
+from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
 
-__all__ = ["cut_openings"]
+__all__ = ["STRAIGHT_SHARE", "cut_openings", "join_pieces"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
+
+#: A surface whose echo points lie within this share of the range tolerance (RMS) of a
+#: line is straight to the sonar (1 / sqrt(3): points spread evenly within it).
+STRAIGHT_SHARE = 1.0 / np.sqrt(3.0)
 
 
 def _open_intervals(
@@ -176,3 +192,78 @@ def cut_openings(
             new_points.append(p)
             new_reads.append(r)
     return new_fits, new_points, new_reads
+
+
+def _spanning(fit: SurfaceFit, pieces: list[SurfaceFit], cell: float) -> SurfaceFit:
+    """A line through pooled echo points, spanning its pieces (each was stretched over
+    its ridge beyond its outermost echoes; the pooled fit ends at them)."""
+    if fit.model != "line":
+        return fit
+    c = np.asarray(fit.params["point"], dtype=np.float64)
+    t = np.asarray(fit.params["direction"], dtype=np.float64)
+    u = np.concatenate([(p.polyline[[0, -1]] - c) @ t for p in pieces] + [(fit.polyline - c) @ t])
+    poly = resample(np.stack((c + t * u.min(), c + t * u.max())), cell)
+    if (fit.polyline[-1] - fit.polyline[0]) @ t < 0:
+        poly = poly[::-1]
+    return replace(fit, polyline=poly, length_m=float(u.max() - u.min()))
+
+
+def join_pieces(
+    fits: list[SurfaceFit],
+    points: list[SurfaceCells],
+    readings: list[IntArray],
+    cones: FreeCones,
+    *,
+    margin: float,
+    cell: float,
+) -> tuple[list[SurfaceFit], list[SurfaceCells], list[IntArray]]:
+    """Join the refitted pieces of one wall (see the module notes).
+
+    Parameters and returns as :func:`cut_openings`; each group of pieces is replaced, where
+    its first piece stood, by the surface fitted through their pooled echo points.
+
+    Examples
+    --------
+    Two pieces of the wall y = 1, 0 .. 1 and 1.6 .. 3 m, nothing facing the gap:
+
+    >>> x = np.r_[np.arange(0.1, 1.0, 0.1), np.arange(1.7, 2.95, 0.1)]
+    >>> n = x.size
+    >>> cones = FreeCones.of(np.c_[x, 0 * x], np.full(n, np.pi / 2), np.full(n, 0.2), np.ones(n))
+    >>> pieces = [SurfaceCells(x[k], 1 + 0 * x[k], x[k] - x[k][0], 1 + 0 * x[k], False)
+    ...           for k in (x < 1.3, x > 1.3)]
+    >>> fits = fit_surfaces(pieces, cell=0.01)
+    >>> joined, pts, idx = join_pieces(fits, pieces, [np.flatnonzero(x < 1.3),
+    ...                                np.flatnonzero(x > 1.3)], cones, margin=0.03, cell=0.01)
+    >>> [(f.model, round(f.length_m, 1), f.arcs) for f in joined]
+    [('line', 2.8, 22)]
+    >>> sorted(idx[0].tolist()) == list(range(n))
+    True
+    """
+    groups = collinear_groups(fits, points, cell=cell, cones=cones, margin=margin,
+                              straight_rms=STRAIGHT_SHARE * margin)  # fmt: skip
+    if not groups:
+        return list(fits), list(points), list(readings)
+    # the readings ride along as the cells' weights while the pieces are pooled
+    pooled = [
+        pool_cells([replace(points[m], weight=readings[m].astype(np.float64)) for m in g])
+        for g in groups
+    ]
+    refit = fit_surfaces([replace(p, weight=np.ones(p.size)) for p in pooled], cell=cell)
+    group_of = {m: k for k, g in enumerate(groups) for m in g}
+    out_f: list[SurfaceFit] = []
+    out_p: list[SurfaceCells] = []
+    out_r: list[IntArray] = []
+    for i, (f, p, r) in enumerate(zip(fits, points, readings, strict=True)):
+        k = group_of.get(i)
+        new = None if k is None else refit[k]
+        if k is None or isinstance(new, SurfaceFailure):
+            out_f.append(f)
+            out_p.append(p)
+            out_r.append(r)
+        elif i == groups[k][0] and new is not None:
+            idx = pooled[k].weight.astype(np.intp)
+            new = _spanning(new, [fits[m] for m in groups[k]], cell)
+            out_f.append(replace(new, arcs=int(idx.size)))
+            out_p.append(replace(pooled[k], weight=np.ones(idx.size)))
+            out_r.append(idx)
+    return out_f, out_p, out_r

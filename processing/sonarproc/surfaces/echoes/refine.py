@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.occlusion import contradicted
-from sonarproc.surfaces.echoes.openings import cut_openings
+from sonarproc.surfaces.echoes.openings import cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
@@ -257,6 +257,9 @@ def refine_fits(
         cur = [cur[i] for i in kept]
         pts_cells = [pts_cells[i] for i in kept]
         pts_idx = [pts_idx[i] for i in kept]
+        # ... and joins the pieces of one wall where it did not see through the gap
+        cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, cones,
+                                              margin=rounds[-1], cell=cell)  # fmt: skip
     weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
     through = count_seen_through(
         [cur[i].polyline for i in weak],

@@ -34,7 +34,14 @@ from sonarproc.surfaces.fitting.batch import fit_surfaces
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 
-__all__ = ["MERGE_ANGLE_RAD", "MERGE_GAP_M", "MERGE_OFFSET_M", "merge_collinear"]
+__all__ = [
+    "MERGE_ANGLE_RAD",
+    "MERGE_GAP_M",
+    "MERGE_OFFSET_M",
+    "collinear_groups",
+    "merge_collinear",
+    "pool_cells",
+]
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -51,12 +58,75 @@ MERGE_GAP_M = 0.30
 MERGE_SIGMAS = 3.0
 
 
-def _line_frames(fits: list[SurfaceFit]) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Each line's point, unit direction and the two ends' positions along it."""
-    c = np.array([f.params["point"] for f in fits], dtype=np.float64).reshape(-1, 2)
-    t = np.array([f.params["direction"] for f in fits], dtype=np.float64).reshape(-1, 2)
+def _frames(
+    fits: list[SurfaceFit], cells: list[SurfaceCells]
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Each piece's line (a point, a unit direction), its ends and its residual (m): a
+    line's own; for another model, the total least squares line through its cells."""
+    m = len(fits)
+    c, t, rms = np.zeros((m, 2)), np.zeros((m, 2)), np.zeros(m)
+    for k, (f, p) in enumerate(zip(fits, cells, strict=True)):
+        if f.model == "line":
+            c[k], t[k], rms[k] = f.params["point"], f.params["direction"], f.rms_m
+        else:
+            c[k], t[k], rms[k] = _tls(p)
     ends = np.stack([f.polyline[[0, -1]] for f in fits]) if fits else np.zeros((0, 2, 2))
-    return c, t, ends
+    return c, t, ends, rms
+
+
+def _tls(p: SurfaceCells) -> tuple[FloatArray, FloatArray, float]:
+    """Centroid, direction and RMS residual of the total least squares line of cells."""
+    xy = np.stack((p.x, p.y), axis=1)
+    mean = xy.mean(axis=0)
+    _, sv, vt = np.linalg.svd(xy - mean, full_matrices=False)
+    rest = float(sv[1]) if sv.size > 1 else 0.0
+    return mean, vt[0], rest / np.sqrt(max(xy.shape[0], 1))
+
+
+def collinear_groups(
+    fits: list[SurfaceFit],
+    cells: list[SurfaceCells],
+    *,
+    cell: float,
+    cones: FreeCones | None = None,
+    margin: float = 0.0,
+    straight_rms: float | None = None,
+) -> list[list[int]]:
+    """The groups of pieces of one wall: indices into ``fits``, two or more per group.
+
+    Parameters as :func:`merge_collinear`; ``straight_rms`` (m), when given, also takes
+    open surfaces of other models whose cells lie within this RMS of a straight line.
+    """
+
+    def straight(f: SurfaceFit, p: SurfaceCells) -> bool:
+        if f.closed or len(f.polyline) < 2 or p.size < 2:
+            return False
+        return f.model == "line" or (straight_rms is not None and _tls(p)[2] <= straight_rms)
+
+    line = [i for i, (f, p) in enumerate(zip(fits, cells, strict=True)) if straight(f, p)]
+    if len(line) < 2:
+        return []
+    c, t, ends, rms = _frames([fits[i] for i in line], [cells[i] for i in line])
+    spread = _spread([cells[k] for k in line], c, t, rms)
+    # only nearly parallel pairs are tested further (a few per cent of all pairs)
+    i, j = np.nonzero(np.triu(np.abs(t @ t.T) >= np.cos(MERGE_ANGLE_RAD), 1))
+    ok = _on_line(c[i], t[i], ends[i], ends[j], spread[i], cell) & _on_line(
+        c[j], t[j], ends[j], ends[i], spread[j], cell
+    )
+    i, j = i[ok], j[ok]
+    gap0, gap1 = _gaps(c[i], t[i], ends[i], ends[j])
+    if cones is None:
+        ok = np.hypot(*(gap1 - gap0).T) <= MERGE_GAP_M
+    else:
+        ok = _closed(gap0, gap1, cones, margin)
+    i, j = i[ok], j[ok]
+    if i.size == 0:
+        return []
+    _, label = components(len(line), i, j)
+    groups: dict[int, list[int]] = {}
+    for k, piece in enumerate(line):
+        groups.setdefault(int(label[k]), []).append(piece)
+    return [members for members in groups.values() if len(members) > 1]
 
 
 def merge_collinear(
@@ -100,37 +170,14 @@ def merge_collinear(
     >>> [(f.model, round(f.length_m, 2)) for f in merged]
     [('line', 1.99)]
     """
-    line = [i for i, f in enumerate(fits) if f.model == "line" and not f.closed]
-    if len(line) < 2:
+    found = collinear_groups(fits, cells, cell=cell, cones=cones, margin=margin)
+    if not found:
         return list(fits), list(cells)
-    c, t, ends = _line_frames([fits[i] for i in line])
-    spread = _spread([fits[k] for k in line], [cells[k] for k in line], c, t)
-    # only nearly parallel pairs are tested further (a few per cent of all pairs)
-    i, j = np.nonzero(np.triu(np.abs(t @ t.T) >= np.cos(MERGE_ANGLE_RAD), 1))
-    ok = _on_line(c[i], t[i], ends[i], ends[j], spread[i], cell) & _on_line(
-        c[j], t[j], ends[j], ends[i], spread[j], cell
-    )
-    i, j = i[ok], j[ok]
-    gap0, gap1 = _gaps(c[i], t[i], ends[i], ends[j])
-    if cones is None:
-        ok = np.hypot(*(gap1 - gap0).T) <= MERGE_GAP_M
-    else:
-        ok = _closed(gap0, gap1, cones, margin)
-    i, j = i[ok], j[ok]
-    if i.size == 0:
-        return list(fits), list(cells)
-    _, label = components(len(line), i, j)
     out_fits: list[SurfaceFit] = []
     out_cells: list[SurfaceCells] = []
-    groups: dict[int, list[int]] = {}
-    for k, piece in enumerate(line):
-        groups.setdefault(int(label[k]), []).append(piece)
-    group_of = {i: g for g, members in groups.items() if len(members) > 1 for i in members}
-    pooled = {
-        g: _pool([cells[m] for m in members], [fits[m] for m in members])
-        for g, members in groups.items()
-        if len(members) > 1
-    }
+    groups = dict(enumerate(found))
+    group_of = {i: g for g, members in groups.items() for i in members}
+    pooled = {g: pool_cells([cells[m] for m in members]) for g, members in groups.items()}
     refit = dict(zip(pooled, fit_surfaces(list(pooled.values()), cell=cell), strict=True))
     emitted: set[int] = set()
     for k, (f, cc) in enumerate(zip(fits, cells, strict=True)):
@@ -152,16 +199,14 @@ def merge_collinear(
     return out_fits, out_cells
 
 
-def _spread(
-    fits: list[SurfaceFit], cells: list[SurfaceCells], c: FloatArray, t: FloatArray
-) -> FloatArray:
+def _spread(cells: list[SurfaceCells], c: FloatArray, t: FloatArray, rms: FloatArray) -> FloatArray:
     """Per line: its residual, cell count, mean position along it and ``S_uu`` (rows)."""
-    out = np.zeros((len(fits), 4))
-    for k, (f, p) in enumerate(zip(fits, cells, strict=True)):
+    out = np.zeros((len(cells), 4))
+    for k, p in enumerate(cells):
         u = (p.x - c[k, 0]) * t[k, 0] + (p.y - c[k, 1]) * t[k, 1]
         n = max(u.size, 1)
         mean = float(u.mean()) if u.size else 0.0
-        out[k] = (f.rms_m, n, mean, max(float(((u - mean) ** 2).sum()), 1e-12))
+        out[k] = (rms[k], n, mean, max(float(((u - mean) ** 2).sum()), 1e-12))
     return out
 
 
@@ -207,13 +252,12 @@ def _closed(gap0: FloatArray, gap1: FloatArray, cones: FreeCones, margin: float)
     return np.asarray(views < MIN_FREE_POSES)
 
 
-def _pool(pieces: list[SurfaceCells], fits: list[SurfaceFit]) -> SurfaceCells:
-    """The pieces' cells as one surface, ordered along the longest piece's direction."""
-    longest = max(range(len(fits)), key=lambda k: fits[k].length_m)
-    t = np.asarray(fits[longest].params["direction"], dtype=np.float64)
+def pool_cells(pieces: list[SurfaceCells]) -> SurfaceCells:
+    """The pieces' cells as one surface, ordered along their common line."""
     x = np.concatenate([p.x for p in pieces])
     y = np.concatenate([p.y for p in pieces])
     w = np.concatenate([p.weight for p in pieces])
+    _, t, _ = _tls(SurfaceCells(x, y, np.zeros_like(x), w, False))
     u = x * t[0] + y * t[1]
     order = np.argsort(u, kind="stable")
     u = u[order]
