@@ -136,8 +136,8 @@ def _silent(log_: SonarLog) -> TransducerPoses | None:
     r = log_.readings
     own = r["tx"] == r["rx"]
     flagged = (r["flags"] & FLAG_NO_ECHO) != 0
-    tof = r["tof"]
-    far = ~flagged & np.isfinite(tof) & (tof > 0)
+    # echoes beyond the shortest max_range of any sensor first (few), then each its own
+    far = ~flagged & (0.5 * log_.path_lengths(r) > float(log_.sensors["max_range"].min()))
     hi = log_.sensors["max_range"][log_.sensor_rows(r["rx"][far])]
     far[far] = 0.5 * log_.path_lengths(r[far]) > hi
     silent = r[own & (flagged | far)]

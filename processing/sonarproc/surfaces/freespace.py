@@ -148,28 +148,32 @@ def free_feet(
     # the range must reach past every point of the line in the (whole) beam
     reach = cones.range_m * np.cos(np.minimum(cones.half_beam, 0.5 * math.pi - 1e-9))
     slack = margin * np.cos(np.minimum(cones.half_beam, 0.5 * math.pi - 1e-9))
+    # the foot's direction from a sensor is the line's normal (-ty, tx) or its opposite:
+    # the beam test needs only the headings, and leaves few pairs for the rest
+    normal = np.arctan2(t[:, 0], -t[:, 1])
     segs, reads, alongs = [], [], []
     step = max(1, _CHUNK_PAIRS // max(a.shape[0], 1))
     for r0 in range(0, n, step):
-        q = cones.xy[r0 : r0 + step]
-        rel_x = q[None, :, 0] - a[:, None, 0]
-        rel_y = q[None, :, 1] - a[:, None, 1]
-        along = rel_x * t[:, None, 0] + rel_y * t[:, None, 1]
-        side = rel_y * t[:, None, 0] - rel_x * t[:, None, 1]  # along the normal (-ty, tx)
-        d = np.abs(side)
-        sl = slice(r0, r0 + step)
-        keep = (along >= 0.0) & (along <= length[:, None]) & (d > 1e-9)
-        keep &= reach[None, sl] > d + slack[None, sl]
-        s, j = np.nonzero(keep)
+        h = cones.heading[r0 : r0 + step]
+        off = (normal[:, None] - h[None, :]) % (2 * math.pi)  # 0 .. 2 pi
+        cone_j = cone[r0 : r0 + step][None, :]
+        plus = (off <= cone_j) | (off >= 2 * math.pi - cone_j)
+        minus = np.abs(off - math.pi) <= cone_j
+        s, j = np.nonzero(plus | minus)
         if s.size == 0:
             continue
-        # the foot lies at -side along the normal: its direction from the sensor
-        foot_dir = np.arctan2(t[s, 0], -t[s, 1]) + np.where(side[s, j] > 0, math.pi, 0.0)
-        off = np.abs((foot_dir - cones.heading[r0 + j] + math.pi) % (2 * math.pi) - math.pi)
-        ok = off <= cone[r0 + j]
+        toward = plus[s, j]  # the sensor must lie on the -normal side
+        jj = r0 + j
+        rel = cones.xy[jj] - a[s]
+        along = rel[:, 0] * t[s, 0] + rel[:, 1] * t[s, 1]
+        side = rel[:, 1] * t[s, 0] - rel[:, 0] * t[s, 1]
+        d = np.abs(side)
+        ok = (along >= 0.0) & (along <= length[s]) & (d > 1e-9)
+        ok &= np.where(toward, side < 0, side > 0)
+        ok &= reach[jj] > d + slack[jj]
         segs.append(s[ok])
-        reads.append(r0 + j[ok])
-        alongs.append(along[s[ok], j[ok]])
+        reads.append(jj[ok])
+        alongs.append(along[ok])
     if not segs:
         return empty
     return (np.concatenate(segs).astype(np.intp), np.concatenate(reads).astype(np.intp),
