@@ -277,7 +277,11 @@ def refine_fits(
             cell=cell,
         )
     )
-    out = [f for i, f in enumerate(cur) if i not in drop]
+    out = [
+        replace(f, viewpoints=int(np.unique(cones.viewpoint[pts_idx[i]]).size))
+        for i, f in enumerate(cur)
+        if i not in drop
+    ]
     pts_cells = [c for i, c in enumerate(pts_cells) if i not in drop]
     order = sorted(range(len(out)), key=lambda i: -out[i].length_m)
     return [out[i] for i in order], [pts_cells[i] for i in order]

@@ -9,6 +9,8 @@ behind it (3 m).
 from __future__ import annotations
 
 import math
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -206,3 +208,51 @@ def test_a_wall_seen_from_three_viewpoints_is_a_surface() -> None:
     fit, cells = _line(0.0, 2.0)
     out, _ = refine_fits([fit], [cells], echoes, cell=CELL)
     assert len(out) == 1 and out[0].model == "line"
+
+
+SCENES = Path(__file__).resolve().parents[4] / "data" / "scenarios"
+
+
+def _free_stretch(polylines: list[np.ndarray], a: np.ndarray, b: np.ndarray) -> float:
+    """Longest stretch (m) of the segment a -> b with no surface point within 5 cm."""
+    from scipy.spatial import cKDTree
+
+    u = np.arange(0.0, float(np.hypot(*(b - a))) + 1e-9, CELL)
+    pts = a + u[:, None] * (b - a) / np.hypot(*(b - a))
+    dist, _ = cKDTree(np.concatenate(polylines)).query(pts)
+    runs = np.diff(np.flatnonzero(np.diff(np.r_[0, (dist > 0.05).astype(int), 0])))[::2]
+    return float(runs.max()) * CELL if runs.size else 0.0
+
+
+def _run(scenario: str, tmp_path: Path) -> Any:
+    from sonarproc.params import RunParams
+    from sonarproc.pipeline import load_log, process
+    from sonarproc.simulate import simulate_to_log
+
+    simulate_to_log(scenario, tmp_path / "log.h5")
+    res = process(load_log(tmp_path / "log.h5"), RunParams(fit="auto"))
+    assert res.surfaces is not None and res.surfaces.surfaces
+    return res
+
+
+def test_room_box_door_onto_nothing_stays_open(tmp_path: Path) -> None:
+    """room-box's door (x 3.6 .. 4.5 on y = 4) opens onto nothing in range: only the
+    readings that heard nothing show it. Its whole width but one 5 cm stop each side is
+    free, and every surface rests on three viewpoints or more."""
+    res = _run("room-box", tmp_path)
+    free = _free_stretch(res.surfaces.polylines(), np.array([3.6, 4.0]), np.array([4.5, 4.0]))
+    assert free >= 0.9 - 2 * STEP, free
+    assert all(s.viewpoints is not None and s.viewpoints >= 3 for s in res.surfaces.surfaces)
+
+
+def test_a_doorway_seen_with_transducer_physics_stays_open(tmp_path: Path) -> None:
+    """A corridor passing a 0.9 m doorway 1 m away (tests/data/scenarios). A door jamb
+    diffracts: readings whose foot lies up to sqrt(2 d tol) = 0.24 m into the doorway (d
+    = 1 m, tol = 3 cm) hear it within the range tolerance of the wall's own echo, so each
+    side may reach that far in; the rest stays open."""
+    res = _run(str(SCENES / "open-doorway-corridor.yaml"), tmp_path)
+    polys = res.surfaces.polylines()
+    free = _free_stretch(polys, np.array([3.0, 2.0]), np.array([3.9, 2.0]))
+    assert free >= 0.9 - 2 * math.sqrt(2 * 1.0 * 0.03), free
+    on_wall = [p for p in polys if np.all(np.abs(p[:, 1] - 2.0) < 0.05)]
+    assert any(p[:, 0].max() <= 3.3 for p in on_wall) and any(p[:, 0].min() >= 3.6 for p in on_wall)
