@@ -36,12 +36,16 @@ class Beams:
         Path lengths (m): tof x speed of sound.
     arcs : ArcGeometry
         The arcs of the readings, computed once and shared by the grid and the map.
+    silent : sonarlog.TransducerPoses or None
+        The poses of the sensors' own readings that heard nothing within their
+        ``max_range`` (flagged no echo, or echoing beyond it): free space up to there.
     """
 
     readings: np.ndarray
     poses: TransducerPoses
     path: npt.NDArray[np.float64]
     arcs: ArcGeometry
+    silent: TransducerPoses | None = None
 
     @property
     def robot_xy(self) -> npt.NDArray[np.float64]:
@@ -124,7 +128,20 @@ def select_beams(log_: SonarLog, params: RunParams) -> tuple[Beams, dict[str, in
     readings, counts = select_readings(log_, drop_crosstalk=params.drop_crosstalk)
     poses = log_.transducer_poses(readings)
     path = log_.path_lengths(readings)
-    return Beams(readings, poses, path, arcs_of(poses, path)), counts
+    return Beams(readings, poses, path, arcs_of(poses, path), _silent(log_)), counts
+
+
+def _silent(log_: SonarLog) -> TransducerPoses | None:
+    """Poses of the own-echo readings that heard nothing within their sensor's range."""
+    r = log_.readings
+    own = r["tx"] == r["rx"]
+    flagged = (r["flags"] & FLAG_NO_ECHO) != 0
+    # echoes beyond the shortest max_range of any sensor first (few), then each its own
+    far = ~flagged & (0.5 * log_.path_lengths(r) > float(log_.sensors["max_range"].min()))
+    hi = log_.sensors["max_range"][log_.sensor_rows(r["rx"][far])]
+    far[far] = 0.5 * log_.path_lengths(r[far]) > hi
+    silent = r[own & (flagged | far)]
+    return log_.transducer_poses(silent) if len(silent) else None
 
 
 def make_grid(params: RunParams, bounds: tuple[float, float, float, float], source: str) -> Grid:

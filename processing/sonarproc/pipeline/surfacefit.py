@@ -57,6 +57,7 @@ __all__ = [
     "column_spans",
     "measure_surfaces",
     "refine_surfaces",
+    "silent_geometry",
     "surface_kind",
     "surfaces_fit_record",
 ]
@@ -242,8 +243,11 @@ def _lines_first(
     # the walls lie on their readings' echo points already: without the map's ridges (and
     # their chance ones, and their bias) the screen and the first, wide round are not needed
     rounds = ROUNDS_M if mapped else ROUNDS_M[-1:]
+    silent = silent_geometry(beams)
     refined, refined_cells = refine_with_points(
-        lambda e: refine_fits(fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped),
+        lambda e: refine_fits(
+            fits, cells, e, cell=grid.cell, rounds=rounds, screen=mapped, silent=silent
+        ),
         echoes, points, exclude=False,
     )  # fmt: skip
     reason = None if refined else "no reading echoes from any surface found"
@@ -272,18 +276,30 @@ def refine_surfaces(
     (:mod:`sonarproc.surfaces.reflectors`); they are appended as surfaces of one point.
     """
     echoes = EchoGeometry.of_poses(beams.poses, beams.path)
+    silent = silent_geometry(beams)
     if counts is None:
-        fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell)
+        fits, cells = refine_fits(found.surfaces, found.cells, echoes, cell=cell, silent=silent)
     else:
         points = claim_points(echoes, *counts)
         fits, cells = refine_with_points(
-            lambda e: refine_fits(found.surfaces, found.cells, e, cell=cell, witnesses=echoes),
+            lambda e: refine_fits(
+                found.surfaces, found.cells, e, cell=cell, witnesses=echoes, silent=silent
+            ),
             echoes,
             points,
         )
     reason = None if fits else "no reading echoes from any surface found on the ridge"
     assigned = found.cells_assigned if fits else 0
     return SurfaceSet(fits, found.failures, found.cells_kept, assigned, reason, cells)
+
+
+def silent_geometry(beams: Beams) -> EchoGeometry | None:
+    """The readings that heard nothing, each as a sensor with its largest range."""
+    p = beams.silent
+    if p is None:
+        return None
+    hb = np.minimum(p.tx_half_beamwidth, p.rx_half_beamwidth)
+    return EchoGeometry(p.tx_xy, p.tx_heading, hb, np.asarray(p.max_range, dtype=np.float64))
 
 
 def measure_surfaces(

@@ -85,6 +85,9 @@ def test_the_surfaces_exist_rest_on_readings_and_lie_within_them(run_dir: Path) 
     assert len(surfaces) >= 5
     lengths = np.array([s["length_m"] for s in surfaces])
     assert lengths.max() >= 2.0  # the corridor's walls are several metres long
+    # both walls of the first corridor come out at least 4 m long: the pieces of the
+    # lower one are joined where no reading saw through the gaps between them
+    assert np.sort(lengths)[-2] >= 4.0
     assert all(s["support"] >= 5 for s in surfaces)
     pts = _los_points()
     lo, hi = pts.min(axis=0) - 0.5, pts.max(axis=0) + 0.5

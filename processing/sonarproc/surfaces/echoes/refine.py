@@ -48,15 +48,17 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.occlusion import contradicted
+from sonarproc.surfaces.echoes.openings import cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.batch import fit_surfaces
 from sonarproc.surfaces.fitting.merge import merge_collinear
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
+from sonarproc.surfaces.freespace import FreeCones, viewpoint_ids
 from sonarproc.surfaces.planar.polylines import resample
 
-__all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "ROUNDS_M", "refine_fits"]
+__all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "MIN_VIEWPOINTS", "ROUNDS_M", "refine_fits"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -65,6 +67,11 @@ IntArray = npt.NDArray[np.intp]
 ROUNDS_M = (0.08, 0.03)
 #: Fewest echoing readings a surface needs to be kept.
 MIN_ECHOES = 5
+#: Fewest distinct viewpoints (:func:`~sonarproc.surfaces.freespace.viewpoint_ids`) its
+#: echoes must come from: one reading's arc, or a robot standing still and ranging one
+#: spot again, is no surface; two viewpoints fix a line's direction and distance, a third
+#: checks them.
+MIN_VIEWPOINTS = 3
 #: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
 #: double reflections, arriving at the corner's distance) say nothing of a direction.
 MIN_SPREAD_M = 0.10
@@ -141,6 +148,23 @@ def _scored(echoes: EchoGeometry, r: int, rounds: int, min_echoes: int) -> tuple
     return echoes.subset(keep), max(2, math.ceil(min_echoes * frac))
 
 
+def _enough(idx: IntArray, pts: FloatArray, view: IntArray, need: int) -> bool:
+    """Whether echoes ``idx`` (points ``pts``) are enough for a surface: as many as
+    ``need``, from :data:`MIN_VIEWPOINTS` viewpoints, spread over :data:`MIN_SPREAD_M`."""
+    return (
+        idx.size >= need
+        and np.unique(view[idx]).size >= MIN_VIEWPOINTS
+        and float(np.hypot(*np.ptp(pts, axis=0))) >= MIN_SPREAD_M
+    )
+
+
+def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
+    """The readings of ``a``, then those of ``b`` (``a``'s rows keep their indices)."""
+    return EchoGeometry(np.concatenate((a.xy, b.xy)), np.concatenate((a.heading, b.heading)),
+                        np.concatenate((a.half_beam, b.half_beam)),
+                        np.concatenate((a.range_m, b.range_m)))  # fmt: skip
+
+
 def refine_fits(
     fits: list[SurfaceFit],
     cells: list[SurfaceCells],
@@ -151,6 +175,7 @@ def refine_fits(
     min_echoes: int = MIN_ECHOES,
     screen: bool = True,
     witnesses: EchoGeometry | None = None,
+    silent: EchoGeometry | None = None,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells]]:
     """Refit surfaces through their readings' echo points (see the module notes).
 
@@ -175,6 +200,10 @@ def refine_fits(
         The readings the last test for surfaces seen through counts (default:
         ``echoes``): every reading, when ``echoes`` leaves out those of point
         reflectors (they echo from no surface, but their sound crossed free space).
+    silent : EchoGeometry, optional
+        Readings that heard nothing, with their sensor's largest range as ``range_m``:
+        free space up to there, which cuts walls at openings as the echoes' does
+        (:mod:`sonarproc.surfaces.echoes.openings`).
 
     Returns
     -------
@@ -187,21 +216,24 @@ def refine_fits(
     if rounds and screen:
         first, _ = _scored(echoes, 0, len(rounds), min_echoes)
         cur, ridge = screen_fits(cur, ridge, first, tol=rounds[0])
-    cur, ridge = merge_collinear(cur, ridge, cell=cell)
+    every = echoes if silent is None else _joined(echoes, silent)
+    cones = FreeCones.of(every.xy, every.heading, every.half_beam, every.range_m)
+    # the ridge lies up to the first round's tolerance off the wall
+    cur, ridge = merge_collinear(cur, ridge, cell=cell, cones=cones,
+                                 margin=rounds[0] if rounds else ROUNDS_M[0])  # fmt: skip
     pts_cells: list[SurfaceCells] = []
     pts_idx: list[IntArray] = []
     for r, tol in enumerate(rounds):
         scored, need = _scored(echoes, r, len(rounds), min_echoes)
         got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
+        view = viewpoint_ids(scored.xy)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
         pts_cells, pts_idx = [], []
         todo = [
             k
             for k, (idx, pts, _, through) in enumerate(got)
-            if idx.size >= need
-            and np.hypot(*np.ptp(pts, axis=0)) >= MIN_SPREAD_M
-            and not _seen_through(idx.size, through)
+            if _enough(idx, pts, view, need) and not _seen_through(idx.size, through)
         ]
         sets = [
             SurfaceCells(got[k][1][:, 0], got[k][1][:, 1], got[k][2] - got[k][2][0],
@@ -218,6 +250,21 @@ def refine_fits(
             pts_cells.append(ec)
             pts_idx.append(got[k][0])
         cur, ridge = nxt, nxt_ridge
+    if rounds:
+        # openings: free space (readings that saw through a wall) cuts it
+        cur, pts_cells, pts_idx = cut_openings(cur, pts_cells, pts_idx, cones,
+                                               margin=rounds[-1], cell=cell)  # fmt: skip
+        kept = [
+            i
+            for i, (idx, c) in enumerate(zip(pts_idx, pts_cells, strict=True))
+            if _enough(idx, np.stack((c.x, c.y), axis=1), cones.viewpoint, min_echoes)
+        ]
+        cur = [cur[i] for i in kept]
+        pts_cells = [pts_cells[i] for i in kept]
+        pts_idx = [pts_idx[i] for i in kept]
+        # ... and joins the pieces of one wall where it did not see through the gap
+        cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, cones,
+                                              margin=rounds[-1], cell=cell)  # fmt: skip
     weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
     through = count_seen_through(
         [cur[i].polyline for i in weak],
@@ -235,7 +282,11 @@ def refine_fits(
             cell=cell,
         )
     )
-    out = [f for i, f in enumerate(cur) if i not in drop]
+    out = [
+        replace(f, viewpoints=int(np.unique(cones.viewpoint[pts_idx[i]]).size))
+        for i, f in enumerate(cur)
+        if i not in drop
+    ]
     pts_cells = [c for i, c in enumerate(pts_cells) if i not in drop]
     order = sorted(range(len(out)), key=lambda i: -out[i].length_m)
     return [out[i] for i in order], [pts_cells[i] for i in order]

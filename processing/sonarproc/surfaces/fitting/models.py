@@ -80,6 +80,9 @@ class SurfaceFit:
         ``start_rad``, ``sweep_rad``; spline: ``knots``).
     candidates : dict
         RMS residual (m) of every model tried, for the report.
+    viewpoints : int or None
+        Distinct viewpoints (sensor positions an inch apart) its echoes came from, once
+        refitted through the readings; None before.
     """
 
     model: str
@@ -92,6 +95,7 @@ class SurfaceFit:
     params: dict[str, Any] = field(default_factory=dict)
     candidates: dict[str, float] = field(default_factory=dict)
     ok: bool = True
+    viewpoints: int | None = None
 
     def to_json(self, surface: int) -> dict[str, Any]:
         """JSON-ready summary (no polyline) with its ``surface`` id."""
@@ -106,6 +110,7 @@ class SurfaceFit:
             "closed": self.closed,
             "params": self.params,
             "candidates_rms_m": self.candidates,
+            "viewpoints": self.viewpoints,
         }
 
 
