@@ -24,6 +24,7 @@ from sonarlog.schema import (
     REQUIRED_READING_FIELDS,
     REQUIRED_SENSOR_FIELDS,
     SENSOR_DTYPE,
+    sensor_table_problem,
 )
 from sonarlog.state import CRASHED_ATTR, LogState, flock_held, integrity_warning, read_superblock
 
@@ -339,6 +340,9 @@ def read_log(path: str | os.PathLike[str]) -> SonarLog:
             if readings_ds.ndim != 1 or sensors_ds.ndim != 1:
                 raise InvalidLogError(f"{p}: /sensors and /readings must be 1-D tables")
             sensors = _project(np.asarray(sensors_ds[()]), SENSOR_DTYPE)
+            problem = sensor_table_problem(sensors)
+            if problem is not None:
+                raise InvalidLogError(f"{p}: /sensors.{problem}")
             raw = _read_prefix(readings_ds)
             keep = _valid_prefix(raw)
             dropped = readings_ds.shape[0] - keep

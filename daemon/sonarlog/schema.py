@@ -93,3 +93,41 @@ def as_sensor_table(sensors: np.ndarray) -> np.ndarray:
     if len(np.unique(table["id"])) != len(table):
         raise ValueError("sensor ids must be unique")
     return table
+
+
+#: Largest ``max_range`` a sensor table may hold (m). An ultrasonic ranger in air hears at
+#: most about 11 m (the Polaroid 6500's 10.7 m); a kilometre leaves room for any sonar in
+#: air, and a larger value is a corrupt table, not a sensor.
+MAX_RANGE_LIMIT_M = 1000.0
+
+
+def sensor_table_problem(sensors: np.ndarray) -> str | None:
+    """What makes a sensor table unusable, as ``"field: problem"``, or ``None``.
+
+    A reading names its transducer by id, so ids are unique; mounts are finite; a half
+    beamwidth lies in [0, pi] rad and ranges in [0, :data:`MAX_RANGE_LIMIT_M`] m (a zero
+    is a table that leaves the value unset, which the readers of older logs accept).
+
+    Examples
+    --------
+    >>> t = np.zeros(2, SENSOR_DTYPE)
+    >>> t["id"], t["half_beamwidth"], t["max_range"] = [0, 1], 0.2, 10.7
+    >>> sensor_table_problem(t) is None
+    True
+    >>> t["max_range"] = 1e308
+    >>> sensor_table_problem(t)
+    'max_range: must be in [0, 1000] m'
+    """
+    if np.unique(sensors["id"]).size != sensors.size:
+        return "id: must be unique (a transducer per id)"
+    for name in ("x", "y", "heading"):
+        if not np.all(np.isfinite(sensors[name])):
+            return f"{name}: must be finite"
+    hbw = sensors["half_beamwidth"]
+    if not np.all((hbw >= 0.0) & (hbw <= np.pi)):
+        return "half_beamwidth: must be in [0, pi] rad"
+    for name in ("min_range", "max_range"):
+        v = sensors[name]
+        if not np.all((v >= 0.0) & (v <= MAX_RANGE_LIMIT_M)):
+            return f"{name}: must be in [0, {MAX_RANGE_LIMIT_M:g}] m"
+    return None

@@ -10,6 +10,7 @@ on stderr on error, no partial output file, and a bounded run time.
 from __future__ import annotations
 
 import contextlib
+import copy
 import functools
 import io
 import logging
@@ -160,6 +161,13 @@ def _get(node: Any, path: Sequence[Any]) -> Any:
     return node
 
 
+def _weird(draw: st.DrawFn) -> Any:
+    """An odd value, copied: edits later in the same document (``listify``, ``add``) change
+    it in place, and the shared list must stay the same for every test case (hypothesis
+    replays a case's draws and refuses strategies that depend on changed state)."""
+    return copy.deepcopy(draw(st.sampled_from(WEIRD_VALUES)))
+
+
 @st.composite
 def mutated_yaml(draw: st.DrawFn, text: str, max_edits: int = 3) -> str:
     """A YAML document after structure edits (a value replaced by an odd one, a key dropped
@@ -173,17 +181,15 @@ def mutated_yaml(draw: st.DrawFn, text: str, max_edits: int = 3) -> str:
         op = draw(st.sampled_from(["value", "value", "drop", "add", "listify"]))
         if not path:
             if op == "value":
-                doc = draw(st.sampled_from(WEIRD_VALUES))
+                doc = _weird(draw)
             continue
         parent, key = _get(doc, path[:-1]), path[-1]
         if op == "value":
-            parent[key] = draw(st.sampled_from(WEIRD_VALUES))
+            parent[key] = _weird(draw)
         elif op == "drop":
             del parent[key]
         elif op == "add" and isinstance(parent, dict):
-            parent[draw(st.sampled_from(["extra", "x", "id", "type", ""]))] = draw(
-                st.sampled_from(WEIRD_VALUES)
-            )
+            parent[draw(st.sampled_from(["extra", "x", "id", "type", ""]))] = _weird(draw)
         elif op == "listify":
             parent[key] = [parent[key]]
     return yaml.safe_dump(doc, allow_unicode=True, sort_keys=False)

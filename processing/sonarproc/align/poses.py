@@ -198,8 +198,18 @@ def align_poses(
     r = readings[order]
     track = np.column_stack((r["x"], r["y"], r["theta"])).astype(np.float64)
     if not np.all(np.isfinite(track)):
-        raise ValueError("readings: x, y and theta must be finite to align the poses")
-    u = travel(track[:, 0], track[:, 1], track[:, 2], turn_radius=turn_radius)
+        return _unchanged(readings, "the poses are not all finite (x, y, theta)")
+    if sensors.size == 0:
+        return _unchanged(readings, "the log has no sensor table")
+    mounts = [sensors[n] for n in sensors.dtype.names or () if sensors.dtype[n].kind == "f"]
+    if not all(np.all(np.isfinite(m)) for m in mounts):
+        return _unchanged(readings, "a sensor's mount is not finite")
+    with np.errstate(over="ignore"):  # an absurd track overflows: refused just below
+        u = travel(track[:, 0], track[:, 1], track[:, 2], turn_radius=turn_radius)
+    if not np.isfinite(u[-1]) or u[-1] > node_spacing * readings.size:
+        # each node needs echoes of its own to be placed: more nodes than readings
+        # leaves the graph undetermined (and a track that long is a corrupt log)
+        return _unchanged(readings, "the track has more node spacings than readings")
     nodes = place_nodes(u, spacing=node_spacing)
     if nodes.count < 2:
         return _unchanged(readings, "the track is shorter than half a node spacing")

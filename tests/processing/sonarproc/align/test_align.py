@@ -104,8 +104,16 @@ def test_bad_poses_and_mismatched_alignments_are_refused() -> None:
     sensors = np.zeros(1, SENSOR_DTYPE)
     r = np.zeros(3, READING_DTYPE)
     r["x"][1] = np.nan
-    with pytest.raises(ValueError, match="x, y and theta must be finite"):
-        align_poses(r, sensors)
+    # a run goes on without the correction: alignment declines, it does not fail
+    assert align_poses(r, sensors).reason == "the poses are not all finite (x, y, theta)"
+    far = np.zeros(3, READING_DTYPE)
+    far["x"] = [0.0, 1e200, 2e200]
+    assert align_poses(far, sensors).reason == "the track has more node spacings than readings"
+    sensors_nan = np.zeros(1, SENSOR_DTYPE)
+    sensors_nan["x"] = np.nan
+    track = np.zeros(3, READING_DTYPE)
+    track["x"] = [0.0, 1.0, 2.0]
+    assert align_poses(track, sensors_nan).reason == "a sensor's mount is not finite"
     a = align_poses(np.zeros(2, READING_DTYPE), sensors)
     with pytest.raises(ValueError, match="has 2 poses for 3 readings"):
         corrected_readings(r, a)
