@@ -132,11 +132,6 @@ def _cli_defaults() -> dict[str, Any]:
     return {name: params[name].default for name in RUN_OPTIONS}
 
 
-def _or(value: Any, default: Any) -> Any:
-    """``value``, or ``default`` where it was left out (``None``; an empty text is refused)."""
-    return default if value is None else value
-
-
 def _as_text(value: Any) -> Any:
     if isinstance(value, Sequence) and not isinstance(value, str):
         return ",".join(repr(float(v)) for v in value)
@@ -157,14 +152,12 @@ def run_params(**options: Any) -> RunParams:
     unknown = sorted(set(options) - set(RUN_OPTIONS))
     if unknown:
         raise ParameterError(unknown[0], f"is not an option (options: {', '.join(RUN_OPTIONS)})")
-    from sonarproc.params import PAPER_OPS
-
     values = {**_cli_defaults(), **options}
     return build_run_params(
         cell=float(values["cell"]), bbox=_as_text(values["bbox"]),
-        ops=_or(values["ops"], PAPER_OPS), fit=_or(values["fit"], "auto"), order=values["order"],
+        ops=values["ops"], fit=values["fit"], order=values["order"],
         smooth=values["smooth"], centre=_as_text(values["centre"]),
-        drop_crosstalk=bool(values["drop_crosstalk"]), robust=_or(values["robust"], "none"),
+        drop_crosstalk=bool(values["drop_crosstalk"]), robust=values["robust"],
         span=values["span"], arc_step_deg=values["arc_step"],
         align=not bool(values["no_align"]),
     )  # fmt: skip

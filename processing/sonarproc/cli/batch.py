@@ -29,7 +29,7 @@ from sonarproc.cli.options import (
     SmoothOption,
     SpanOption,
     WorkersOption,
-    build_run_params,
+    build_run_mode,
     worker_count,
 )
 from sonarproc.cli.paths import check_output_dir
@@ -102,18 +102,13 @@ def batch_command(
     """
     from sonarproc.batch import BatchOptions, run_batch, write_summary
     from sonarproc.engines import parse_engine
-    from sonarproc.params import PAPER_OPS
     from sonarproc.report.plots import parse_figure_formats
-    from sonarproc.run_modes import resolve_mode
 
     with guarded():
         formats = parse_figure_formats(figures)
-        knobs = {"ops": ops, "fit": fit, "order": order, "smooth": smooth, "robust": robust}
-        mode = resolve_mode(auto=auto, paper=paper, knobs=knobs)
-        params = build_run_params(
-            cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
-            fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
-            drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
+        mode, params = build_run_mode(
+            auto=auto, paper=paper, cell=cell, bbox=bbox, ops=ops, fit=fit, order=order,
+            smooth=smooth, centre=centre, drop_crosstalk=drop_crosstalk, robust=robust,
             span=span, arc_step_deg=arc_step,
         )  # fmt: skip
         n_workers = worker_count(workers)

@@ -9,7 +9,7 @@ parse the map and fit parameters the same way, and one place turning them into
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -17,6 +17,7 @@ from sonarproc.errors import ParameterError
 
 if TYPE_CHECKING:
     from sonarproc.params import RunParams
+    from sonarproc.run_modes import RunMode
 
 __all__ = [
     "ArcStepOption",
@@ -177,18 +178,21 @@ def build_run_params(
     *,
     cell: float,
     bbox: str | None,
-    ops: str,
-    fit: str,
+    ops: str | None,
+    fit: str | None,
     order: str | int | None,
     smooth: float | None = None,
     centre: str | None = None,
     drop_crosstalk: bool = False,
-    robust: str = "none",
+    robust: str | None = None,
     span: str = "truth",
     arc_step_deg: float | None = None,
     align: bool = True,
 ) -> RunParams:
     """Validated run parameters from option values as typed on the command line.
+
+    ``ops``, ``fit`` and ``robust`` left out (``None``) are the paper's: ``thinning:3``,
+    ``auto`` (a polynomial for one curve, else surfaces) and ``none``.
 
     Raises
     ------
@@ -198,8 +202,11 @@ def build_run_params(
     """
     import math
 
-    from sonarproc.params import RunParams, parse_bbox, parse_point
+    from sonarproc.params import PAPER_OPS, RunParams, parse_bbox, parse_point
 
+    ops = PAPER_OPS if ops is None else ops
+    fit = "auto" if fit is None else fit
+    robust = "none" if robust is None else robust
     if not ops.strip():
         raise ParameterError(
             "ops", "is empty; give operations, e.g. 'thinning:3' or 'closing,thinning:2'"
@@ -260,3 +267,19 @@ def worker_count(workers: int) -> int:
     if workers < 0:
         raise ParameterError("workers", f"must be >= 0, got {workers}")
     return workers or (os.cpu_count() or 1)
+
+
+def build_run_mode(*, auto: bool, paper: bool, **options: Any) -> tuple[RunMode, RunParams]:
+    """How a run picks its fit (:func:`sonarproc.run_modes.resolve_mode`) and its parameters
+    (:func:`build_run_params` of ``options``), from ``run``'s or ``batch``'s options.
+
+    Raises
+    ------
+    ParameterError
+        ``--paper`` with ``--auto`` or a fit option, or a value :func:`build_run_params`
+        refuses.
+    """
+    from sonarproc.run_modes import FIT_KNOBS, resolve_mode
+
+    mode = resolve_mode(auto=auto, paper=paper, knobs={k: options.get(k) for k in FIT_KNOBS})
+    return mode, build_run_params(**options)

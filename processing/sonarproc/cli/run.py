@@ -36,7 +36,7 @@ from sonarproc.cli.options import (
     SmoothOption,
     SpanOption,
     TruthOption,
-    build_run_params,
+    build_run_mode,
 )
 from sonarproc.cli.paths import check_output_dir
 
@@ -217,19 +217,15 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
-    from sonarproc.params import PAPER_OPS
     from sonarproc.report import default_out_dir, write_report
     from sonarproc.report.plots import parse_figure_formats
-    from sonarproc.run_modes import resolve_mode, run_log
+    from sonarproc.run_modes import run_log
 
     with guarded():
         formats = parse_figure_formats(figures)
-        knobs = {"ops": ops, "fit": fit, "order": order, "smooth": smooth, "robust": robust}
-        mode = resolve_mode(auto=auto, paper=paper, knobs=knobs)
-        params = build_run_params(
-            cell=cell, bbox=bbox, ops=PAPER_OPS if ops is None else ops,
-            fit="auto" if fit is None else fit, order=order, smooth=smooth, centre=centre,
-            drop_crosstalk=drop_crosstalk, robust="none" if robust is None else robust,
+        mode, params = build_run_mode(
+            auto=auto, paper=paper, cell=cell, bbox=bbox, ops=ops, fit=fit, order=order,
+            smooth=smooth, centre=centre, drop_crosstalk=drop_crosstalk, robust=robust,
             span=span, arc_step_deg=arc_step, align=not no_align,
         )  # fmt: skip
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
