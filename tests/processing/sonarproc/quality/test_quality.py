@@ -275,3 +275,17 @@ def test_the_shipped_real_log_reports_its_quality(tmp_path: Path) -> None:
     curves = [s for s in doc["surfaces"] if s["kind"] not in ("corner", "edge")]
     assert len(q["surfaces"]) == len(curves)
     assert doc["alignment"]["applied"] is False and doc["alignment"]["reason"]
+
+
+def test_firings_are_numbered_as_the_distinct_time_and_transmitter_pairs() -> None:
+    from sonarlog.schema import empty_readings
+    from sonarproc.auto.holdout import firing_index
+
+    rng = np.random.default_rng(7)
+    for n in (0, 1, 500):
+        r = empty_readings(n)
+        r["t"] = np.round(rng.uniform(0.0, 5.0, n), 1)
+        r["tx"] = rng.integers(0, 16, n)
+        keys = np.column_stack((np.asarray(r["t"], dtype=np.float64), r["tx"]))
+        _, expect = np.unique(keys, axis=0, return_inverse=True)
+        np.testing.assert_array_equal(firing_index(r), expect.reshape(-1))
