@@ -270,7 +270,7 @@ def held_out(
         from sonarproc.pipeline.arcmap import count_map
 
         held_arcs = subset_beams(beams, held).arcs
-        train_counts = counts - count_map(held_arcs, grid, params).astype(counts.dtype)
+        train_counts = counts - count_map(held_arcs, grid, params).astype(counts.dtype, copy=False)
         train_counts.flags.writeable = False  # shared by every run on this map
     return HeldOut(judged, held, held_rows, train_beams, train_counts)
 
