@@ -228,15 +228,17 @@ def _chunk_echoes(
     ok[:, 1:-1] &= low | high
     ok[:, [0, -1]] = False
     path[~ok] = np.inf
+    pick = path.argmin(axis=1)
+    later = np.flatnonzero(k > 0)  # later echoes: only their rows are ranked further
     top = min(int(k.max()) + 1, path.shape[1])
-    if top == 1:
-        pick = path.argmin(axis=1)
-    else:
-        part = np.argpartition(path, top - 1, axis=1)[:, :top]
+    if later.size and top > 1:
+        sub = path[later]
+        part = np.argpartition(sub, top - 1, axis=1)[:, :top]
         ranked = np.take_along_axis(
-            part, np.argsort(np.take_along_axis(path, part, axis=1), axis=1), axis=1
+            part, np.argsort(np.take_along_axis(sub, part, axis=1), axis=1), axis=1
         )
-        pick = np.take_along_axis(ranked, np.minimum(k, top - 1)[:, None], axis=1)[:, 0]
+        rank = np.minimum(k[later], top - 1)[:, None]
+        pick[later] = np.take_along_axis(ranked, rank, axis=1)[:, 0]
     best = path[np.arange(pick.size), pick]
     # a rank beyond the window's samples has no echo in it (nor in the whole curve)
     best = np.where(k < path.shape[1], best, np.inf)
