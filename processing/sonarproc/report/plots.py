@@ -11,7 +11,6 @@ figure never imports it. Every line drawn is first cut to the view
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -22,6 +21,7 @@ import numpy.typing as npt
 from sonarproc.fit import FitFailure
 from sonarproc.pipeline.result import RunResult
 from sonarproc.report import style
+from sonarproc.report.drawing import figure_bytes, figures_bytes
 from sonarproc.report.units import length_cm, number
 from sonarproc.report.view import (
     MAX_DISPLAY,
@@ -58,8 +58,6 @@ __all__ = [
 FIGURES = ("arcmap", "processed", "fit")
 #: The file formats a figure can be written in.
 FIGURE_FORMATS = ("png", "svg")
-#: zlib level of the PNGs (see :func:`figure_bytes`).
-PNG_COMPRESSION = 3
 
 
 def parse_figure_formats(text: str) -> tuple[str, ...]:
@@ -295,52 +293,6 @@ def alignment_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = No
     return fig
 
 
-def figure_bytes(fig: Figure, fmt: str) -> bytes:
-    """``fig`` saved as ``fmt`` (``png`` at :data:`~sonarproc.report.style.DPI`, ``svg``)."""
-    if fmt == "png":
-        return _encode_png(_agg_pixels(fig))
-    buf = io.BytesIO()
-    with style.drawing():
-        fig.savefig(buf, format=fmt, dpi=style.DPI, metadata=_metadata(fmt))
-    return buf.getvalue()
-
-
-def _agg_pixels(fig: Figure) -> npt.NDArray[np.uint8]:
-    """``fig`` drawn on its Agg canvas at :data:`~sonarproc.report.style.DPI`: a copy of
-    the RGBA pixels (rows top to bottom), what ``savefig(format="png")`` would encode."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
-    dpi = fig.dpi
-    with style.drawing():
-        try:
-            fig.set_dpi(style.DPI)
-            canvas.draw()
-            return np.array(canvas.buffer_rgba(), dtype=np.uint8, copy=True)
-        finally:
-            fig.set_dpi(dpi)
-
-
-def _encode_png(rgba: npt.NDArray[np.uint8]) -> bytes:
-    """RGBA pixels as a PNG at :data:`~sonarproc.report.style.DPI`.
-
-    zlib level 3 (the fast strategy): a third less time than the default 6 for a PNG
-    about a fifth larger. The deflate runs without Python's lock (Pillow releases it), so
-    :func:`render_figures` encodes one figure while drawing the next.
-    """
-    from matplotlib.image import imsave
-
-    buf = io.BytesIO()
-    imsave(buf, rgba.data, format="png", origin="upper", dpi=style.DPI,
-           metadata=_metadata("png"), pil_kwargs={"compress_level": PNG_COMPRESSION})  # fmt: skip
-    return buf.getvalue()
-
-
-def _metadata(fmt: str) -> dict[str, Any]:
-    # no date: the same run gives the same bytes
-    return {"Software": "sonarmorph"} if fmt == "png" else {"Date": None}
-
-
 def render_figures(
     result: RunResult,
     formats: Sequence[str] = FIGURE_FORMATS,
@@ -350,30 +302,18 @@ def render_figures(
     """Every figure of :data:`FIGURES` in ``formats``: ``{"arcmap.png": ..., ...}``; and
     ``alignment`` (:func:`alignment_figure`) when the run's poses were corrected for drift.
 
-    No format: no figure, and matplotlib is not imported. Each figure is drawn once per
-    format; a PNG's pixels are compressed on a worker thread while the next drawing goes
-    on (the bytes are those of :func:`figure_bytes`).
+    No format: no figure, and matplotlib is not imported. The drawing is spread over two
+    cores where it can be (:func:`~sonarproc.report.drawing.figures_bytes`); the bytes
+    are those of :func:`figure_bytes`.
     """
     if not formats:
         return {}
-    from concurrent.futures import Future, ThreadPoolExecutor
-
     cells = _shown(result, None)
-    makers = [
-        ("arcmap", lambda: arcmap_figure(result)),
-        ("processed", lambda: processed_figure(result, cells, auto=auto)),
-        ("fit", lambda: fit_figure(result, cells)),
+    figures = [
+        ("arcmap", arcmap_figure(result)),
+        ("processed", processed_figure(result, cells, auto=auto)),
+        ("fit", fit_figure(result, cells)),
     ]
     if result.alignment is not None and result.alignment.applied:
-        makers.append(("alignment", lambda: alignment_figure(result, cells)))
-    drawn: dict[str, bytes | Future[bytes]] = {}
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="png") as encoder:
-        for stem, make in makers:
-            fig = make()
-            for fmt in formats:
-                name = f"{stem}.{fmt}"
-                if fmt == "png":
-                    drawn[name] = encoder.submit(_encode_png, _agg_pixels(fig))
-                else:
-                    drawn[name] = figure_bytes(fig, fmt)
-    return {k: v if isinstance(v, bytes) else v.result() for k, v in drawn.items()}
+        figures.append(("alignment", alignment_figure(result, cells)))
+    return figures_bytes(figures, formats)
