@@ -5,11 +5,12 @@ formats and spends the time of the slowest drawing, not of all of them, where it
 
 - a PNG's pixels are drawn on the figure's Agg canvas and compressed on a worker thread
   (Pillow's deflate runs without Python's lock), while the next figure is drawn;
-- the SVGs are drawn in a child process forked for them, while this process draws the
-  PNGs. A fork inherits the figures as they are (nothing is pickled but the SVG bytes
-  that come back), and only from a parent that runs no other thread (a lone thread
-  holds no lock the child could inherit locked), on Linux, with two cores to use. Where
-  it cannot fork, or the child fails, the SVGs are drawn here: the bytes are the same.
+- about half the drawings (the SVGs first) are made in a child process forked for them,
+  while this process makes the others. A fork inherits the figures as they are (nothing
+  is pickled but the bytes that come back), and only from a parent that runs no other
+  thread (a lone thread holds no lock the child could inherit locked), on Linux, with
+  two cores to use. Where it cannot fork, or the child fails, everything is drawn here:
+  the bytes are the same.
 """
 
 from __future__ import annotations
@@ -57,26 +58,30 @@ def figures_bytes(
     in that order; the same bytes as :func:`figure_bytes` of each."""
     from concurrent.futures import Future, ThreadPoolExecutor
 
-    # fork before this process starts a thread of its own (the PNG encoder)
-    svg_child = _SvgChild.start([f for _, f in figures]) if _can_fork(formats) else None
+    jobs = [(f"{stem}.{fmt}", fig, fmt) for stem, fig in figures for fmt in formats]
+    # A child takes the SVGs first (this process keeps the PNGs, whose compression runs
+    # on its encoder thread), then PNGs in order, until it has one drawing more than
+    # half: this process made the figures before the fork, about one drawing's time.
+    ordered = sorted(jobs, key=lambda job: job[2] != "svg")
+    share = ordered[: len(jobs) // 2 + 1] if _can_fork(formats) else []
+    child = _DrawingChild.start(share) if share else None
+    theirs_names = {name for name, _, _ in share} if child is not None else set()
+    mine = [job for job in jobs if job[0] not in theirs_names]
     drawn: dict[str, bytes | Future[bytes]] = {}
-    try:
+    try:  # the PNG encoder is this process's only other thread, started after the fork
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="png") as encoder:
-            for stem, fig in figures:
-                for fmt in formats:
-                    if fmt == "png":
-                        drawn[f"{stem}.png"] = encoder.submit(_encode_png, _agg_pixels(fig))
-                    elif fmt != "svg" or svg_child is None:
-                        drawn[f"{stem}.{fmt}"] = figure_bytes(fig, fmt)
+            for name, fig, fmt in mine:
+                if fmt == "png":
+                    drawn[name] = encoder.submit(_encode_png, _agg_pixels(fig))
+                else:
+                    drawn[name] = figure_bytes(fig, fmt)
     finally:
-        svgs = svg_child.collect() if svg_child is not None else None
-    if svg_child is not None:
-        if svgs is None:  # the child failed: draw them here
-            svgs = [figure_bytes(fig, "svg") for _, fig in figures]
-        drawn.update({f"{stem}.svg": data for (stem, _), data in zip(figures, svgs, strict=True)})
-    return {
-        f"{stem}.{fmt}": _result(drawn[f"{stem}.{fmt}"]) for stem, _ in figures for fmt in formats
-    }
+        theirs = child.collect() if child is not None else None
+    if child is not None:
+        if theirs is None:  # the child failed: draw its share here
+            theirs = {name: figure_bytes(fig, fmt) for name, fig, fmt in share}
+        drawn.update(theirs)
+    return {name: _result(drawn[name]) for name, _, _ in jobs}
 
 
 def _result(value: Any) -> bytes:
@@ -84,53 +89,57 @@ def _result(value: Any) -> bytes:
 
 
 def _can_fork(formats: Sequence[str]) -> bool:
-    """Whether the SVGs may be drawn in a forked child: there are other formats to draw
-    meanwhile, two cores to draw on, and a fork is safe (Linux, no other thread)."""
-    if "svg" not in formats or len(formats) < 2 or sys.platform != "linux":
+    """Whether part of the drawing may go to a forked child: there are several formats
+    (so several drawings of each figure), two cores to draw on, and a fork is safe (Linux,
+    no other thread)."""
+    if len(formats) < 2 or sys.platform != "linux" or not hasattr(os, "fork"):
         return False
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    return cores >= 2 and threading.active_count() == 1 and hasattr(os, "fork")
+    return cores >= 2 and threading.active_count() == 1
 
 
-class _SvgChild:
-    """A forked child drawing figures as SVG; :meth:`collect` reads its bytes."""
+Job = tuple[str, "Figure", str]
+
+
+class _DrawingChild:
+    """A forked child saving figures; :meth:`collect` reads its bytes."""
 
     def __init__(self, pid: int, fd: int) -> None:
         self.pid, self.fd = pid, fd
 
     @classmethod
-    def start(cls, figures: Sequence[Figure]) -> _SvgChild | None:
-        """Fork a child that sends back ``[figure_bytes(f, "svg") for f in figures]``."""
+    def start(cls, jobs: Sequence[Job]) -> _DrawingChild | None:
+        """Fork a child that sends back ``{name: figure_bytes(fig, fmt)}`` of ``jobs``."""
         read_fd, write_fd = os.pipe()
         try:
             pid = os.fork()
         except OSError as err:  # no memory or process left: draw them here
-            log.debug("figures: no child for the SVGs (%s)", err)
+            log.debug("figures: no child to draw in (%s)", err)
             os.close(read_fd)
             os.close(write_fd)
             return None
         if pid == 0:  # the child: draw, send, and leave without running any exit handler
-            _child_main(figures, read_fd, write_fd)
+            _child_main(jobs, read_fd, write_fd)
         os.close(write_fd)
         return cls(pid, read_fd)
 
-    def collect(self) -> list[bytes] | None:
-        """The child's SVGs, or None if it failed."""
+    def collect(self) -> dict[str, bytes] | None:
+        """The child's files, or None if it failed."""
         with os.fdopen(self.fd, "rb") as pipe:
             payload = pipe.read()
         _, status = os.waitpid(self.pid, 0)
         if status != 0 or not payload:
-            log.debug("figures: the SVG child failed (status %d)", status)
+            log.debug("figures: the drawing child failed (status %d)", status)
             return None
-        svgs = pickle.loads(payload)  # our own child's list of bytes
-        return [bytes(s) for s in svgs]
+        files = pickle.loads(payload)  # our own child's {name: bytes}
+        return {str(k): bytes(v) for k, v in files.items()}
 
 
-def _child_main(figures: Sequence[Figure], read_fd: int, write_fd: int) -> None:
+def _child_main(jobs: Sequence[Job], read_fd: int, write_fd: int) -> None:
     code = 1
     try:
         os.close(read_fd)
-        payload = pickle.dumps([figure_bytes(f, "svg") for f in figures])
+        payload = pickle.dumps({name: figure_bytes(fig, fmt) for name, fig, fmt in jobs})
         with os.fdopen(write_fd, "wb") as pipe:
             pipe.write(payload)
         code = 0

@@ -1,4 +1,4 @@
-"""Saving several figures at once: the same files whether the SVGs are drawn in a forked
+"""Saving several figures at once: the same files whether half are drawn in a forked
 child or here, a failed child costs nothing but time, and no fork beside another thread."""
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def serial(monkeypatch: pytest.MonkeyPatch) -> dict[str, bytes]:
 
 
 @needs_fork
-def test_svgs_from_the_child_are_those_drawn_here(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_files_from_the_child_are_those_drawn_here(monkeypatch: pytest.MonkeyPatch) -> None:
     if not drawing._can_fork(("png", "svg")):
         pytest.skip("another thread runs in this test process: no fork")
     forked = drawing.figures_bytes(figures(), ("png", "svg"))
@@ -58,7 +58,7 @@ def test_svgs_from_the_child_are_those_drawn_here(monkeypatch: pytest.MonkeyPatc
 
 
 @needs_fork
-def test_a_failed_child_leaves_the_svgs_to_this_process(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_failed_child_leaves_its_share_to_this_process(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(drawing, "_child_main", lambda *args: os._exit(3))
     drawn = drawing.figures_bytes(figures(), ("png", "svg"))
     assert sorted(drawn) == ["f0.png", "f0.svg", "f1.png", "f1.svg", "f2.png", "f2.svg"]
