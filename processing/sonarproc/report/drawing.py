@@ -90,9 +90,14 @@ def _result(value: Any) -> bytes:
 
 def _can_fork(formats: Sequence[str]) -> bool:
     """Whether part of the drawing may go to a forked child: there are several formats
-    (so several drawings of each figure), two cores to draw on, and a fork is safe (Linux,
+    (so several drawings of each figure), two cores to draw on, not already shared with
+    the sibling workers of a pool (this is no pool's worker), and a fork is safe (Linux,
     no other thread)."""
+    import multiprocessing
+
     if len(formats) < 2 or sys.platform != "linux" or not hasattr(os, "fork"):
+        return False
+    if multiprocessing.parent_process() is not None:
         return False
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
     return cores >= 2 and threading.active_count() == 1
