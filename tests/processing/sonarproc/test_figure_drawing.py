@@ -1,4 +1,4 @@
-"""Saving several figures at once: the same files whether half are drawn in a forked
+"""Saving several figures at once: the same files whether the SVGs are drawn in a forked
 child or here, a failed child costs nothing but time, and no fork beside another thread."""
 
 from __future__ import annotations
