@@ -124,9 +124,16 @@ def fold_scores(
     train: npt.NDArray[np.bool_],
     held: npt.NDArray[np.intp],
     cap: float,
+    *,
+    lines_first: bool | None = None,
 ) -> None:
     """Score every candidate on one fold (see the module notes): ``train`` marks the
-    training readings of ``beams``, ``held`` indexes the held-out ones predicted."""
+    training readings of ``beams``, ``held`` indexes the held-out ones predicted.
+
+    ``lines_first``: how the ``surfaces`` candidate finds its walls
+    (:func:`sonarproc.auto.multisurface.fitted_surfaces`): as the run on the whole log
+    will, not as a log of the fold's size would.
+    """
     tb = subset_beams(beams, train)
     maps = _Maps(tb, grid, base)
     baselines: dict[_MapKey, npt.NDArray[np.float64]] = {}
@@ -139,7 +146,7 @@ def fold_scores(
             continue
         mmap, bins, _, _ = entry
         if c.family == "surfaces":
-            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step)
+            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step, lines_first)
         else:
             _score_profiles(s, bins, grid, beams, held, measured, cap)
         if key not in baselines:
@@ -218,13 +225,14 @@ def _score_surfaces(
     measured: FloatArray,
     cap: float,
     step: float,
+    lines_first: bool | None,
 ) -> None:
     """One fold of the ``surfaces`` candidate (it stands aside where the map is y(x))."""
     setting = s.candidate.settings[0]
     if grid.nx * grid.ny > SURFACES_MAX_CELLS:
         s.too_large = grid.nx * grid.ny
         return
-    lines = fitted_surfaces(mmap, grid, train)
+    lines = fitted_surfaces(mmap, grid, train, lines_first=lines_first)
     if lines is None:
         s.function_folds += 1
         s.losses.setdefault(setting, []).append(np.full(held.size, cap))

@@ -146,6 +146,10 @@ def choose(
     """
     beams, _ = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
+    from sonarproc.pipeline.surfacefit import LINES_FIRST_READINGS  # scipy's graphs: lazily
+
+    # the surfaces are scored as the run on every reading fits them
+    lines_first = beams.path.size >= LINES_FIRST_READINGS
     used = _sample_firings(beams.readings, max_readings, seed)
     beams = subset_beams(beams, used)
     n = int(used.sum())
@@ -159,7 +163,7 @@ def choose(
 
     def one_fold(split: Split) -> list[Score]:
         mine = [Score(c) for c in candidates]
-        fold_scores(mine, beams, grid, base, split[0], split[1], cap)
+        fold_scores(mine, beams, grid, base, split[0], split[1], cap, lines_first=lines_first)
         return mine
 
     # each fold writes its losses into its own Scores, gathered in the folds' order
