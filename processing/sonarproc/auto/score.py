@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import Candidate
+from sonarproc.auto.holdout import Split
 from sonarproc.fit import Fit
 from sonarproc.metrics import Bins
 from sonarproc.pipeline.selection import Beams
@@ -311,6 +312,9 @@ class AutoChoice:
     fallback: str | None = None
     #: The scored readings (the echo refit is scored on the same ones and folds)
     scored: Beams | None = field(default=None, repr=False, compare=False)
+    #: The folds the candidates were scored on (training mask, held-out rows of
+    #: :attr:`scored`): the echo refit is scored on these very folds
+    splits: list[Split] | None = field(default=None, repr=False, compare=False)
     #: Judges a candidate's guard rails when first needed (:meth:`next_ranked`)
     guard: Callable[[Score], None] | None = field(default=None, repr=False, compare=False)
 

@@ -96,7 +96,6 @@ def choose(
     max_readings: int = 6_000,
     heldout_per_fold: int = 300,
     seed: int = 0,
-    folds_by: str = "firings",
     workers: int | None = None,
     judge_all: bool = False,
 ) -> AutoChoice:
@@ -120,12 +119,7 @@ def choose(
     heldout_per_fold : int
         Held-out readings predicted per fold (a random subset).
     seed : int
-        Seed of the folds and subsets.
-    folds_by : str
-        How the folds split the log: ``"firings"`` (whole firings at random, what
-        ``--auto`` uses), ``"time"`` (contiguous time blocks) or ``"passes"`` (contiguous
-        runs of each transmitter's firings); :mod:`sonarproc.studies.auto_rules`
-        compares them.
+        Seed of the folds (whole firings at random) and subsets.
     workers : int, optional
         Threads the folds are scored on (:func:`sonarproc.auto.threads.in_threads`;
         default: the CPUs, at most 4). The outcome is the same for any number.
@@ -141,8 +135,7 @@ def choose(
     Raises
     ------
     NothingToMapError, InputError, ParameterError
-        As ``sonarproc run`` (no usable reading, a bad grid); ``ParameterError`` also for
-        an unknown ``folds_by``.
+        As ``sonarproc run`` (no usable reading, a bad grid).
     """
     beams, _ = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
@@ -156,9 +149,7 @@ def choose(
     if repeats is None:
         repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
-    splits = heldout_splits(
-        beams.readings, folds, repeats, heldout_per_fold, by=folds_by, seed=seed
-    )
+    splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     scores = [Score(c) for c in candidates]
 
     def one_fold(split: Split) -> list[Score]:
@@ -174,7 +165,7 @@ def choose(
     for s in scores:
         s.finish(grid.cell)  # without the guard rails' fits: a lower bound of the residual
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
-    choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams)
+    choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams, splits=splits)
     choice.guard = WholeGuard(beams, grid, base)
     if judge_all:
         for s in scores:
@@ -267,7 +258,6 @@ def run_auto(
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
     workers = kwargs.get("workers")
-    per_fold = int(kwargs.get("heldout_per_fold", 300))
     last: tuple[MethodResult, Score] | None = None
     tried: list[Score] = []
     while (s := choice.next_ranked(tried)) is not None:
@@ -292,7 +282,7 @@ def run_auto(
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
             return (
-                _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold),
+                _refitted(log_, base, res, s, choice, max_readings, seed, workers),
                 s,
                 choice,
             )
@@ -304,7 +294,7 @@ def run_auto(
         f"({s.excluded})"
     )
     # its refit through the echo points has guard rails of its own (the points' hull)
-    return _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold), s, choice
+    return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
 
 
 def _refitted(
@@ -316,11 +306,10 @@ def _refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
-    per_fold: int,
 ) -> MethodResult:
     """The run refitted through the echo points (:func:`_echo_refitted`), and the record
     of the map cells its profile left out."""
-    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold)
+    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
     left_out = refitted.run.counts.get(LEFT_OUT, 0)
     choice.left_out = {
         "rule": SEPARATION_RULE,
@@ -384,7 +373,6 @@ def _echo_refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
-    per_fold: int,
 ) -> MethodResult:
     """The winner's run with a profile refitted through the echo points, if that wins.
 
@@ -419,8 +407,7 @@ def _echo_refitted(
     def refit_from(st: RefitStart) -> RefitChoice:
         return choose_refit(
             st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
-            chosen_losses=mine, folds=choice.folds,
-            repeats=choice.repeats, heldout_per_fold=per_fold, cap=cap, seed=seed, noise=noise,
+            chosen_losses=mine, splits=choice.splits, cap=cap, seed=seed, noise=noise,
         )  # fmt: skip
 
     refits = in_threads(refit_from, starts, workers)
