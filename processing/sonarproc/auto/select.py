@@ -32,7 +32,7 @@ import numpy.typing as npt
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
-from sonarproc.auto.holdout import Split, heldout_splits, subset_beams
+from sonarproc.auto.holdout import Split, firing_index, heldout_splits, subset_beams
 from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.score import (
     CAP_CELLS,
@@ -78,9 +78,7 @@ def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[
     n = len(readings)
     if n <= limit:
         return np.ones(n, dtype=bool)
-    keys = np.column_stack((np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
-    _, firing = np.unique(keys, axis=0, return_inverse=True)
-    firing = firing.reshape(-1)
+    firing = firing_index(readings)
     nf = int(firing.max()) + 1
     take = np.random.default_rng(seed + 1).random(nf) < limit / n
     return np.asarray(take[firing], dtype=bool)
