@@ -310,6 +310,8 @@ class AutoChoice:
     left_out: dict[str, Any] | None = None
     #: Why the choice is a candidate the guard rails excluded (all of them were), if so
     fallback: str | None = None
+    #: The decision's constants by name (:func:`sonarproc.auto.constants.constants_record`)
+    constants: dict[str, Any] | None = None
     #: The scored readings (the echo refit is scored on the same ones and folds)
     scored: Beams | None = field(default=None, repr=False, compare=False)
     #: The folds the candidates were scored on (training mask, held-out rows of
@@ -358,4 +360,5 @@ class AutoChoice:
             "echo_refit": self.echo_refit,
             "profile_columns": self.left_out,
             "fallback": self.fallback,
+            "constants": self.constants,
         }

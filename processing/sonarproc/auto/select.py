@@ -31,6 +31,7 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
+from sonarproc.auto.constants import constants_record
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
 from sonarproc.auto.holdout import Split, firing_index, heldout_splits, subset_beams
 from sonarproc.auto.hull import data_hull_excess
@@ -164,6 +165,11 @@ def choose(
         s.finish(grid.cell)  # without the guard rails' fits: a lower bound of the residual
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
     choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams, splits=splits)
+    choice.constants = {
+        **constants_record(), "REPEAT_READINGS": REPEAT_READINGS, "MAX_REPEATS": MAX_REPEATS,
+        "REFIT_STARTS": REFIT_STARTS, "folds": folds, "heldout_per_fold": heldout_per_fold,
+        "max_readings": max_readings,
+    }  # fmt: skip
     choice.guard = WholeGuard(beams, grid, base)
     if judge_all:
         for s in scores:
