@@ -44,7 +44,7 @@ from sonarproc.auto.score import (
     Score,
     paired_se,
 )
-from sonarproc.auto.scoring import WholeGuard, fold_scores, mean_count
+from sonarproc.auto.scoring import CountMaps, WholeGuard, fold_scores, mean_count
 from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_map
 from sonarproc.auto.threads import in_threads
 from sonarproc.errors import NothingToMapError
@@ -151,9 +151,15 @@ def choose(
     splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     scores = [Score(c) for c in candidates]
 
+    # the count map of every scored reading, drawn once: a fold's is it minus its held-out
+    counts = CountMaps(beams, grid, base)
+
     def one_fold(split: Split) -> list[Score]:
         mine = [Score(c) for c in candidates]
-        fold_scores(mine, beams, grid, base, split[0], split[1], cap, lines_first=lines_first)
+        fold_scores(
+            mine, beams, grid, base, split[0], split[1], cap,
+            lines_first=lines_first, counts=counts,
+        )  # fmt: skip
         return mine
 
     # each fold writes its losses into its own Scores, gathered in the folds' order
@@ -170,7 +176,7 @@ def choose(
         "REFIT_STARTS": REFIT_STARTS, "folds": folds, "heldout_per_fold": heldout_per_fold,
         "max_readings": max_readings,
     }  # fmt: skip
-    choice.guard = WholeGuard(beams, grid, base)
+    choice.guard = WholeGuard(beams, grid, base, counts.whole)
     if judge_all:
         for s in scores:
             choice.guard(s)
