@@ -304,8 +304,9 @@ def reflector_section(rows: Sequence[SurfaceRow]) -> list[str]:
         "or free wall ends) whose walls run on through the gap's line, with no surface "
         "in it; seen through when readings from at least 3 distinct poses crossed its "
         "middle (more than 10 cm from either jamb) along the beam axis and echoed from "
-        "more than 5 cm beyond; open when no fitted line or curve comes within 5 cm of "
-        "that middle. *held out*: scenes written before the reflector rules were tuned "
+        "more than 5 cm beyond; open when no fitted line or curve lies on that "
+        "middle (within 5 cm of the gap's line, between its two ends). *held out*: "
+        "scenes written before the reflector rules were tuned "
         f"and run only to judge them. Targets: precision <= {100 * prec:g} cm, "
         f"completeness >= {comp:g}, far <= {100 * far:g} %, every corner in view "
         "reported, every doorway seen through open.",

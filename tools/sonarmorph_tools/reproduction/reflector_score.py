@@ -19,8 +19,9 @@ geometric:
   inside. It is *seen through* when readings from at least :data:`MIN_VIEW_POSES`
   distinct poses had their beam axis cross its middle (more than :data:`JAMB_M` from
   either jamb) and echoed from more than :data:`DOOR_CLEAR_M` beyond it. It is *open*
-  when no sample of a fitted line or curve lies within :data:`DOOR_CLEAR_M` of that
-  middle.
+  when no sample of a fitted line or curve lies on that middle: within
+  :data:`DOOR_CLEAR_M` of the gap's line, between its two ends (a wall fitted a few
+  centimetres past a jamb does not close the door).
 """
 
 from __future__ import annotations
@@ -199,6 +200,17 @@ def _seen_through(rays: SensorRays, a: FloatArray, b: FloatArray) -> bool:
     return _poses(rays.xy[hit]) >= MIN_VIEW_POSES
 
 
+def _bridged(samples: FloatArray, a: FloatArray, b: FloatArray) -> bool:
+    """Whether a fitted sample lies on the doorway's middle (module notes)."""
+    v = b - a
+    length = float(np.hypot(*v))
+    d = samples - a
+    along = d @ v / length
+    across = np.abs(d[:, 0] * v[1] - d[:, 1] * v[0]) / length
+    on = (along > JAMB_M) & (along < length - JAMB_M) & (across <= DOOR_CLEAR_M)
+    return bool(on.any())
+
+
 def _samples(fits: Sequence[SurfaceFit]) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
     """Samples of the fitted surfaces every :data:`SAMPLE_M`, and which are point reflectors."""
     pts: list[FloatArray] = []
@@ -251,15 +263,11 @@ def score_reflectors(world: World, log: SonarLog, fits: Sequence[SurfaceFit]) ->
         else:
             missed.append((round(float(v[0]), 3), round(float(v[1]), 3)))
     lines = xy[~is_point]
-    line_tree = cKDTree(lines) if lines.shape[0] else None
     seen, open_ = 0, 0
     for a, b in convex_gaps(world, truth):
         if not _seen_through(rays, a, b):
             continue
         seen += 1
-        d = float(np.hypot(*(b - a)))
-        s = np.linspace(JAMB_M / d, 1 - JAMB_M / d, max(3, int(d / 0.01)))
-        mid = a + s[:, None] * (b - a)
-        if line_tree is None or float(line_tree.query(mid)[0].min()) > DOOR_CLEAR_M:
+        if not _bridged(lines, a, b):
             open_ += 1
     return ReflectorScore(far, reported, in_view, open_, seen, tuple(missed))
