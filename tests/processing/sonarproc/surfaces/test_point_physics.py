@@ -18,7 +18,7 @@ from sonarproc.surfaces.reflectors.rcd import PointFeature
 
 
 def _heard(sensors: np.ndarray, p: np.ndarray, extra: np.ndarray | None = None) -> EchoGeometry:
-    """Sensors aimed at ``p`` hearing it at their distance; ``extra`` rows: (x, y, heading, range)."""
+    """Sensors aimed at ``p`` hearing it; ``extra`` rows: (x, y, heading, range)."""
     rel = p - sensors
     xy, heading, rng = sensors, np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(*rel.T)
     if extra is not None:
