@@ -10,7 +10,23 @@ The point is refitted on the rest and tested again
 (:func:`sonarproc.surfaces.reflectors.rcd.point_feature`). A point inside a fitted plane
 (:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes.
 
-:func:`point_kind` says which kind of point it is, from the fitted straight surfaces
+:func:`point_kind` says which kind of point it is. First from the echo physics
+(:func:`echo_kind`):
+
+* sensors spread round the point by more than a right angle plus
+  :data:`CORNER_TOL_RAD`: an **edge** (a concave corner retro-reflects only towards
+  sensors inside its opening, and only when that opening is within
+  :data:`CORNER_TOL_RAD` of a right angle; a convex edge has a free sector wider than
+  180 degrees);
+* heard from at least :data:`MIN_FAR_POSES` distinct poses farther than
+  :data:`EDGE_REACH_M`: a **corner** (its two specular bounces return as much as a
+  plane, spreading as 1/r^2, heard to the sonar's full range; an edge's diffracted
+  echo is far weaker and dies out close by);
+* passed by: at least :data:`MIN_CROSSINGS` readings from inside the sensors' sector,
+  farther than :data:`EDGE_REACH_M`, with the point near their beam's axis, echoed from
+  beyond it: an **edge** (a corner there would have answered first).
+
+When the echoes do not tell, from the fitted straight surfaces
 (planes) that end at it (the point on the plane's line, within :data:`LINE_REACH_M`, at
 or past its nearer end, from :data:`END_REACH_M` inside it:
 :func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`):
@@ -45,11 +61,21 @@ from sonarproc.surfaces.reflectors.rcd import (
     point_feature,
 )
 from sonarproc.surfaces.reflectors.walls import (
+    CHAIN_GAP_M,
+    END_REACH_M,
+    LINE_REACH_M,
     inside_walls,
     on_wall_lines,
 )
 
-__all__ = ["confirm_points", "line_ends", "point_kind"]
+__all__ = [
+    "confirm_points",
+    "echo_kind",
+    "heard_as_corner",
+    "line_ends",
+    "on_circles",
+    "point_kind",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -62,6 +88,22 @@ PAST_END_M = RANGE_TOL_M
 OTHER_WALL_M = (2 * RANGE_TOL_M, 0.45)
 #: Beams crossing that stretch that say it is free space (one may be a stray echo).
 MIN_CROSSINGS = 2
+#: A concave vertex retro-reflects when its opening is within this (rad) of a right angle
+#: (two specular bounces return the pulse only when the walls are near perpendicular;
+#: Kuc & Siegel 1987 find a tolerance of the order of the beam half-width).
+CORNER_TOL_RAD = math.radians(15.0)
+#: An edge is heard no farther than this (m). A diffracted echo is at least 20 dB weaker
+#: than a specular one at 1 m (Kuc & Siegel 1987; Barshan & Kuc 1990) and spreads at
+#: least as fast: with the receiver threshold that lets a plane or a corner be heard to
+#: the Polaroid ranging board's 5 m or more (a specular echo at 5 m is 1/25 of one at
+#: 1 m), an edge falls below it at 5 m x sqrt(0.1), about 1.6 m; 2 m leaves margin.
+EDGE_REACH_M = 2.0
+#: Distinct poses from beyond :data:`EDGE_REACH_M` that make a point a corner (one or
+#: two may be another surface's echo at the same range by chance).
+MIN_FAR_POSES = 3
+#: A point lies near a beam's axis when it is within this fraction of the half-width off
+#: it: the main lobe's centre, where a corner's echo clears the threshold at any range.
+AXIS_SHARE = 0.5
 
 
 def confirm_points(
@@ -105,9 +147,102 @@ def confirm_points(
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
-        if new is not None and _anchored(new, walls):
+        if new is None or on_circles(new.xy, surfaces):
+            continue
+        if _anchored(new, walls):
             out.append((k, new))
     return out
+
+
+def on_circles(xy: npt.ArrayLike, surfaces: list[SurfaceFit]) -> bool:
+    """Whether a point lies on the circle of a fitted arc (within :data:`RANGE_TOL_M`).
+
+    A cylinder answers from the point of it facing the sensor, so seen from a narrow
+    sector it looks like a point reflector; on its fitted arc's circle, past the arc's
+    ends, such a point is more of the cylinder, not a corner or an edge.
+    """
+    p = np.asarray(xy, dtype=np.float64).reshape(2)
+    for s in surfaces:
+        if s.model != "arc" or "centre" not in s.params or "radius" not in s.params:
+            continue
+        c = np.asarray(s.params["centre"], dtype=np.float64).reshape(2)
+        if abs(math.dist(p, c) - float(s.params["radius"])) <= RANGE_TOL_M:
+            return True
+    return False
+
+
+def heard_as_corner(
+    point: PointFeature, echoes: EchoGeometry, walls: list[tuple[FloatArray, FloatArray]]
+) -> bool:
+    """Whether the echoes say a point is a retro-reflecting corner without a plane ending there.
+
+    A corner answers from anywhere in its opening, also where neither of its walls is
+    ever seen head on (a door recess's back corners from the corridor), so a point that
+    ended a first fit's plane stays when a refit without its readings loses that plane
+    (:func:`~sonarproc.surfaces.reflectors.points.refine_with_points`) if it is heard from
+    :data:`MIN_FAR_POSES` poses beyond the edge reach, inside one right angle
+    (:func:`echo_kind`). Its sound reached the sensors, so their sight lines to it cross
+    no fitted plane (:func:`_occluded`); and its two walls meet at it, so it does not
+    stand just in front of a fitted plane's face (:func:`_before_wall`).
+    """
+    if point.span_rad > math.pi / 2 + CORNER_TOL_RAD or _far_poses(point, echoes) < MIN_FAR_POSES:
+        return False
+    return not (_occluded(point, echoes, walls) or _before_wall(point, echoes, walls))
+
+
+def _occluded(
+    point: PointFeature, echoes: EchoGeometry, walls: list[tuple[FloatArray, FloatArray]]
+) -> bool:
+    """Whether most of the point's sight lines cross a fitted plane short of it.
+
+    Short of it: by more than :data:`RANGE_TOL_M` (the plane it sits on meets them there).
+    """
+    if not walls:
+        return False
+    q = echoes.xy[point.readings]
+    d = point.xy - q  # (N, 2) sight lines
+    blocked = np.zeros(q.shape[0], dtype=bool)
+    for a, b in walls:
+        v = b - a
+        den = d[:, 0] * v[1] - d[:, 1] * v[0]
+        w = a - q
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[:, 0] * v[1] - w[:, 1] * v[0]) / den  # along the sight line (0..1)
+            u = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / den  # along the plane (0..1)
+        reach = 1.0 - RANGE_TOL_M / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        blocked |= (np.abs(den) > 1e-12) & (t > 0) & (t < reach) & (u >= 0) & (u <= 1)
+    return bool(np.count_nonzero(blocked) * 2 > blocked.size)
+
+
+def _before_wall(
+    point: PointFeature, echoes: EchoGeometry, walls: list[tuple[FloatArray, FloatArray]]
+) -> bool:
+    """Whether the point stands in front of a fitted plane's face, inside its extent.
+
+    In front: on the sensors' side, from :data:`LINE_REACH_M` to :data:`CHAIN_GAP_M` off
+    the plane (a sonar cannot tell a point that close from the plane's own echoes),
+    more than :data:`END_REACH_M` from its ends.
+    """
+    sensors = echoes.xy[point.readings]
+    for a, b in walls:
+        v = b - a
+        length = math.hypot(float(v[0]), float(v[1]))
+        if length <= 2 * END_REACH_M:
+            continue
+        u = v / length
+        along = float((point.xy - a) @ u)
+        off = float(_side(a, b, point.xy)) / length
+        side = float(np.median(np.sign(_side(a, b, sensors))))
+        if END_REACH_M < along < length - END_REACH_M and LINE_REACH_M < side * off <= CHAIN_GAP_M:
+            return True
+    return False
+
+
+def _far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
+    """Distinct poses that heard the point from beyond :data:`EDGE_REACH_M`."""
+    own = point.readings
+    far = own[echoes.range_m[own] > EDGE_REACH_M]
+    return _poses(echoes.xy[far]) if far.size else 0
 
 
 def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bool:
@@ -229,6 +364,9 @@ def point_kind(point: PointFeature, echoes: EchoGeometry, surfaces: list[Surface
     >>> point_kind(f, outside, [a, b])
     'edge'
     """
+    by_echo = echo_kind(point, echoes)
+    if by_echo is not None:
+        return by_echo
     p = point.xy
     sensors = echoes.xy[point.readings]
     ends = [e for e in (_ends_at(s, p) for s in surfaces) if e is not None]
@@ -253,3 +391,59 @@ def point_kind(point: PointFeature, echoes: EchoGeometry, surfaces: list[Surface
         a, b = p + OTHER_WALL_M[0] * w, p + OTHER_WALL_M[1] * w
         return "edge" if _crossings(echoes, a, b, point.readings) >= MIN_CROSSINGS else "corner"
     return "corner" if point.span_rad <= math.pi else "edge"
+
+
+def echo_kind(point: PointFeature, echoes: EchoGeometry) -> str | None:
+    """``corner`` or ``edge`` from the echoes alone, or None when they do not tell (notes).
+
+    Examples
+    --------
+    Heard from 3 to 4 m by sensors inside a right angle: a corner. Heard from all round,
+    close by: an edge.
+
+    >>> xy = np.array([[3.0, 0.5], [3.5, 0.5], [2.5, 2.5], [0.5, 3.0], [0.5, 3.5]])
+    >>> e = EchoGeometry(xy, np.zeros(5), np.full(5, 0.2), np.hypot(*xy.T))
+    >>> echo_kind(PointFeature(np.zeros(2), np.arange(5), 5, 0.0, 1.0, 1.2), e)
+    'corner'
+    >>> f = PointFeature(np.zeros(2), np.arange(5), 5, 0.0, 1.0, 3.0)
+    >>> echo_kind(f, e)
+    'edge'
+    """
+    if point.span_rad > math.pi / 2 + CORNER_TOL_RAD:
+        return "edge"
+    if _far_poses(point, echoes) >= MIN_FAR_POSES:
+        return "corner"
+    if _passed_by(point, echoes) >= MIN_CROSSINGS:
+        return "edge"
+    return None
+
+
+def _poses(xy: FloatArray) -> int:
+    """Distinct sensor positions, one per :data:`RANGE_TOL_M` cell."""
+    return int(np.unique(np.floor(xy / RANGE_TOL_M).astype(np.int64), axis=0).shape[0])
+
+
+def _passed_by(point: PointFeature, echoes: EchoGeometry) -> int:
+    """Readings from inside the point's sector, beyond the edge reach, that echoed past it.
+
+    Inside the sector: the sensor's bearing from the point lies within the bearings of
+    the point's own sensors (the complement of their largest gap); the point lies within
+    :data:`AXIS_SHARE` of the half beam of the axis; the echo came from more than
+    :data:`RANGE_TOL_M` beyond it.
+    """
+    p = point.xy
+    rel = echoes.xy - p
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    own = np.sort(bearing[point.readings])
+    if own.size < 2:
+        return 0
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    k = int(np.argmax(gaps))
+    start = own[(k + 1) % own.size]
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - echoes.heading))))
+    passed = inside & (dist > EDGE_REACH_M) & (off <= AXIS_SHARE * echoes.half_beam)
+    passed &= echoes.range_m > dist + RANGE_TOL_M
+    passed[point.readings] = False
+    return int(np.count_nonzero(passed))

@@ -31,7 +31,13 @@ from sonarproc.grid import Grid
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.reflectors.classify import confirm_points, line_ends, point_kind
+from sonarproc.surfaces.reflectors.classify import (
+    confirm_points,
+    heard_as_corner,
+    line_ends,
+    on_circles,
+    point_kind,
+)
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -172,10 +178,28 @@ def refine_with_points(
         fits, cells = refine(echoes.subset(~claimed))
         # a point is where a plane ends: one of the first fits may have gone
         walls = line_ends(fits)
-        kept = [(k, p) for k, p in kept if walls and bool(on_wall_lines(p.xy, walls)[0])]
+        kept = [(k, p) for k, p in kept if _still_a_point(p, echoes, fits, walls)]
     out, out_cells = list(fits), list(cells)
     for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))
         one = np.ones(1)
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))
     return out, out_cells
+
+
+def _still_a_point(
+    p: PointFeature,
+    echoes: EchoGeometry,
+    fits: list[SurfaceFit],
+    walls: list[tuple[FloatArray, FloatArray]],
+) -> bool:
+    """After a refit: off every fitted arc's circle, where a plane ends or heard as a corner.
+
+    Every point given ended a plane of the first fit (:func:`confirm_points`); a
+    retro-reflecting corner (:func:`heard_as_corner`) keeps its place when the refit
+    without its readings loses that plane (a door recess's back wall, seen head on from
+    a few poses only).
+    """
+    if on_circles(p.xy, fits):
+        return False
+    return bool(walls and on_wall_lines(p.xy, walls)[0]) or heard_as_corner(p, echoes, walls)

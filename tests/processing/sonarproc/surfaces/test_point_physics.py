@@ -1,0 +1,88 @@
+"""Corner or edge from the echo physics: span, far reach, passed-by beams, occlusion, arcs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.classify import (
+    EDGE_REACH_M,
+    echo_kind,
+    heard_as_corner,
+    on_circles,
+)
+from sonarproc.surfaces.reflectors.rcd import PointFeature
+
+
+def _heard(sensors: np.ndarray, p: np.ndarray, extra: np.ndarray | None = None) -> EchoGeometry:
+    """Sensors aimed at ``p`` hearing it; ``extra`` rows: (x, y, heading, range)."""
+    rel = p - sensors
+    xy, heading, rng = sensors, np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(*rel.T)
+    if extra is not None:
+        xy = np.vstack((xy, extra[:, :2]))
+        heading, rng = np.r_[heading, extra[:, 2]], np.r_[rng, extra[:, 3]]
+    return EchoGeometry(xy, heading, np.full(rng.size, math.radians(12.5)), rng)
+
+
+def _point(p: np.ndarray, sensors: np.ndarray, n: int) -> PointFeature:
+    b = np.sort(np.arctan2(sensors[:, 1] - p[1], sensors[:, 0] - p[0]))
+    gaps = np.diff(np.r_[b, b[0] + 2 * np.pi])
+    return PointFeature(p, np.arange(n), n, 0.005, 0.05, float(2 * np.pi - gaps.max()))
+
+
+def _arc_sensors(p: np.ndarray, r: np.ndarray, a0: float, a1: float) -> np.ndarray:
+    a = np.linspace(a0, a1, r.size)
+    return p + np.column_stack((r * np.cos(a), r * np.sin(a)))
+
+
+def test_a_corner_heard_from_afar_inside_its_right_angle() -> None:
+    p = np.zeros(2)
+    s = _arc_sensors(p, np.linspace(1.0, 4.0, 12), 0.1, 1.4)  # inside the first quadrant
+    e = _heard(s, p)
+    f = _point(p, s, 12)
+    assert f.span_rad < math.pi / 2
+    assert echo_kind(f, e) == "corner"
+    assert heard_as_corner(f, e, [])
+
+
+def test_sensors_all_round_make_an_edge() -> None:
+    p = np.zeros(2)
+    s = _arc_sensors(p, np.full(12, 1.0), -1.5, 1.5)  # 172 degrees round it
+    assert echo_kind(_point(p, s, 12), _heard(s, p)) == "edge"
+    assert not heard_as_corner(_point(p, s, 12), _heard(s, p), [])
+
+
+def test_an_edge_heard_close_by_and_passed_by_from_afar() -> None:
+    p = np.zeros(2)
+    s = _arc_sensors(p, np.linspace(0.6, 1.2, 10), 0.2, 1.3)
+    # three beams from 3 m inside the same sector, aimed at the point, echoed from 4 m
+    far = _arc_sensors(p, np.full(3, 3.0), 0.4, 1.0)
+    aim = np.arctan2(-far[:, 1], -far[:, 0])
+    extra = np.column_stack((far, aim, np.full(3, 4.0)))
+    e = _heard(s, p, extra)
+    f = _point(p, s, 10)
+    assert echo_kind(f, _heard(s, p)) is None  # close by only: the echoes do not tell
+    assert echo_kind(f, e) == "edge"
+
+
+def test_a_far_heard_point_behind_a_fitted_wall_or_just_before_it_is_no_corner() -> None:
+    p = np.array([1.0, -0.2])  # behind the wall y = 0 from sensors above it
+    s = _arc_sensors(p, np.linspace(2.5, 4.0, 10), 0.9, 2.2)
+    wall = [(np.array([-2.0, 0.0]), np.array([4.0, 0.0]))]
+    f, e = _point(p, s, 10), _heard(s, p)
+    assert heard_as_corner(f, e, [])
+    assert not heard_as_corner(f, e, wall)
+    q = np.array([1.0, 0.2])  # 20 cm in front of the wall's face, inside its extent
+    s2 = _arc_sensors(q, np.linspace(2.5, 4.0, 10), 0.9, 2.2)
+    assert not heard_as_corner(_point(q, s2, 10), _heard(s2, q), wall)
+    assert EDGE_REACH_M < 2.5
+
+
+def test_points_on_a_fitted_arc_s_circle_are_the_cylinder_s() -> None:
+    arc = SurfaceFit("arc", np.array([[1.25, 1.0], [1.0, 1.25]]), 0.39, 0.0, 9, 9, False,
+                     {"centre": [1.0, 1.0], "radius": 0.25})  # fmt: skip
+    assert on_circles([1.0 - 0.25, 1.0], [arc])
+    assert not on_circles([1.0, 1.6], [arc])
