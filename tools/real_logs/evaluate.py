@@ -229,6 +229,26 @@ def _why(o: Outcome, group: str) -> str:
     return f"{w['readings']:.0f}: " + " / ".join(f"{w[c]:.2f}" for c in CATEGORIES)
 
 
+def _why_text(o: Outcome) -> list[str]:
+    """A paragraph on where the unexplained readings come from (from the sorted rows)."""
+    why = o.figures.get("why")
+    if not why:
+        return []
+    a, groups = why["all"], [g for g in ("side", "oblique", "front") if why[g]["readings"]]
+    share = ", ".join(f"{g} {why[g]['readings'] / a['readings']:.0%} (explained "
+                      f"{why[g]['explained']:.0%})" for g in groups)  # fmt: skip
+    return [
+        f"Of the {a['readings']:.0f} readings the run mapped, the map's specular first echo "
+        f"explains {a['explained']:.0%}. By sensor direction: {share}. Of all of them, "
+        f"{a['beyond_a_surface']:.0%} reach beyond a mapped surface that crosses their beam "
+        f"without facing them, {a['at_a_surface']:.0%} end on a mapped surface away from "
+        f"its specular point, {a['at_a_point']:.0%} at a reported corner or edge, and "
+        f"{a['nothing_mapped']:.0%} where nothing is mapped; {a['mispredicted']:.0%} are "
+        "predicted more than 5 cm off.",
+        "",
+    ]
+
+
 def table(outcomes: list[Outcome]) -> list[str]:
     """The generated table, one column per log."""
     rows: list[tuple[str, list[str]]] = []
@@ -344,7 +364,7 @@ def write_doc(outcomes: list[Outcome]) -> None:
     ]
     for o in outcomes:
         lines += [f"## {o.log.name}", "", f"Source: {o.log.source or o.log.path}", "",
-                  f"![{o.log.name}](real-logs/{o.log.name}.png)", ""]  # fmt: skip
+                  *_why_text(o), f"![{o.log.name}](real-logs/{o.log.name}.png)", ""]  # fmt: skip
     DOC.write_text("\n".join(lines))
 
 
