@@ -39,7 +39,8 @@ def test_alignment_removes_most_of_the_drift(scene: str, seed: int) -> None:
     a = align_poses(drifted, sensors, speed_of_sound=c)
     after = pose_error_rms(truth, a.x, a.y)
     assert before > 0.08  # 30 m of travel: the drift is worth correcting
-    assert after <= 0.2 * before, (before, after)
+    # measured: 0.10, 0.04 and 0.06 of the drift remain (the issue asks for 0.2 at most)
+    assert after <= 0.15 * before, (before, after)
     assert a.reason == ""
     assert a.cost_after < a.cost_before
     # the correction is the difference between the paths, and it is reported as such
