@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from unexplained import CATEGORIES, classify
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ROOT / "tests" / "data" / "real"
@@ -144,6 +145,9 @@ def measure(outcome: Outcome, out: Path) -> None:
     fig["los"] = geo.xy + geo.range_m[:, None] * np.column_stack(
         (np.cos(geo.heading), np.sin(geo.heading)))  # fmt: skip
     fig["polys"] = polys
+    if (out / "surfaces.csv").is_file():
+        fig["why"] = classify(outcome.log.path, outcome.log.sensors, outcome.log.robot,
+                              out / "surfaces.csv")  # fmt: skip
     t0 = time.perf_counter()
     a = align_poses(lg.readings, lg.sensors, speed_of_sound=lg.speed_of_sound)
     fig["align_s"] = time.perf_counter() - t0
@@ -211,6 +215,40 @@ def _alignment(report: dict[str, Any]) -> str:
     return f"not applied: {al.get('reason')}"
 
 
+#: The columns of the rows that sort the mapped readings (tools/real_logs/unexplained.py).
+WHY_ROW = ("count: explained / mispredicted / beyond a mapped surface / at a mapped surface "
+           "off its specular point / at a reported point / nothing mapped")  # fmt: skip
+
+
+def _why(o: Outcome, group: str) -> str:
+    """One sensor group's sorted readings, as text (see :data:`WHY_ROW`)."""
+    why = o.figures.get("why")
+    if not why or group not in why:
+        return "no surfaces"
+    w = why[group]
+    return f"{w['readings']:.0f}: " + " / ".join(f"{w[c]:.2f}" for c in CATEGORIES)
+
+
+def _why_text(o: Outcome) -> list[str]:
+    """A paragraph on where the unexplained readings come from (from the sorted rows)."""
+    why = o.figures.get("why")
+    if not why:
+        return []
+    a, groups = why["all"], [g for g in ("side", "oblique", "front") if why[g]["readings"]]
+    share = ", ".join(f"{g} {why[g]['readings'] / a['readings']:.0%} (explained "
+                      f"{why[g]['explained']:.0%})" for g in groups)  # fmt: skip
+    return [
+        f"Of the {a['readings']:.0f} readings the run mapped, the map's specular first echo "
+        f"explains {a['explained']:.0%}. By sensor direction: {share}. Of all of them, "
+        f"{a['beyond_a_surface']:.0%} reach beyond a mapped surface that crosses their beam "
+        f"without facing them, {a['at_a_surface']:.0%} end on a mapped surface away from "
+        f"its specular point, {a['at_a_point']:.0%} at a reported corner or edge, and "
+        f"{a['nothing_mapped']:.0%} where nothing is mapped; {a['mispredicted']:.0%} are "
+        "predicted more than 5 cm off.",
+        "",
+    ]
+
+
 def table(outcomes: list[Outcome]) -> list[str]:
     """The generated table, one column per log."""
     rows: list[tuple[str, list[str]]] = []
@@ -249,6 +287,8 @@ def table(outcomes: list[Outcome]) -> list[str]:
         lambda o: _quality(o.report, "heldout_residual_median_m")))  # fmt: skip
     row("quality: held-out range residual, 90th percentile", each(
         lambda o: _quality(o.report, "heldout_residual_p90_m")))  # fmt: skip
+    for group in ("all", "side", "oblique", "front"):
+        row(f"mapped readings, {group} sensors: {WHY_ROW}", each(lambda o, g=group: _why(o, g)))
     row("odometry correction by `sonarproc run`", each(lambda o: _alignment(o.report)))
     row("odometry correction found: max / mean path difference", each(
         lambda o: f"{o.figures['alignment'].path_difference_max_m:.3f} m / "
@@ -288,7 +328,20 @@ def write_doc(outcomes: list[Outcome]) -> None:
         "  its explaining readings were taken from (1 means a surface rests on one pose);",
         "- *odometry correction*: what `sonarproc run` decided (report.json `alignment`: the",
         "  correction `sonarproc.align.align_poses` finds is applied only where the echoes",
-        "  agree significantly better with it); the figure shows both paths.",
+        "  agree significantly better with it); the figure shows both paths;",
+        "- *mapped readings* (`tools/real_logs/unexplained.py`): every reading the run",
+        "  mapped, sorted by what its map says of it, for all sensors and by direction",
+        "  (*side*: 60° or more off the robot's heading, *oblique*: 20–60°, *front*: less",
+        "  than 20°): *explained* (the specular first echo within 5 cm, as the quality",
+        "  figure), *mispredicted* (a specular echo predicted, more than 5 cm off), *beyond",
+        "  a mapped surface* (no mapped surface faces the sensor within its beam, yet one",
+        "  crosses the beam nearer than the range: a wall seen at an incidence beyond the",
+        "  half beam width sends its echo away, and the sonar hears something further: a",
+        "  gap in the wall such as a doorway or recess, a door jamb, or a multipath echo),",
+        "  *at a mapped surface off its specular point* (a mapped surface crosses the beam",
+        "  at the range: a diffuse echo, or one from a feature on the wall), *at a reported",
+        "  point* (a corner or edge the run reported, which the quality figure's specular",
+        "  model does not predict from), *nothing mapped* (in the beam up to the range).",
         "",
         "Held aside: the RoboND log (`robond`) was never used to choose any parameter of",
         "the processing or of the odometry correction, which were set from physical",
@@ -311,7 +364,7 @@ def write_doc(outcomes: list[Outcome]) -> None:
     ]
     for o in outcomes:
         lines += [f"## {o.log.name}", "", f"Source: {o.log.source or o.log.path}", "",
-                  f"![{o.log.name}](real-logs/{o.log.name}.png)", ""]  # fmt: skip
+                  *_why_text(o), f"![{o.log.name}](real-logs/{o.log.name}.png)", ""]  # fmt: skip
     DOC.write_text("\n".join(lines))
 
 

@@ -7,7 +7,8 @@ times agree, before any surface is mapped:
 
 1. the track is parametrised by travel (distance plus turn) and correction nodes are
    placed about every metre of it (:mod:`~sonarproc.align.track`); each reading's
-   correction interpolates its two nodes';
+   correction interpolates its two nodes' (the heading by travel, the position by
+   distance driven);
 2. every usable reading gives a line-of-sight echo point (:mod:`~sonarproc.align.echoes`);
 3. echo points are matched to local lines of the echo points of *other* stretches of
    the track (:mod:`~sonarproc.align.matching`, :class:`scipy.spatial.cKDTree`);

@@ -17,7 +17,9 @@ turned (see :func:`odometry_ties`) covers it.
 Residuals, each divided by its standard deviation:
 
 * odometry, between consecutive nodes: the corrected relative motion (in the first
-  node's frame) minus the raw one as calibrated, position and heading; their deviations
+  node's frame) minus the raw one as calibrated (scaled, and turned by half the heading
+  drift over the step: a robot whose heading drifts drives a curve, whose chord points
+  half the drift off its starting heading), position and heading; their deviations
   (the random part of drift) grow with the distance driven and the angle turned;
 * calibration: each calibration error over a broad prior (5 %, 5 degrees per 10 m),
   which only matters where the echoes cannot tell (a single straight corridor);
@@ -109,18 +111,20 @@ def _split(params: FloatArray) -> tuple[FloatArray, FloatArray]:
     return np.vstack((np.zeros((1, 3)), params[:-NCAL].reshape(-1, 3))), params[-NCAL:]
 
 
-def _anchor_place(nodes: Nodes, u: FloatArray) -> tuple[IntArray, FloatArray]:
-    lo = np.clip(np.searchsorted(nodes.u, u, side="right") - 1, 0, nodes.count - 2)
-    w = np.clip((u - nodes.u[lo]) / (nodes.u[lo + 1] - nodes.u[lo]), 0.0, 1.0)
-    return lo.astype(np.intp), w
-
-
 def _rotate(v: FloatArray, c: FloatArray, s: FloatArray) -> FloatArray:
     return np.column_stack((c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]))
 
 
 def _perp(v: FloatArray) -> FloatArray:
     return np.column_stack((-v[:, 1], v[:, 0]))
+
+
+def _bent(t: OdometryTies, heading_rate: float) -> FloatArray:
+    """The raw steps turned by half the heading drift over them: a robot whose heading
+    drifts at ``heading_rate`` per metre curves, so the chord of a step of ``driven``
+    metres points ``heading_rate * driven / 2`` off the heading at its start."""
+    a = 0.5 * heading_rate * t.driven
+    return _rotate(t.step_xy, np.cos(a), np.sin(a))
 
 
 class _Problem:
@@ -132,8 +136,8 @@ class _Problem:
         self.rays = rays.subset(matches.query)
         reading = self.rays.reading
         self.q_pose = track[reading]
-        self.q_lo, self.q_w = nodes.lo[reading], nodes.w[reading]
-        self.a_lo, self.a_w = _anchor_place(nodes, matches.anchor_u)
+        self.q_lo, self.q_w, self.q_wxy = nodes.lo[reading], nodes.w[reading], nodes.w_xy[reading]
+        self.a_lo, self.a_w, self.a_wxy = nodes.place(matches.anchor_u)
         self.m = matches
 
     def _geometry(self, off: FloatArray) -> dict[str, FloatArray]:
@@ -143,11 +147,11 @@ class _Problem:
         d = np.diff(pc[:, :2], axis=0)
         c, s = np.cos(pc[:-1, 2]), np.sin(pc[:-1, 2])
         step = np.column_stack((c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]))
-        oq = interpolate_offsets(off, self.q_lo, self.q_w)
+        oq = interpolate_offsets(off, self.q_lo, self.q_w, self.q_wxy)
         turret = self.q_pose[:, 2] + oq[:, 2] + self.rays.turret_offset
         arm = _rotate(self.rays.mount, np.cos(turret), np.sin(turret))
         sensor = self.q_pose[:, :2] + oq[:, :2] + arm
-        oa = interpolate_offsets(off, self.a_lo, self.a_w)
+        oa = interpolate_offsets(off, self.a_lo, self.a_w, self.a_wxy)
         ca, sa = np.cos(oa[:, 2]), np.sin(oa[:, 2])
         normal = _rotate(self.m.normal, ca, sa)
         rel = _rotate(self.m.centroid - self.m.anchor_xy, ca, sa)
@@ -158,7 +162,7 @@ class _Problem:
     def residuals(self, params: FloatArray) -> FloatArray:
         off, cal = _split(params)
         t, g = self.ties, self._geometry(off)
-        r_xy = (g["step"] - (1.0 + cal[0]) * t.step_xy) / t.sigma_xy[:, None]
+        r_xy = (g["step"] - (1.0 + cal[0]) * _bent(t, cal[1])) / t.sigma_xy[:, None]
         turn = np.diff(off[:, 2]) - cal[1] * t.driven
         r_th = turn / t.sigma_theta
         reach = np.sum(g["normal"] * (g["centre"] - g["sensor"]), axis=1)
@@ -167,7 +171,7 @@ class _Problem:
 
     def jacobian(self, params: FloatArray) -> csr_matrix:
         """The residuals' derivatives, in closed form (sparse)."""
-        off, _ = _split(params)
+        off, cal = _split(params)
         t, g, k = self.ties, self._geometry(off), self.nodes.count
         n_odo, n_par = k - 1, 3 * (k - 1) + NCAL
         rows: list[IntArray] = []
@@ -190,13 +194,16 @@ class _Problem:
         kk = np.arange(n_odo)
         c, s, step = g["c"], g["s"], g["step"]
         rot = ((c, s), (-s, c))
+        bent = _bent(t, cal[1])
+        bent_perp = _perp(bent)
         for i in range(2):
             row = 2 * kk + i
             for j in range(2):
                 add(row, kk + 1, j, rot[i][j] / t.sigma_xy)
                 add(row, kk, j, -rot[i][j] / t.sigma_xy)
             add(row, kk, 2, (step[:, 1] if i == 0 else -step[:, 0]) / t.sigma_xy)
-            add_cal(row, 0, -t.step_xy[:, i] / t.sigma_xy)
+            add_cal(row, 0, -bent[:, i] / t.sigma_xy)
+            add_cal(row, 1, -(1.0 + cal[0]) * 0.5 * t.driven * bent_perp[:, i] / t.sigma_xy)
         row = 2 * n_odo + kk
         add(row, kk + 1, 2, 1.0 / t.sigma_theta)
         add(row, kk, 2, -1.0 / t.sigma_theta)
@@ -212,10 +219,11 @@ class _Problem:
         da = (normal[:, 0] * e, normal[:, 1] * e, turn_a * e)
         row = 3 * n_odo + NCAL + np.arange(self.m.size)
         for comp in range(3):
-            add(row, self.q_lo, comp, (1.0 - self.q_w) * dq[comp])
-            add(row, self.q_lo + 1, comp, self.q_w * dq[comp])
-            add(row, self.a_lo, comp, (1.0 - self.a_w) * da[comp])
-            add(row, self.a_lo + 1, comp, self.a_w * da[comp])
+            qw, aw = (self.q_w, self.a_w) if comp == 2 else (self.q_wxy, self.a_wxy)
+            add(row, self.q_lo, comp, (1.0 - qw) * dq[comp])
+            add(row, self.q_lo + 1, comp, qw * dq[comp])
+            add(row, self.a_lo, comp, (1.0 - aw) * da[comp])
+            add(row, self.a_lo + 1, comp, aw * da[comp])
         shape = (3 * n_odo + NCAL + self.m.size, n_par)
         jac = coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                          shape=shape)  # fmt: skip

@@ -210,11 +210,11 @@ def align_poses(
         # each node needs echoes of its own to be placed: more nodes than readings
         # leaves the graph undetermined (and a track that long is a corrupt log)
         return _unchanged(readings, "the track has more node spacings than readings")
-    nodes = place_nodes(u, spacing=node_spacing)
+    driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
+    nodes = place_nodes(u, spacing=node_spacing, driven=driven)
     if nodes.count < 2:
         return _unchanged(readings, "the track is shorter than half a node spacing")
     rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
-    driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
     turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap(np.diff(track[:, 2]))))))
     ties = odometry_ties(
         track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
@@ -236,7 +236,8 @@ def align_poses(
     cost_before = cost_after = 0.0
     for k in range(rounds):
         radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
-        o = interpolate_offsets(offsets, nodes.lo[rays.reading], nodes.w[rays.reading])
+        at = rays.reading
+        o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
         now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
         pts = rays.points(*now)
         query, nbrs = match_lines(pts, stretch, queries, radius=radius, min_points=min_points,
@@ -281,7 +282,7 @@ def align_poses(
             f"the correction found is implausible for odometry (scale {calibration[0]:+.3f}, "
             f"heading {math.degrees(calibration[1]) * 10.0:+.1f} degrees per 10 m)",
         )
-    per = interpolate_offsets(offsets, nodes.lo, nodes.w)
+    per = interpolate_offsets(offsets, nodes.lo, nodes.w, nodes.w_xy)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)
     x[order], y[order], th[order] = cx, cy, cth

@@ -5,8 +5,10 @@ distance driven and angle turned, never jump. The track is therefore parametrise
 its *travel* ``u`` (distance driven plus ``turn_radius`` times the angle turned, so a
 turn on the spot also moves along it); correction *nodes* sit every ``spacing`` of
 travel, each holding an offset ``(dx, dy, dtheta)``; a reading's correction is the
-linear interpolation of its two nodes' offsets at its travel. The corrected pose adds
-the offset to the raw pose (the heading offset turns the robot about its own centre).
+linear interpolation of its two nodes' offsets: the heading offset's at its travel, the
+position offset's at its distance driven (a position error grows only while the robot
+drives: through a turn on the spot it stays as it was). The corrected pose adds the
+offset to the raw pose (the heading offset turns the robot about its own centre).
 """
 
 from __future__ import annotations
@@ -53,45 +55,96 @@ class Nodes:
     at: IntArray
     #: for every reading, the node before it (N,), in 0 .. K - 2
     lo: IntArray
-    #: for every reading, its weight on node ``lo + 1`` (N,), in [0, 1]
+    #: for every reading, its weight on node ``lo + 1`` (N,), in [0, 1], by travel: the
+    #: weight of the heading offset
     w: FloatArray
+    #: the same by distance driven: the weight of the position offset
+    w_xy: FloatArray
+    #: travel and distance driven of every reading (N,)
+    track_u: FloatArray
+    track_d: FloatArray
 
     @property
     def count(self) -> int:
         """Number of nodes."""
         return int(self.u.size)
 
+    def place(self, u: FloatArray) -> tuple[IntArray, FloatArray, FloatArray]:
+        """Node before, heading weight and position weight at travels ``u`` (anywhere
+        along the track, e.g. the mean travel of several readings)."""
+        lo = np.clip(np.searchsorted(self.u, u, side="right") - 1, 0, max(self.count - 2, 0))
+        if self.count < 2:
+            z = np.zeros(np.shape(u))
+            return lo.astype(np.intp), z, z.copy()
+        w = np.clip((u - self.u[lo]) / (self.u[lo + 1] - self.u[lo]), 0.0, 1.0)
+        node_d = np.interp(self.u, self.track_u, self.track_d)
+        d = np.interp(u, self.track_u, self.track_d)
+        return lo.astype(np.intp), w, _distance_weight(node_d, lo, d, w)
 
-def place_nodes(u: FloatArray, *, spacing: float) -> Nodes:
+
+def _distance_weight(node_d: FloatArray, lo: IntArray, d: FloatArray, w: FloatArray) -> FloatArray:
+    """Weight on node ``lo + 1`` by distance driven; by travel where the robot only turned
+    between the two nodes (no distance to share out)."""
+    span = node_d[lo + 1] - node_d[lo]
+    moved = span > 1e-6
+    by_d = (d - node_d[lo]) / np.where(moved, span, 1.0)
+    return np.where(moved, np.clip(by_d, 0.0, 1.0), w)
+
+
+def place_nodes(u: FloatArray, *, spacing: float, driven: FloatArray | None = None) -> Nodes:
     """Nodes about every ``spacing`` of travel (the first at the start, the last at the
     end), and each reading's interpolation between its two nodes.
 
     A track shorter than half a spacing gets a single node (nothing to correct).
+
+    Odometry's position error grows only while the robot drives, its heading error
+    also while it turns: a reading's position offset is therefore interpolated by the
+    distance ``driven`` (cumulative, per reading; ``u`` when not given), its heading
+    offset by travel. A turn on the spot between two nodes then keeps the position
+    offset it started with instead of sliding it towards the next node's.
 
     Examples
     --------
     >>> n = place_nodes(np.array([0.0, 0.4, 1.0, 1.6, 2.2]), spacing=1.0)
     >>> n.u.tolist(), n.lo.tolist(), n.w.round(2).tolist()
     ([0.0, 1.1, 2.2], [0, 0, 0, 1, 1], [0.0, 0.36, 0.91, 0.45, 1.0])
+
+    A robot that drives 0.5 m, turns on the spot (0.4 m of travel), then drives 0.5 m:
+    through the turn its position weight stays at the end of the first drive.
+
+    >>> u = np.array([0.0, 0.5, 0.7, 0.9, 1.4])
+    >>> n = place_nodes(u, spacing=1.4, driven=np.array([0.0, 0.5, 0.5, 0.5, 1.0]))
+    >>> n.w.round(2).tolist(), n.w_xy.round(2).tolist()
+    ([0.0, 0.36, 0.5, 0.64, 1.0], [0.0, 0.5, 0.5, 0.5, 1.0])
     """
     if not spacing > 0:
         raise ValueError(f"spacing must be > 0, got {spacing}")
     total = float(u[-1]) if u.size else 0.0
+    d = u if driven is None else driven
     if total < 0.5 * spacing:
         z = np.zeros(u.size, dtype=np.intp)
-        return Nodes(np.zeros(1), np.zeros(1, dtype=np.intp), z, np.zeros(u.size))
+        return Nodes(np.zeros(1), np.zeros(1, dtype=np.intp), z, np.zeros(u.size),
+                     np.zeros(u.size), u, d)  # fmt: skip
     # evenly spaced nodes, as close to ``spacing`` apart as a whole number of them allows
     node_u = np.linspace(0.0, total, max(round(total / spacing), 1) + 1)
     lo = np.clip(np.searchsorted(node_u, u, side="right") - 1, 0, node_u.size - 2)
     span = node_u[lo + 1] - node_u[lo]
     w = np.clip((u - node_u[lo]) / span, 0.0, 1.0)
     at = np.clip(np.searchsorted(u, node_u, side="left"), 0, u.size - 1).astype(np.intp)
-    return Nodes(node_u, at, lo.astype(np.intp), w)
+    node_d = np.interp(node_u, u, d)
+    w_xy = _distance_weight(node_d, lo, d, w)
+    return Nodes(node_u, at, lo.astype(np.intp), w, w_xy, u, d)
 
 
-def interpolate_offsets(offsets: FloatArray, lo: IntArray, w: FloatArray) -> FloatArray:
-    """Per-reading offsets (N, 3) from node offsets (K, 3)."""
-    return (1.0 - w)[:, None] * offsets[lo] + w[:, None] * offsets[lo + 1]
+def interpolate_offsets(
+    offsets: FloatArray, lo: IntArray, w: FloatArray, w_xy: FloatArray | None = None
+) -> FloatArray:
+    """Per-reading offsets (N, 3) from node offsets (K, 3): heading by the weights ``w``
+    on node ``lo + 1``, position by ``w_xy`` (``w`` when not given)."""
+    wp = w if w_xy is None else w_xy
+    out = (1.0 - w)[:, None] * offsets[lo] + w[:, None] * offsets[lo + 1]
+    out[:, :2] = (1.0 - wp)[:, None] * offsets[lo, :2] + wp[:, None] * offsets[lo + 1, :2]
+    return out
 
 
 def apply_offsets(

@@ -109,3 +109,28 @@ def test_the_odometry_correction_is_refused_or_plausible() -> None:
         np.testing.assert_array_equal(a.x, lg.readings["x"])
     else:  # 25 m of travel: a correction beyond 5 % of it is not drift
         assert a.path_difference_max_m <= 1.25
+
+
+def test_the_unexplained_readings_are_sorted_by_what_the_map_says(run_dir: Path) -> None:
+    """Measured (docs/real-logs.md): the oblique sonars (±30°, ±50°), half the mapped
+    readings, see the corridor walls beyond their half beam, so almost none of them has
+    a specular echo; most of their ranges reach beyond a mapped wall (doorways, jambs)."""
+    path = ROOT / "tools" / "real_logs" / "unexplained.py"
+    spec = importlib.util.spec_from_file_location("unexplained", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    why = mod.classify(ROBOND / "readings.csv", ROBOND / "sensors.yaml", None,
+                       run_dir / "surfaces.csv")  # fmt: skip
+    report = json.loads((run_dir / "report.json").read_text())
+    assert why["all"]["readings"] == report["counts"]["readings_used"]
+    groups = ("side", "oblique", "front")
+    assert sum(why[g]["readings"] for g in groups) == why["all"]["readings"]
+    for g in ("all", *groups):
+        assert sum(why[g][c] for c in mod.CATEGORIES) == pytest.approx(1.0)
+    # the quality figure's own count, on every mapped reading instead of its subsample
+    assert why["all"]["explained"] == pytest.approx(report["quality"]["explained_fraction"],
+                                                    abs=0.05)  # fmt: skip
+    assert why["oblique"]["readings"] > 0.4 * why["all"]["readings"]
+    assert why["side"]["explained"] > 0.5 > 0.15 > why["oblique"]["explained"]
+    assert why["oblique"]["beyond_a_surface"] > 0.3

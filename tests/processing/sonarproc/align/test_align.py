@@ -39,7 +39,8 @@ def test_alignment_removes_most_of_the_drift(scene: str, seed: int) -> None:
     a = align_poses(drifted, sensors, speed_of_sound=c)
     after = pose_error_rms(truth, a.x, a.y)
     assert before > 0.08  # 30 m of travel: the drift is worth correcting
-    assert after <= 0.2 * before, (before, after)
+    # measured: 0.10, 0.04 and 0.06 of the drift remain (the issue asks for 0.2 at most)
+    assert after <= 0.15 * before, (before, after)
     assert a.reason == ""
     assert a.cost_after < a.cost_before
     # the correction is the difference between the paths, and it is reported as such
@@ -135,7 +136,10 @@ def test_closed_form_jacobian_matches_finite_differences() -> None:
     order = np.argsort(r["t"], kind="stable")
     track = np.column_stack((r["x"], r["y"], r["theta"]))[order]
     u = travel(track[:, 0], track[:, 1], track[:, 2], turn_radius=0.25)
-    nodes = place_nodes(u, spacing=1.0)
+    driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
+    nodes = place_nodes(u, spacing=1.0, driven=driven)
+    # the route turns on the spot: position and heading weights differ there
+    assert np.abs(nodes.w_xy - nodes.w).max() > 0.1
     rays = echo_rays(r, sensors, order, speed_of_sound=c)
     pose = track[rays.reading]
     xy, look = rays.sensors(pose[:, 0], pose[:, 1], pose[:, 2])
