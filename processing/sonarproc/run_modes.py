@@ -110,6 +110,7 @@ def run_log(
     import time
 
     from sonarproc.pipeline import load_log, process
+    from sonarproc.pipeline.run import align_stage
 
     if params.fit == "auto":
         # loading modules is the interpreter's start-up, not the run's CPU time
@@ -123,14 +124,26 @@ def run_log(
     else:
         log_ = source
     read_s = time.perf_counter() - wall0
+    aligned = None
+    if mode == "default" and params.align:
+        # aligned once: a one-curve map is handed on to --auto with these same poses
+        aligned = align_stage(log_, progress)
+        cpu0 += aligned.cpu_s  # t_cpu_s is the paper's method's, as in process()
     if mode != "auto":
-        result = process(log_, params, progress=progress, cpu_start=cpu0)
+        result = process(
+            log_,
+            params,
+            progress=progress,
+            cpu_start=cpu0,
+            aligned=aligned,
+            quality_of_curves=mode == "given",
+        )
         result.timings_s = {"read": read_s, **result.timings_s}
         if mode == "given" or result.surfaces is not None:
             return result, None
     from sonarproc.quality.of_auto import run_auto_measured
 
-    chosen_run, chosen, choice = run_auto_measured(log_, params)
+    chosen_run, chosen, choice = run_auto_measured(log_, params, aligned)
     record = choice.to_json(chosen)
     record["mode"] = mode
     return chosen_run.run, record

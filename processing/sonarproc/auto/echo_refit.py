@@ -314,6 +314,7 @@ def choose_refit(
     seed: int = 0,
     settings: tuple[RefitSetting, ...] = REFIT_SETTINGS,
     noise: float | None = None,
+    splits: list[Split] | None = None,
 ) -> RefitChoice:
     """Choose the echo refit's curve by the held-out range residual.
 
@@ -347,6 +348,11 @@ def choose_refit(
     noise : float, optional
         The readings' range noise (m) that sets the rounds' tolerances
         (:func:`tolerances`); by default :func:`range_noise` about ``fit``.
+    splits : list of Split, optional
+        The folds the candidates were scored on (:attr:`sonarproc.auto.AutoChoice.splits`):
+        the refit's held-out losses then pair with ``chosen_losses`` reading by reading,
+        whatever options drew them; by default drawn from ``folds``, ``repeats``,
+        ``heldout_per_fold`` and ``seed`` as :func:`sonarproc.auto.choose` draws them.
 
     Returns
     -------
@@ -370,8 +376,9 @@ def choose_refit(
         out.reason = "no profile y(x) to refit"
         return out
     span = (float(map_bins.centres[occupied[0]]), float(map_bins.centres[occupied[-1]]))
-    # the held-out readings of the candidates' folds (same seeds, same order of draws)
-    splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
+    if splits is None:
+        # the held-out readings of the candidates' folds (same seeds, same order of draws)
+        splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     samples = int((span[1] - span[0]) / grid.cell) + 1
     echoing = beams
     if len(beams.path) * samples > MAX_PAIRS:

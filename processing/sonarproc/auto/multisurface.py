@@ -24,14 +24,20 @@ __all__ = ["fitted_surfaces", "surfaces_path"]
 FloatArray = npt.NDArray[np.float64]
 
 
-def fitted_surfaces(mmap: MethodMap, grid: Grid, beams: Beams) -> list[FloatArray] | None:
+def fitted_surfaces(
+    mmap: MethodMap, grid: Grid, beams: Beams, *, lines_first: bool | None = None
+) -> list[FloatArray] | None:
     """The polylines ``fit = "auto"`` fits to ``mmap`` and refits through the echo points of
     ``beams`` (the readings ``mmap`` was built from); None where it finds one function of x,
     on the map or among the refitted surfaces.
+
+    ``lines_first``: whether the walls are found from the readings' tangent votes first
+    (:func:`sonarproc.pipeline.surfacefit.choose_fit`); a fold of a long log is fitted as
+    the run on every reading fits it.
     """
     from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
-    found = choose_fit(mmap.processed, mmap.evidence, grid, beams)
+    found = choose_fit(mmap.processed, mmap.evidence, grid, beams, lines_first=lines_first)
     if found.surfaces is None or decide(found.surfaces).single_function:
         # the map's stray cells (a noisy log's ghosts) can hide one curve from the first
         # decision; the refit through the echo points drops them, and one open curve that

@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.auto.candidates import Candidate
+from sonarproc.auto.holdout import Split
 from sonarproc.fit import Fit
 from sonarproc.metrics import Bins
 from sonarproc.pipeline.selection import Beams
@@ -309,8 +310,13 @@ class AutoChoice:
     left_out: dict[str, Any] | None = None
     #: Why the choice is a candidate the guard rails excluded (all of them were), if so
     fallback: str | None = None
+    #: The decision's constants by name (:func:`sonarproc.auto.constants.constants_record`)
+    constants: dict[str, Any] | None = None
     #: The scored readings (the echo refit is scored on the same ones and folds)
     scored: Beams | None = field(default=None, repr=False, compare=False)
+    #: The folds the candidates were scored on (training mask, held-out rows of
+    #: :attr:`scored`): the echo refit is scored on these very folds
+    splits: list[Split] | None = field(default=None, repr=False, compare=False)
     #: Judges a candidate's guard rails when first needed (:meth:`next_ranked`)
     guard: Callable[[Score], None] | None = field(default=None, repr=False, compare=False)
 
@@ -354,4 +360,5 @@ class AutoChoice:
             "echo_refit": self.echo_refit,
             "profile_columns": self.left_out,
             "fallback": self.fallback,
+            "constants": self.constants,
         }

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.arcs import rasterize
 from sonarproc.auto.candidates import Candidate, spline_lambda
 from sonarproc.auto.holdout import predicted_path, range_loss, subset_beams
 from sonarproc.auto.hull import data_hull_excess
@@ -30,13 +31,15 @@ from sonarproc.fit import Fit, FitFailure, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods import MethodMap
 from sonarproc.methods.geometry import axis_points
+from sonarproc.methods.morphological import Morphological
 from sonarproc.metrics import Bins, bin_stats
+from sonarproc.morphology import apply_chain
 from sonarproc.params import RunParams
 from sonarproc.pipeline.selection import Beams
 
 __all__ = [
-    "FIT_COLUMNS", "WholeGuard", "fit_columns", "fold_scores", "implied_span", "mean_count",
-    "whole_fit", "whole_hulls",
+    "FIT_COLUMNS", "CountMaps", "WholeGuard", "fit_columns", "fold_scores", "implied_span",
+    "mean_count", "whole_fit", "whole_hulls",
 ]  # fmt: skip
 
 log = logging.getLogger(__name__)
@@ -124,11 +127,20 @@ def fold_scores(
     train: npt.NDArray[np.bool_],
     held: npt.NDArray[np.intp],
     cap: float,
+    *,
+    lines_first: bool | None = None,
+    counts: CountMaps | None = None,
 ) -> None:
     """Score every candidate on one fold (see the module notes): ``train`` marks the
-    training readings of ``beams``, ``held`` indexes the held-out ones predicted."""
+    training readings of ``beams``, ``held`` indexes the held-out ones predicted.
+
+    ``lines_first``: how the ``surfaces`` candidate finds its walls
+    (:func:`sonarproc.auto.multisurface.fitted_surfaces`): as the run on the whole log
+    will, not as a log of the fold's size would. ``counts``: the scored readings' arc
+    count map, the fold's drawn from it (:class:`CountMaps`).
+    """
     tb = subset_beams(beams, train)
-    maps = _Maps(tb, grid, base)
+    maps = _Maps(tb, grid, base, None if counts is None else counts.training(train))
     baselines: dict[_MapKey, npt.NDArray[np.float64]] = {}
     measured = beams.path[held]
     step = 2 * grid.cell
@@ -139,7 +151,7 @@ def fold_scores(
             continue
         mmap, bins, _, _ = entry
         if c.family == "surfaces":
-            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step)
+            _score_surfaces(s, mmap, grid, beams, tb, held, measured, cap, step, lines_first)
         else:
             _score_profiles(s, bins, grid, beams, held, measured, cap)
         if key not in baselines:
@@ -158,25 +170,73 @@ _MapEntry = tuple[MethodMap, Bins, FloatArray, FloatArray]
 
 
 class _Maps:
-    """Each method's map on one set of readings, built once (candidates share methods)."""
+    """Each method's map on one set of readings, built once (candidates share methods).
 
-    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
-        self.beams, self.grid, self.base = beams, grid, base
+    ``counts``: the arc count map of these readings, when the caller has it (a fold's is
+    the whole scored set's minus its held-out firings', :class:`CountMaps`): the count
+    map methods (``morphological``, ``arc-vote``) then apply their chains to it instead
+    of drawing the arcs again.
+    """
+
+    def __init__(
+        self,
+        beams: Beams,
+        grid: Grid,
+        base: RunParams,
+        counts: npt.NDArray[np.uint32] | None = None,
+    ) -> None:
+        self.beams, self.grid, self.base, self.counts = beams, grid, base, counts
         self.built: dict[_MapKey, _MapEntry | None] = {}
 
     def get(self, c: Candidate) -> tuple[_MapKey, _MapEntry | None]:
         """The key of ``c``'s map and the map (None when it left nothing)."""
         key = (c.method, tuple(sorted(c.options.items())))
         if key not in self.built:
-            self.built[key] = _build(c, self.beams, self.grid, self.base)
+            self.built[key] = _build(c, self.beams, self.grid, self.base, self.counts)
         return key, self.built[key]
 
 
-def _build(c: Candidate, beams: Beams, grid: Grid, base: RunParams) -> _MapEntry | None:
-    """The candidate's map on ``beams``, its column statistics and points; None if empty."""
+class CountMaps:
+    """The arc count map of all the scored readings, drawn once; a fold's training map is
+    it minus the map of the fold's held-out readings.
+
+    A cell's count is the number of distinct arcs crossing it, a sum over readings, so the
+    difference is exactly the map the training readings draw (a quarter of the arcs drawn
+    per fold instead of three quarters, and once for the two count map methods).
+    Only for arcs drawn as chains (``arc_step`` unset); None otherwise.
+    """
+
+    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
+        self.beams, self.grid = beams, grid
+        self.whole = None if base.arc_step is not None else rasterize(beams.arcs, grid)
+
+    def training(self, train: npt.NDArray[np.bool_]) -> npt.NDArray[np.uint32] | None:
+        """The count map of the readings ``train`` of the scored set."""
+        if self.whole is None:
+            return None
+        held = subset_beams(self.beams, ~train)
+        return self.whole - rasterize(held.arcs, self.grid)
+
+
+def _build(
+    c: Candidate,
+    beams: Beams,
+    grid: Grid,
+    base: RunParams,
+    counts: npt.NDArray[np.uint32] | None = None,
+) -> _MapEntry | None:
+    """The candidate's map on ``beams``, its column statistics and points; None if empty.
+
+    ``counts``: the arc count map of ``beams``, drawn already (:class:`_Maps`).
+    """
     method = c.make()
     try:
-        mmap = method.build(beams, grid, method.params_for(base))
+        params = method.params_for(base)
+        if counts is not None and isinstance(method, Morphological):
+            # build_arc_map's chain on the count map the caller drew
+            mmap = MethodMap(apply_chain(counts, params.ops), counts)
+        else:
+            mmap = method.build(beams, grid, params)
     except (NothingToMapError, ValueError) as err:
         log.debug("%s: %s", c.name, err)
         return None
@@ -218,13 +278,14 @@ def _score_surfaces(
     measured: FloatArray,
     cap: float,
     step: float,
+    lines_first: bool | None,
 ) -> None:
     """One fold of the ``surfaces`` candidate (it stands aside where the map is y(x))."""
     setting = s.candidate.settings[0]
     if grid.nx * grid.ny > SURFACES_MAX_CELLS:
         s.too_large = grid.nx * grid.ny
         return
-    lines = fitted_surfaces(mmap, grid, train)
+    lines = fitted_surfaces(mmap, grid, train, lines_first=lines_first)
     if lines is None:
         s.function_folds += 1
         s.losses.setdefault(setting, []).append(np.full(held.size, cap))
@@ -244,8 +305,14 @@ class WholeGuard:
     the record says which were).
     """
 
-    def __init__(self, beams: Beams, grid: Grid, base: RunParams) -> None:
-        self.maps = _Maps(beams, grid, base)
+    def __init__(
+        self,
+        beams: Beams,
+        grid: Grid,
+        base: RunParams,
+        counts: npt.NDArray[np.uint32] | None = None,
+    ) -> None:
+        self.maps = _Maps(beams, grid, base, counts)
         self.beams, self.grid = beams, grid
         self._implied: tuple[float, float] | None = None
 

@@ -31,8 +31,9 @@ import numpy.typing as npt
 
 from sonarlog import SonarLog
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
+from sonarproc.auto.constants import constants_record
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
-from sonarproc.auto.holdout import Split, heldout_splits, subset_beams
+from sonarproc.auto.holdout import Split, firing_index, heldout_splits, subset_beams
 from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.score import (
     CAP_CELLS,
@@ -43,7 +44,7 @@ from sonarproc.auto.score import (
     Score,
     paired_se,
 )
-from sonarproc.auto.scoring import WholeGuard, fold_scores, mean_count
+from sonarproc.auto.scoring import CountMaps, WholeGuard, fold_scores, mean_count
 from sonarproc.auto.separation import LEFT_OUT, SEPARATION_RULE, profile_map
 from sonarproc.auto.threads import in_threads
 from sonarproc.errors import NothingToMapError
@@ -78,9 +79,7 @@ def _sample_firings(readings: np.ndarray, limit: int, seed: int) -> npt.NDArray[
     n = len(readings)
     if n <= limit:
         return np.ones(n, dtype=bool)
-    keys = np.column_stack((np.asarray(readings["t"], dtype=np.float64), readings["tx"]))
-    _, firing = np.unique(keys, axis=0, return_inverse=True)
-    firing = firing.reshape(-1)
+    firing = firing_index(readings)
     nf = int(firing.max()) + 1
     take = np.random.default_rng(seed + 1).random(nf) < limit / n
     return np.asarray(take[firing], dtype=bool)
@@ -96,7 +95,6 @@ def choose(
     max_readings: int = 6_000,
     heldout_per_fold: int = 300,
     seed: int = 0,
-    folds_by: str = "firings",
     workers: int | None = None,
     judge_all: bool = False,
 ) -> AutoChoice:
@@ -120,12 +118,7 @@ def choose(
     heldout_per_fold : int
         Held-out readings predicted per fold (a random subset).
     seed : int
-        Seed of the folds and subsets.
-    folds_by : str
-        How the folds split the log: ``"firings"`` (whole firings at random, what
-        ``--auto`` uses), ``"time"`` (contiguous time blocks) or ``"passes"`` (contiguous
-        runs of each transmitter's firings); :mod:`sonarproc.studies.auto_rules`
-        compares them.
+        Seed of the folds (whole firings at random) and subsets.
     workers : int, optional
         Threads the folds are scored on (:func:`sonarproc.auto.threads.in_threads`;
         default: the CPUs, at most 4). The outcome is the same for any number.
@@ -141,25 +134,32 @@ def choose(
     Raises
     ------
     NothingToMapError, InputError, ParameterError
-        As ``sonarproc run`` (no usable reading, a bad grid); ``ParameterError`` also for
-        an unknown ``folds_by``.
+        As ``sonarproc run`` (no usable reading, a bad grid).
     """
     beams, _ = select_beams(log_, base)
     grid = plan_grid(log_, base, beams)
+    from sonarproc.pipeline.surfacefit import LINES_FIRST_READINGS  # scipy's graphs: lazily
+
+    # the surfaces are scored as the run on every reading fits them
+    lines_first = beams.path.size >= LINES_FIRST_READINGS
     used = _sample_firings(beams.readings, max_readings, seed)
     beams = subset_beams(beams, used)
     n = int(used.sum())
     if repeats is None:
         repeats = int(np.clip(np.ceil(REPEAT_READINGS / max(n, 1)), 1, MAX_REPEATS))
     cap = max(CAP_CELLS * grid.cell, 0.05)
-    splits = heldout_splits(
-        beams.readings, folds, repeats, heldout_per_fold, by=folds_by, seed=seed
-    )
+    splits = heldout_splits(beams.readings, folds, repeats, heldout_per_fold, seed=seed)
     scores = [Score(c) for c in candidates]
+
+    # the count map of every scored reading, drawn once: a fold's is it minus its held-out
+    counts = CountMaps(beams, grid, base)
 
     def one_fold(split: Split) -> list[Score]:
         mine = [Score(c) for c in candidates]
-        fold_scores(mine, beams, grid, base, split[0], split[1], cap)
+        fold_scores(
+            mine, beams, grid, base, split[0], split[1], cap,
+            lines_first=lines_first, counts=counts,
+        )  # fmt: skip
         return mine
 
     # each fold writes its losses into its own Scores, gathered in the folds' order
@@ -170,8 +170,13 @@ def choose(
     for s in scores:
         s.finish(grid.cell)  # without the guard rails' fits: a lower bound of the residual
     crit = CRITERION.format(k=folds, cap=cap, trim=TRIM, repeats=repeats)
-    choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams)
-    choice.guard = WholeGuard(beams, grid, base)
+    choice = AutoChoice(scores, crit, n, folds, repeats, scored=beams, splits=splits)
+    choice.constants = {
+        **constants_record(), "REPEAT_READINGS": REPEAT_READINGS, "MAX_REPEATS": MAX_REPEATS,
+        "REFIT_STARTS": REFIT_STARTS, "folds": folds, "heldout_per_fold": heldout_per_fold,
+        "max_readings": max_readings,
+    }  # fmt: skip
+    choice.guard = WholeGuard(beams, grid, base, counts.whole)
     if judge_all:
         for s in scores:
             choice.guard(s)
@@ -263,7 +268,6 @@ def run_auto(
     max_readings = int(kwargs.get("max_readings", 6_000))
     seed = int(kwargs.get("seed", 0))
     workers = kwargs.get("workers")
-    per_fold = int(kwargs.get("heldout_per_fold", 300))
     last: tuple[MethodResult, Score] | None = None
     tried: list[Score] = []
     while (s := choice.next_ranked(tried)) is not None:
@@ -288,7 +292,7 @@ def run_auto(
                 s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
             return (
-                _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold),
+                _refitted(log_, base, res, s, choice, max_readings, seed, workers),
                 s,
                 choice,
             )
@@ -300,7 +304,7 @@ def run_auto(
         f"({s.excluded})"
     )
     # its refit through the echo points has guard rails of its own (the points' hull)
-    return _refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold), s, choice
+    return _refitted(log_, base, res, s, choice, max_readings, seed, workers), s, choice
 
 
 def _refitted(
@@ -312,11 +316,10 @@ def _refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
-    per_fold: int,
 ) -> MethodResult:
     """The run refitted through the echo points (:func:`_echo_refitted`), and the record
     of the map cells its profile left out."""
-    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers, per_fold)
+    refitted = _echo_refitted(log_, base, res, s, choice, max_readings, seed, workers)
     left_out = refitted.run.counts.get(LEFT_OUT, 0)
     choice.left_out = {
         "rule": SEPARATION_RULE,
@@ -380,7 +383,6 @@ def _echo_refitted(
     max_readings: int,
     seed: int,
     workers: int | None,
-    per_fold: int,
 ) -> MethodResult:
     """The winner's run with a profile refitted through the echo points, if that wins.
 
@@ -415,8 +417,7 @@ def _echo_refitted(
     def refit_from(st: RefitStart) -> RefitChoice:
         return choose_refit(
             st.fit, st.bins, beams, st.grid, chosen_residual=winner.residual_m,
-            chosen_losses=mine, folds=choice.folds,
-            repeats=choice.repeats, heldout_per_fold=per_fold, cap=cap, seed=seed, noise=noise,
+            chosen_losses=mine, splits=choice.splits, cap=cap, seed=seed, noise=noise,
         )  # fmt: skip
 
     refits = in_threads(refit_from, starts, workers)

@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
 
 from sonarlog import SonarLog, read_log
 from sonarproc.errors import InputError, ParameterError
@@ -27,11 +28,48 @@ from sonarproc.pipeline.mapping import MethodMap, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
-__all__ = ["METHOD", "load_log", "process", "run_file"]
+if TYPE_CHECKING:
+    from sonarproc.pipeline.alignment import AlignmentRecord
+
+__all__ = ["METHOD", "Aligned", "align_stage", "load_log", "process", "run_file"]
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
 
 Progress = Callable[[str], None]
+
+
+class Aligned(NamedTuple):
+    """A log after the align stage: its poses, what the stage decided, and what it cost."""
+
+    log: SonarLog
+    record: AlignmentRecord
+    wall_s: float
+    cpu_s: float
+
+
+def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
+    """The align stage of a run (:func:`sonarproc.pipeline.alignment.align_log`), timed.
+
+    Parameters
+    ----------
+    log_ : sonarlog.SonarLog
+        The readings as logged.
+    progress : callable, optional
+        Called with ``"align"`` as the stage starts.
+
+    Returns
+    -------
+    Aligned
+        The log with its poses aligned where that helps, the record of why, and the
+        stage's wall and CPU seconds.
+    """
+    from sonarproc.pipeline.alignment import align_log
+
+    if progress is not None:
+        progress("align")
+    t0, c0 = time.perf_counter(), time.process_time()
+    aligned, record = align_log(log_)
+    return Aligned(aligned, record, time.perf_counter() - t0, time.process_time() - c0)
 
 
 def process(
@@ -40,6 +78,8 @@ def process(
     *,
     progress: Progress | None = None,
     cpu_start: float | None = None,
+    aligned: Aligned | None = None,
+    quality_of_curves: bool = True,
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
@@ -58,6 +98,14 @@ def process(
         Called with each stage name of :data:`sonarproc.pipeline.STAGES` as it starts.
     cpu_start : float, optional
         ``time.process_time()`` when the run began (default: now).
+    aligned : Aligned, optional
+        The align stage already run on ``log_`` by the caller (:func:`align_stage`), used
+        in place of running it again (``run``'s default mode may hand the log on to
+        ``--auto``, which then needs the same aligned poses).
+    quality_of_curves : bool, optional
+        Measure the quality of a map that is one curve (no surfaces). ``False`` where the
+        caller replaces such a result (``run``'s default mode hands it to ``--auto``, which
+        measures its own choice), so nothing is measured for nothing.
 
     Returns
     -------
@@ -74,30 +122,26 @@ def process(
         Parameters that cannot apply to this log (a map over ``max_cells``).
     """
     cpu0 = time.process_time() if cpu_start is None else cpu_start
-    record = None
-    align_s = 0.0
-    if params.align:
-        from sonarproc.pipeline.alignment import align_log
-
-        if progress is not None:
-            progress("align")
-        t0, c0 = time.perf_counter(), time.process_time()
-        log_, record = align_log(log_)
-        align_s = time.perf_counter() - t0
-        cpu0 += time.process_time() - c0  # t_cpu_s is the paper's method's: not this
-    aligned = log_
+    if aligned is None and params.align:
+        aligned = align_stage(log_, progress)
+        cpu0 += aligned.cpu_s  # t_cpu_s is the paper's method's: not the alignment's
+    if aligned is not None:
+        log_ = aligned.log
+    mapped = log_
 
     def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
         from sonarproc.quality import measure_quality
 
-        result.quality = measure_quality(aligned, params, build_arc_map, beams, grid, mmap, result)
+        if result.surfaces is None and not quality_of_curves:
+            return
+        result.quality = measure_quality(mapped, params, build_arc_map, beams, grid, mmap, result)
 
     result, _ = map_log(
         log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure
     )
-    result.alignment = record
-    if record is not None:
-        result.timings_s = {"align": align_s, **result.timings_s}
+    if aligned is not None:
+        result.alignment = aligned.record
+        result.timings_s = {"align": aligned.wall_s, **result.timings_s}
     return result
 
 

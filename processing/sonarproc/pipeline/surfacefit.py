@@ -145,6 +145,7 @@ def choose_fit(
     beams: Beams | None = None,
     *,
     cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+    lines_first: bool | None = None,
 ) -> AutoFit:
     """Decide between the paper's polynomial and several surfaces (see the module notes).
 
@@ -161,6 +162,11 @@ def choose_fit(
         them, the fits to the ridge cells are kept).
     cells : tuple of ndarray, optional
         ``np.nonzero(processed.T)``, when the caller has it already.
+    lines_first : bool, optional
+        Find the walls from the readings' tangent votes first (:func:`_lines_first`);
+        by default when ``beams`` holds at least :data:`LINES_FIRST_READINGS` readings.
+        ``--auto`` scores a long log's surfaces on subsets of it with the fit the run on
+        every reading makes.
 
     Returns
     -------
@@ -179,7 +185,9 @@ def choose_fit(
     )
     if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
         return AutoFit("function", fast, None, spread)
-    if beams is not None and beams.path.size >= LINES_FIRST_READINGS:
+    if lines_first is None:
+        lines_first = beams is not None and beams.path.size >= LINES_FIRST_READINGS
+    if beams is not None and lines_first:
         return _lines_first(counts, grid, beams, spread)
     if beams is not None:
         ex_counts, ex_grid = coarse_counts(counts, grid, EXTRACT_CELL_M)

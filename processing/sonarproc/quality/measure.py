@@ -42,8 +42,10 @@ __all__ = [
     "MAX_EXPLAINED",
     "MAX_HELDOUT",
     "TOLERANCE",
+    "HeldOut",
     "Quality",
     "explained",
+    "held_out",
     "heldout_curves",
     "measure_quality",
     "training_map",
@@ -186,13 +188,91 @@ def training_map(
     from sonarproc.pipeline.arcmap import build_arc_map, count_map
 
     train_beams = subset_beams(beams, train)
-    if build is not build_arc_map:
-        return train_beams, build(train_beams, grid, params, None)
+    counts = None
+    if build is build_arc_map:
+        held_arcs = subset_beams(beams, ~train).arcs
+        counts = full.evidence - count_map(held_arcs, grid, params).astype(full.evidence.dtype)
+    return train_beams, _training_map(build, train_beams, counts, grid, params)
+
+
+def _training_map(
+    build: MapBuilder,
+    train_beams: Beams,
+    train_counts: npt.NDArray[Any] | None,
+    grid: Grid,
+    params: RunParams,
+) -> MethodMap:
+    """The held-out map: the ``ops`` chain on the training count map (the paper's arc
+    map), or ``build`` of the training readings."""
+    if train_counts is None:
+        return build(train_beams, grid, params, None)
     from sonarproc.morphology import apply_chain, parse_chain
 
-    held_arcs = subset_beams(beams, ~train).arcs
-    counts = full.evidence - count_map(held_arcs, grid, params).astype(full.evidence.dtype)
-    return train_beams, MethodMap(apply_chain(counts, parse_chain(params.ops)), counts)
+    return MethodMap(apply_chain(train_counts, parse_chain(params.ops)), train_counts)
+
+
+@dataclass(frozen=True, eq=False)
+class HeldOut:
+    """What a run's quality takes from its readings and count map alone, before its
+    ``ops`` and fit: the same for every run on them (a sweep computes it once per map).
+
+    Attributes
+    ----------
+    judged : ndarray of int
+        The readings the explained fraction is judged on.
+    held : ndarray of bool or None
+        The held-out firings' readings; None when there are fewer than
+        :data:`HELDOUT_FOLDS` firings (nothing to hold out).
+    held_rows : ndarray of int
+        The held-out readings predicted (empty with ``held`` None).
+    train_beams : Beams or None
+        The other readings, the held-out map is built from.
+    train_counts : ndarray of unsigned int or None
+        Their arc count map (the run's less the held-out arcs), for the paper's arc map
+        (:func:`training_map`); None for any other builder.
+    """
+
+    judged: IntArray
+    held: BoolArray | None
+    held_rows: IntArray
+    train_beams: Beams | None
+    train_counts: npt.NDArray[np.unsignedinteger[Any]] | None
+
+
+def held_out(
+    beams: Beams, grid: Grid, params: RunParams, counts: npt.NDArray[Any] | None = None
+) -> HeldOut:
+    """The subsamples, the held-out fold and the training readings of ``beams``.
+
+    Parameters
+    ----------
+    beams : Beams
+        The readings the run mapped.
+    grid : Grid
+        The run's grid.
+    params : RunParams
+        The run's parameters (``arc_step``: how the held-out arcs are drawn).
+    counts : ndarray, optional
+        The run's arc count map, when the run builds the paper's arc map: the training
+        count map is then made from it (:func:`training_map`).
+    """
+    from sonarproc.auto.holdout import firing_folds, subset_beams
+
+    n = int(beams.path.size)
+    judged = _subsample(np.arange(n, dtype=np.intp), MAX_EXPLAINED, SEED)
+    held = firing_folds(beams.readings, HELDOUT_FOLDS, seed=SEED) == 0
+    if held.all() or not held.any():
+        return HeldOut(judged, None, np.zeros(0, dtype=np.intp), None, None)
+    held_rows = _subsample(np.flatnonzero(held).astype(np.intp), MAX_HELDOUT, SEED + 1)
+    train_beams = subset_beams(beams, ~held)
+    train_counts = None
+    if counts is not None:
+        from sonarproc.pipeline.arcmap import count_map
+
+        held_arcs = subset_beams(beams, held).arcs
+        train_counts = counts - count_map(held_arcs, grid, params).astype(counts.dtype, copy=False)
+        train_counts.flags.writeable = False  # shared by every run on this map
+    return HeldOut(judged, held, held_rows, train_beams, train_counts)
 
 
 def heldout_curves(params: RunParams, grid: Grid, mmap: MethodMap, beams: Beams) -> MapCurves:
@@ -226,6 +306,8 @@ def measure_quality(
     grid: Grid,
     full: MethodMap,
     result: RunResult,
+    *,
+    held: HeldOut | None = None,
 ) -> Quality:
     """The truth-free quality of ``result``, the run of ``build`` on ``beams`` (module notes).
 
@@ -245,30 +327,29 @@ def measure_quality(
         The run's map of all ``beams``.
     result : RunResult
         The run's record (its surfaces or profile are the map judged).
+    held : HeldOut, optional
+        :func:`held_out` of ``beams`` (with ``full.evidence`` for the paper's arc map),
+        when the caller keeps it for several runs on the same readings and count map.
     """
-    from sonarproc.auto.holdout import firing_folds
+    from sonarproc.pipeline.arcmap import build_arc_map
 
-    n = int(beams.path.size)
-    judged = _subsample(np.arange(n, dtype=np.intp), MAX_EXPLAINED, SEED)
+    if held is None:
+        held = held_out(beams, grid, params, full.evidence if build is build_arc_map else None)
     curves = map_curves(result)
-    fraction, per = explained(curves, beams, judged)
+    fraction, per = explained(curves, beams, held.judged)
     reasons = [] if not curves.empty else ["the map has no fitted surface to predict from"]
     median = p90 = predicted = None
-    held_rows = np.zeros(0, dtype=np.intp)
-    fold = firing_folds(beams.readings, HELDOUT_FOLDS, seed=SEED)
-    held = fold == 0
-    if held.all() or not held.any():
+    if held.held is None or held.train_beams is None:
         reasons.append(f"fewer than {HELDOUT_FOLDS} firings: nothing to hold out")
     else:
-        held_rows = _subsample(np.flatnonzero(held).astype(np.intp), MAX_HELDOUT, SEED + 1)
         try:
-            train_beams, train_map = training_map(build, beams, ~held, grid, params, full)
-            train_curves = heldout_curves(params, grid, train_map, train_beams)
+            train_map = _training_map(build, held.train_beams, held.train_counts, grid, params)
+            train_curves = heldout_curves(params, grid, train_map, held.train_beams)
         except SonarprocError as err:  # a method that leaves nothing on the held-out map
             reasons.append(f"the held-out map: {err}")
             train_curves = MapCurves([], [], single=True)
-        path, _ = predict_paths(train_curves, beams, held_rows)
-        residual = 0.5 * np.abs(beams.path[held_rows] - path)
+        path, _ = predict_paths(train_curves, beams, held.held_rows)
+        residual = 0.5 * np.abs(beams.path[held.held_rows] - path)
         hit = np.isfinite(residual)
         predicted = float(hit.mean())
         if hit.any():
@@ -277,6 +358,6 @@ def measure_quality(
         else:
             reasons.append("the held-out map predicts none of the held-out readings")
     return Quality(
-        fraction, int(judged.size), median, p90, int(held_rows.size), predicted, per,
+        fraction, int(held.judged.size), median, p90, int(held.held_rows.size), predicted, per,
         "; ".join(reasons) or None,
     )  # fmt: skip

@@ -23,6 +23,7 @@ from sonarproc.quality.measure import Quality, measure_quality
 if TYPE_CHECKING:
     from sonarproc.auto.score import AutoChoice, Score
     from sonarproc.methods import MethodResult
+    from sonarproc.pipeline.run import Aligned
 
 __all__ = ["measure_auto_quality", "run_auto_measured"]
 
@@ -48,18 +49,21 @@ def measure_auto_quality(
     return measure_quality(log_, cm.params, build, cm.beams, cm.grid, cm.mmap, result)
 
 
-def run_auto_measured(log_: SonarLog, params: RunParams) -> tuple[MethodResult, Score, AutoChoice]:
+def run_auto_measured(
+    log_: SonarLog, params: RunParams, aligned: Aligned | None = None
+) -> tuple[MethodResult, Score, AutoChoice]:
     """``--auto`` as ``run`` does it: the poses aligned first where that helps (with
-    ``params.align``), the choice (:func:`sonarproc.auto.run_auto`), then the chosen run's
-    ``alignment`` and ``quality`` filled in."""
+    ``params.align``; ``aligned``, the align stage the caller already ran on ``log_``, is
+    used instead of running it again), the choice (:func:`sonarproc.auto.run_auto`), then
+    the chosen run's ``alignment`` and ``quality`` filled in."""
     from sonarproc.auto import run_auto
+    from sonarproc.pipeline.run import align_stage
 
-    aligned = None
-    if params.align:
-        from sonarproc.pipeline.alignment import align_log
-
-        log_, aligned = align_log(log_)
+    if aligned is None and params.align:
+        aligned = align_stage(log_)
+    if aligned is not None:
+        log_ = aligned.log
     chosen_run, chosen, choice = run_auto(log_, params)
-    chosen_run.run.alignment = aligned
+    chosen_run.run.alignment = None if aligned is None else aligned.record
     chosen_run.run.quality = measure_auto_quality(log_, params, chosen, chosen_run.run)
     return chosen_run, chosen, choice

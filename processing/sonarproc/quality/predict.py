@@ -17,7 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.fit import Fit, FitFailure
-from sonarproc.methods.echo_model import first_echo_path
+from sonarproc.methods.echo_model import beam_x_bounds, first_echo_path
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
@@ -143,20 +143,47 @@ def monotone_pieces(curve: FloatArray) -> list[tuple[float, int, int]]:
 def _first_echo_pieces(ends: tuple[FloatArray, ...], curve: FloatArray) -> FloatArray:
     """The first-echo path off ``curve`` (inf where none): piece by piece, each in a frame
     turned onto it (:func:`monotone_pieces`), and each cut's sample with its two
-    neighbours (a piece's end samples are never specular); the shortest of them."""
+    neighbours (a piece's end samples are never specular); the shortest of them.
+
+    A piece is offered only the readings whose beams meet its band (:func:`_facing`):
+    the others have no sample of it inside both beams, so no echo off it."""
     txy, th, thalf, rxy, rh, rhalf = ends
     best = np.full(th.shape, np.inf)
     pieces = monotone_pieces(curve)
     for angle, i, j in pieces:
         c, s = np.cos(angle), np.sin(angle)
         turn = np.array([[c, -s], [s, c]])  # row vectors times this: turned by -angle
-        got = first_echo_path(txy @ turn, th - angle, thalf, rxy @ turn, rh - angle, rhalf,
-                              curve[i : j + 1] @ turn)  # fmt: skip
-        best = np.fmin(best, np.where(np.isfinite(got), got, np.inf))
+        piece = curve[i : j + 1] @ turn
+        t_xy, r_xy = txy @ turn, rxy @ turn
+        rows = _facing(piece, (t_xy, th - angle, thalf), (r_xy, rh - angle, rhalf))
+        if rows.size == 0:
+            continue
+        got = first_echo_path(t_xy[rows], th[rows] - angle, thalf[rows], r_xy[rows],
+                              rh[rows] - angle, rhalf[rows], piece)  # fmt: skip
+        best[rows] = np.fmin(best[rows], np.where(np.isfinite(got), got, np.inf))
     for _, i, _ in pieces[1:]:
         got = first_echo_path(txy, th, thalf, rxy, rh, rhalf, curve[i - 1 : i + 2])
         best = np.fmin(best, np.where(np.isfinite(got), got, np.inf))
     return best
+
+
+def _facing(
+    piece: FloatArray,
+    tx: tuple[FloatArray, FloatArray, FloatArray],
+    rx: tuple[FloatArray, FloatArray, FloatArray],
+) -> IntArray:
+    """The readings whose two beams can both hold a sample of ``piece`` (x increasing).
+
+    Each beam's wedge is cut to the piece's band of y (:func:`beam_x_bounds`); a reading
+    whose two x ranges share no stretch of the piece's x (widened by a sample spacing
+    each side, for rounding at the wedges' edges) has no sample inside both beams."""
+    ymin, ymax = float(piece[:, 1].min()), float(piece[:, 1].max())
+    lo_t, hi_t = beam_x_bounds(*tx, ymin, ymax)
+    lo_r, hi_r = beam_x_bounds(*rx, ymin, ymax)
+    lo, hi = np.maximum(lo_t, lo_r), np.minimum(hi_t, hi_r)
+    margin = float(np.max(np.diff(piece[:, 0]), initial=0.0))
+    meet = (lo <= hi) & (hi >= piece[0, 0] - margin) & (lo <= piece[-1, 0] + margin)
+    return np.flatnonzero(meet).astype(np.intp)
 
 
 def predict_paths(curves: MapCurves, beams: Beams, rows: IntArray) -> tuple[FloatArray, IntArray]:

@@ -11,7 +11,6 @@ figure never imports it. Every line drawn is first cut to the view
 
 from __future__ import annotations
 
-import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -22,6 +21,7 @@ import numpy.typing as npt
 from sonarproc.fit import FitFailure
 from sonarproc.pipeline.result import RunResult
 from sonarproc.report import style
+from sonarproc.report.drawing import figure_bytes, figures_bytes
 from sonarproc.report.units import length_cm, number
 from sonarproc.report.view import (
     MAX_DISPLAY,
@@ -58,8 +58,6 @@ __all__ = [
 FIGURES = ("arcmap", "processed", "fit")
 #: The file formats a figure can be written in.
 FIGURE_FORMATS = ("png", "svg")
-#: zlib level of the PNGs (see :func:`figure_bytes`).
-PNG_COMPRESSION = 3
 
 
 def parse_figure_formats(text: str) -> tuple[str, ...]:
@@ -295,24 +293,6 @@ def alignment_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = No
     return fig
 
 
-def figure_bytes(fig: Figure, fmt: str) -> bytes:
-    """``fig`` saved as ``fmt`` (``png`` at :data:`~sonarproc.report.style.DPI`, ``svg``)."""
-    buf = io.BytesIO()
-    # zlib level 3 (the fast strategy): a third less time than the default 6 for a PNG
-    # about a fifth larger; the PNG's deflate is the largest single cost of a figure
-    extra: dict[str, Any] = (
-        {"pil_kwargs": {"compress_level": PNG_COMPRESSION}} if fmt == "png" else {}
-    )
-    with style.drawing():
-        fig.savefig(buf, format=fmt, dpi=style.DPI, metadata=_metadata(fmt), **extra)
-    return buf.getvalue()
-
-
-def _metadata(fmt: str) -> dict[str, Any]:
-    # no date: the same run gives the same bytes
-    return {"Software": "sonarmorph"} if fmt == "png" else {"Date": None}
-
-
 def render_figures(
     result: RunResult,
     formats: Sequence[str] = FIGURE_FORMATS,
@@ -322,22 +302,18 @@ def render_figures(
     """Every figure of :data:`FIGURES` in ``formats``: ``{"arcmap.png": ..., ...}``; and
     ``alignment`` (:func:`alignment_figure`) when the run's poses were corrected for drift.
 
-    No format: no figure, and matplotlib is not imported.
+    No format: no figure, and matplotlib is not imported. The drawing is spread over two
+    cores where it can be (:func:`~sonarproc.report.drawing.figures_bytes`); the bytes
+    are those of :func:`figure_bytes`.
     """
     if not formats:
         return {}
     cells = _shown(result, None)
     figures = [
-        arcmap_figure(result),
-        processed_figure(result, cells, auto=auto),
-        fit_figure(result, cells),
+        ("arcmap", arcmap_figure(result)),
+        ("processed", processed_figure(result, cells, auto=auto)),
+        ("fit", fit_figure(result, cells)),
     ]
-    stems = list(FIGURES)
     if result.alignment is not None and result.alignment.applied:
-        figures.append(alignment_figure(result, cells))
-        stems.append("alignment")
-    return {
-        f"{stem}.{fmt}": figure_bytes(fig, fmt)
-        for stem, fig in zip(stems, figures, strict=True)
-        for fmt in formats
-    }
+        figures.append(("alignment", alignment_figure(result, cells)))
+    return figures_bytes(figures, formats)

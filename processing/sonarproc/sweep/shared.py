@@ -11,7 +11,9 @@ come after the arc count map. Two caches remove the repeated work:
   ``cell``, ``bbox``, ``arc_step``); every grid point then runs only its ``ops`` chain,
   its fit and its metrics, through the same :func:`~sonarproc.pipeline.mapping.evaluate_map`
   as ``sonarproc run``. The rows are those of separate runs: the test suite checks them
-  against ``sonarproc run``.
+  against ``sonarproc run``. The part of the truth-free quality that comes before the
+  ``ops`` chain (the held-out fold, the subsamples, the training readings and their
+  count map: :func:`sonarproc.quality.held_out`) is kept with each count map too.
 
 A shared run's ``t_cpu_s`` counts its own stages only (not the shared read, selection and
 rasterisation), so it is smaller than the same run's alone.
@@ -24,7 +26,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +36,9 @@ from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
+
+if TYPE_CHECKING:
+    from sonarproc.quality import HeldOut
 
 __all__ = ["CACHED_LOGS", "CACHED_MAPS", "SharedMaps", "clear_shared", "shared_log"]
 
@@ -46,6 +51,10 @@ CACHED_MAPS = 2
 #: than the log it is on and the next one; a few more cover uneven hand-outs while a
 #: fig12-sized log (10 000 readings, a 1 cm map of a few megabytes) stays cheap to hold.
 CACHED_LOGS = 4
+
+#: What one count map shares: the readings, their counts, the grid, the arc count map and
+#: the quality's held-out part.
+_Shared = tuple[Beams, dict[str, int], Grid, npt.NDArray[np.unsignedinteger[Any]], "HeldOut"]
 
 _LOGS: OrderedDict[str, tuple[SonarLog, SharedMaps]] = OrderedDict()
 
@@ -99,21 +108,17 @@ class SharedMaps:
 
     def __init__(self, log_: SonarLog) -> None:
         self.log = log_
-        self._maps: OrderedDict[
-            tuple[Any, ...],
-            tuple[Beams, dict[str, int], Grid, npt.NDArray[np.unsignedinteger[Any]]],
-        ] = OrderedDict()
+        self._maps: OrderedDict[tuple[Any, ...], _Shared] = OrderedDict()
 
     @staticmethod
     def map_key(params: RunParams) -> tuple[Any, ...]:
         """The parameters the selection, the grid and the arc count map depend on."""
         return (params.drop_crosstalk, params.cell, params.bbox, params.arc_step)
 
-    def _count_map(
-        self, params: RunParams
-    ) -> tuple[Beams, dict[str, int], Grid, npt.NDArray[np.unsignedinteger[Any]]]:
+    def _count_map(self, params: RunParams) -> _Shared:
         from sonarproc.pipeline.arcmap import count_map
         from sonarproc.pipeline.selection import plan_grid, select_beams
+        from sonarproc.quality import held_out
 
         key = self.map_key(params)
         hit = self._maps.get(key)
@@ -122,7 +127,7 @@ class SharedMaps:
             grid = plan_grid(self.log, params, beams)
             cmap = count_map(beams.arcs, grid, params)
             cmap.flags.writeable = False  # shared by every run on it: nobody may change it
-            hit = (beams, counts, grid, cmap)
+            hit = (beams, counts, grid, cmap, held_out(beams, grid, params, cmap))
             self._maps[key] = hit
             while len(self._maps) > CACHED_MAPS:
                 self._maps.popitem(last=False)
@@ -144,12 +149,14 @@ class SharedMaps:
         from sonarproc.quality import measure_quality
 
         cpu0 = time.process_time()
-        beams, counts, grid, cmap = self._count_map(params)
+        beams, counts, grid, cmap, held = self._count_map(params)
         mmap = MethodMap(apply_chain(cmap, parse_chain(params.ops)), cmap)
         result = evaluate_map(
             self.log, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
             cpu_start=cpu0, beams=beams,
         )  # fmt: skip
         # the truth-free quality, as process() measures it (after the paper's CPU time)
-        result.quality = measure_quality(self.log, params, build_arc_map, beams, grid, mmap, result)
+        result.quality = measure_quality(
+            self.log, params, build_arc_map, beams, grid, mmap, result, held=held
+        )
         return result

@@ -122,3 +122,35 @@ def test_the_documented_one_liner(fig12: Path) -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=fig12.parent
     ).stdout
     assert re.fullmatch(r"\{'e': [0-9.e-]+, 'f_c': [0-9.]+, 't_cpu_s': [0-9.e-]+, .*\}\n", out)
+
+
+def test_default_mode_aligns_and_measures_a_curve_once(
+    fig12: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A one-curve log in run's default mode is handed on to --auto: its poses are aligned
+    once for both, and only --auto's choice has its quality measured."""
+    import sonarproc.pipeline.alignment as alignment
+    import sonarproc.quality.measure as measure
+    from sonarproc.api import run_params
+    from sonarproc.pipeline import load_log
+    from sonarproc.run_modes import run_log
+
+    calls = {"align": 0, "quality": 0}
+    align_log, measure_quality = alignment.align_log, measure.measure_quality
+
+    def counted_align(*a: object, **k: object) -> object:
+        calls["align"] += 1
+        return align_log(*a, **k)  # type: ignore[arg-type]
+
+    def counted_quality(*a: object, **k: object) -> object:
+        calls["quality"] += 1
+        return measure_quality(*a, **k)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(alignment, "align_log", counted_align)
+    monkeypatch.setattr(measure, "measure_quality", counted_quality)
+    monkeypatch.setattr("sonarproc.quality.measure_quality", counted_quality)
+    monkeypatch.setattr("sonarproc.quality.of_auto.measure_quality", counted_quality)
+    result, record = run_log(load_log(fig12), run_params(), "default")
+    assert record is not None and record["mode"] == "default"
+    assert calls == {"align": 1, "quality": 1}
+    assert result.alignment is not None and result.quality is not None

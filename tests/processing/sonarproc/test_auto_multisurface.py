@@ -44,3 +44,17 @@ def test_one_wall_among_ghost_cells_is_left_to_the_profile_candidates() -> None:
     assert len(first.surfaces.surfaces) == 1
     # ... and the one open wall left is a function of x: the candidate stands aside
     assert fitted_surfaces(noisy, grid, beams) is None
+
+
+def test_a_fold_of_a_long_log_finds_its_walls_as_the_run_on_every_reading_does() -> None:
+    beams, _ = flat_wall_beams(120)
+    grid = Grid(x0=-0.3, y0=-0.6, cell=0.01, nx=270, ny=170)
+    noisy = _ridge_map(beams, grid, ghosts=True)
+    # 120 readings are a short log: the walls come from the map's ridges ...
+    by_size = choose_fit(noisy.processed, noisy.evidence, grid, beams)
+    assert not by_size.criterion.startswith("a log of >=")
+    # ... unless the caller says that they are a fold of a long log
+    forced = choose_fit(noisy.processed, noisy.evidence, grid, beams, lines_first=True)
+    assert forced.criterion.startswith("a log of >=")
+    assert forced.surfaces is not None and len(forced.surfaces.surfaces) == 1
+    assert fitted_surfaces(noisy, grid, beams, lines_first=True) is None

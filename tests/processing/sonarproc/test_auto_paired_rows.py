@@ -34,3 +34,32 @@ def test_run_auto_scores_every_model_on_the_same_heldout_rows(tmp_path: Path) ->
     record = choice.to_json(chosen)
     assert record["choice"] == chosen.candidate.name
     assert res.run.metrics.E1_m is not None and res.run.metrics.E1_m < 0.05
+
+
+def test_the_echo_refit_is_scored_on_the_candidates_own_folds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the refit once drew its folds again from the defaults: with other options (fewer
+    # held-out readings, three folds) its losses no longer paired with the candidates'
+    import sonarproc.auto.select as select
+
+    seen: list[tuple[object, object]] = []
+    real = select.choose_refit
+
+    def spy(*args: object, **kwargs: object) -> object:
+        got = real(*args, **kwargs)  # type: ignore[arg-type]
+        seen.append((kwargs.get("splits"), got))
+        return got
+
+    monkeypatch.setattr(select, "choose_refit", spy)
+    log_path = tmp_path / "fig10b.h5"
+    simulate_to_log(ROOT / "configs/scenarios/fig10b.yaml", log_path)
+    _, chosen, choice = run_auto(load_log(log_path), RunParams(), heldout_per_fold=40, folds=3)
+    assert choice.splits is not None and len(choice.splits) == 3 * choice.repeats
+    assert {held.size for _, held in choice.splits} == {40}
+    winner = np.concatenate(chosen.losses[chosen.setting])
+    assert seen
+    for splits, refit in seen:
+        assert splits is choice.splits
+        heldout = refit.heldout  # type: ignore[attr-defined]
+        assert heldout is None or heldout.size == winner.size

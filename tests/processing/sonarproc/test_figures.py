@@ -8,6 +8,7 @@ and resolution; SVG parsed as XML), never on pixels.
 from __future__ import annotations
 
 import dataclasses
+import io
 import struct
 import subprocess
 import sys
@@ -263,6 +264,20 @@ def test_render_figures_writes_the_asked_formats(result: RunResult) -> None:
     assert sorted(only_svg) == ["arcmap.svg", "fit.svg", "processed.svg"]
     for data in only_svg.values():
         ElementTree.fromstring(data)
+
+
+def test_render_figures_pngs_are_what_savefig_writes(result: RunResult) -> None:
+    # the PNGs are encoded on a worker thread from the Agg pixels: the same bytes as a
+    # plain savefig of the same figure (same size, resolution, metadata and compression)
+    drawn = render_figures(result, ("png", "svg"))
+    assert sorted(drawn) == sorted(f"{s}.{f}" for s in FIGURES for f in ("png", "svg"))
+    for name, make in [("arcmap.png", arcmap_figure), ("fit.png", fit_figure)]:
+        fig = make(result)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=150, metadata={"Software": "sonarmorph"},
+                    pil_kwargs={"compress_level": 3})  # fmt: skip
+        assert drawn[name] == buf.getvalue() == figure_bytes(fig, "png")
+        assert fig.dpi == 150
 
 
 RUN_WITHOUT_FIGURES = (

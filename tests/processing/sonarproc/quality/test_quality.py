@@ -30,7 +30,9 @@ from sonarproc.quality import (
     TOLERANCE,
     MapCurves,
     explained,
+    held_out,
     map_curves,
+    measure_quality,
     predict_paths,
     training_map,
 )
@@ -121,6 +123,34 @@ def test_the_held_out_arc_map_is_the_training_readings_map(logs: str) -> None:
     assert train_beams.path.size == int((~held).sum())
     np.testing.assert_array_equal(by_difference.evidence, rebuilt.evidence)
     np.testing.assert_array_equal(by_difference.processed, rebuilt.processed)
+    shared = held_out(beams, grid, params, full.evidence)
+    assert shared.held is not None and shared.train_counts is not None
+    np.testing.assert_array_equal(shared.held, held)
+    np.testing.assert_array_equal(shared.train_counts, rebuilt.evidence)
+    assert not shared.train_counts.flags.writeable  # shared by the runs on this map
+
+
+def test_a_held_out_part_kept_for_several_runs_gives_each_its_own_quality(logs: str) -> None:
+    from sonarproc.pipeline.mapping import evaluate_map
+
+    lg = _log("room-box", logs)
+    base = RunParams(fit="auto")
+    beams, counts = select_beams(lg, base)
+    grid = plan_grid(lg, base, beams)
+    cmap = build_arc_map(beams, grid, base).evidence
+    shared = held_out(beams, grid, base, cmap)
+    figures = set()
+    for ops, order in (("thinning:2", 3), ("thinning:4", 9)):
+        params = RunParams(fit="poly", ops=ops, order=order)
+        mmap = build_arc_map(beams, grid, params)
+        res = evaluate_map(lg, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
+                           cpu_start=0.0, beams=beams)  # fmt: skip
+        alone = measure_quality(lg, params, build_arc_map, beams, grid, mmap, res)
+        kept = measure_quality(lg, params, build_arc_map, beams, grid, mmap, res, held=shared)
+        assert kept.to_json() == alone.to_json()
+        assert alone.heldout_median_m is not None
+        figures.add(json.dumps(alone.to_json(), sort_keys=True))
+    assert len(figures) == 2  # each run's figures are its own
 
 
 @pytest.mark.parametrize(
@@ -245,3 +275,17 @@ def test_the_shipped_real_log_reports_its_quality(tmp_path: Path) -> None:
     curves = [s for s in doc["surfaces"] if s["kind"] not in ("corner", "edge")]
     assert len(q["surfaces"]) == len(curves)
     assert doc["alignment"]["applied"] is False and doc["alignment"]["reason"]
+
+
+def test_firings_are_numbered_as_the_distinct_time_and_transmitter_pairs() -> None:
+    from sonarlog.schema import empty_readings
+    from sonarproc.auto.holdout import firing_index
+
+    rng = np.random.default_rng(7)
+    for n in (0, 1, 500):
+        r = empty_readings(n)
+        r["t"] = np.round(rng.uniform(0.0, 5.0, n), 1)
+        r["tx"] = rng.integers(0, 16, n)
+        keys = np.column_stack((np.asarray(r["t"], dtype=np.float64), r["tx"]))
+        _, expect = np.unique(keys, axis=0, return_inverse=True)
+        np.testing.assert_array_equal(firing_index(r), expect.reshape(-1))
