@@ -3,12 +3,14 @@
 :class:`SoakProcesses` starts :mod:`sonard.soak.emulator` (the lab world, a fault every few
 seconds, a firing trace) in a work directory and starts sonards on its pseudo-terminal with
 the plan :func:`write_plan` wrote; :func:`sample_process` reads a process's RSS and open
-file descriptors from ``/proc``, and :func:`wait_running` waits until a sonard holds the
-port's lock file. The checks of what they did are in :mod:`sonard.soak.runner`.
+file descriptors from ``/proc``, :func:`wait_running` waits until a sonard holds the
+port's lock file, and :func:`wait_polled` until it has polled the robot for a while.
+The checks of what they did are in :mod:`sonard.soak.runner`.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -25,6 +27,7 @@ __all__ = [
     "Sample",
     "SoakProcesses",
     "sample_process",
+    "wait_polled",
     "wait_running",
     "write_plan",
 ]
@@ -147,3 +150,39 @@ def wait_running(locks: Path, proc: subprocess.Popen[str]) -> None:
             except OSError:
                 pass  # a lock file being replaced
         time.sleep(0.1)
+
+
+def wait_polled(
+    trace: Path, start: int, seconds: float, proc: subprocess.Popen[str], timeout: float = 90.0
+) -> tuple[float, float] | None:
+    """Wait until ``proc`` has polled (GS) the robot for ``seconds`` of robot time.
+
+    Counted on the robot's clock from the sonard's own polls in the emulator's trace, from
+    byte ``start`` on (the trace's size when it was started): a loaded machine can take
+    20 s of wall time to start a sonard, so a wall-clock delay could end it before its
+    first reading.
+
+    Returns
+    -------
+    (first, last) or None
+        Robot times (s) of its first and latest poll; None when it exited or did not get
+        there within ``timeout`` s of wall time.
+    """
+    deadline = time.monotonic() + timeout
+    first: float | None = None
+    pos, tail = start, b""
+    while time.monotonic() < deadline and proc.poll() is None:
+        with open(trace, "rb") as fh:  # only what was appended since the last look
+            fh.seek(pos)
+            chunk = fh.read()
+        pos += len(chunk)
+        *lines, tail = (tail + chunk).split(b"\n")
+        for line in lines:
+            if b'"GS"' not in line:
+                continue
+            t = float(json.loads(line)["t"])
+            first = t if first is None else first
+            if t - first >= seconds:
+                return first, t
+        time.sleep(0.05)
+    return None

@@ -19,7 +19,8 @@ Checks (exit 1 when one fails, 2 on bad arguments):
 * sonard's open file descriptors end where they started (after warm-up), and (runs of
   30 minutes or more) its RSS grows less than 1 MiB per hour;
 * every killed log opens with plain ``h5py.File(path, "r")`` after the next start, reads as
-  ``crashed``, and lost at most 1 s of readings before the kill.
+  ``crashed``, and lost at most 1 s of readings before its last poll (each is killed once
+  it has polled for a random 0.5-3 s of robot time).
 
 A rich progress display is shown when stdout is a terminal; otherwise only the summary.
 The processes themselves are started and sampled by :mod:`sonard.soak.processes`.
@@ -41,13 +42,14 @@ from typing import Any
 
 import numpy as np
 
-from sonard.soak.accounting import account_firings, load_firings, slope_per_hour
+from sonard.soak.accounting import account_firings, clock_offset, load_firings, slope_per_hour
 from sonard.soak.emulator import EPISODE_S
 from sonard.soak.processes import (
     INTERVAL,
     Sample,
     SoakProcesses,
     sample_process,
+    wait_polled,
     wait_running,
     write_plan,
 )
@@ -212,25 +214,29 @@ def _kill_trials(
     from sonarlog import read_log
 
     rng = np.random.default_rng(seed)
-    killed: list[tuple[Path, float]] = []
+    killed: list[tuple[Path, float, float]] = []
     with open(procs.work / "kills.err", "w", encoding="utf-8") as err:
         for i in range(n + 1):
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
+            start = procs.trace.stat().st_size if procs.trace.exists() else 0
             proc = procs.sonard(out, err)
             if i == n:  # the last start only finalises the last killed log
                 wait_running(procs.work / "lock", proc)
                 proc.send_signal(signal.SIGTERM)
                 proc.wait(30)
                 break
-            time.sleep(float(rng.uniform(1.5, 4.0)))  # start-up (~1 s) plus a random run
-            kill_t = time.time()
+            polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
             proc.kill()
             proc.wait(10)
-            killed.append((out, kill_t))
+            if polled is None:
+                result.failures.append(f"{out.name}: sonard did not poll for long enough")
+            else:
+                killed.append((out, *polled))
     worst = 0.0
-    for path, kill_t in killed:
-        if not path.exists():
-            continue  # killed before its first reading: the next start removed it
+    for path, first_poll, last_poll in killed:
+        if not path.exists():  # nothing written: the next start removed the empty log
+            worst = max(worst, last_poll - first_poll)
+            continue
         try:
             with h5py.File(path, "r") as f:
                 n_rows = f["readings"].shape[0]
@@ -240,8 +246,12 @@ def _kill_trials(
         log = read_log(path)
         if log.log_state != "crashed" or n_rows != len(log.readings):
             result.failures.append(f"{path.name}: state {log.log_state}, {n_rows} rows")
+        # lost: what it had polled (its last poll, robot clock in UNIX time) and not written
         if len(log.readings):
-            worst = max(worst, kill_t - float(log.readings["t"].max()))
+            last_t = float(log.readings["t"].max())
+            worst = max(worst, last_poll + clock_offset(log) - last_t)
+        else:
+            worst = max(worst, last_poll - first_poll)
     result.figures.update(kill_trials=len(killed), worst_loss_s=round(worst, 3))
     if worst > max_loss_s:
         result.failures.append(f"a kill lost {worst:.2f} s of readings (limit {max_loss_s:g} s)")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import signal
 import subprocess
@@ -9,6 +11,7 @@ import sys
 import textwrap
 import time
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -18,6 +21,7 @@ from robots import emulator_pty, start_sonard, write_plan
 
 from sonard.crashed_logs import finalise_crashed_logs
 from sonard.log_lock import LogLock
+from sonard.soak.accounting import clock_offset
 from sonarlog import read_log, read_superblock
 
 pytestmark = pytest.mark.timeout(180)
@@ -83,6 +87,7 @@ def test_start_up_scan_finalises_crashed_sonard_logs_only(tmp_path: Path) -> Non
         assert info is not None and info.open_for_write
 
 
+@pytest.mark.timeout(480)  # five sonard starts in turn, each up to 90 s on a loaded machine
 def test_sigkilled_sonards_leave_logs_plain_h5py_opens_after_the_next_start(
     tmp_path: Path,
 ) -> None:
@@ -94,6 +99,7 @@ def test_sigkilled_sonards_leave_logs_plain_h5py_opens_after_the_next_start(
     with emulator_pty(tmp_path) as (pty, _trace):
         for i in range(KILL_TRIALS + 1):
             out = tmp_path / f"run-{i}.h5"
+            start = len(_commands(_trace))
             proc = start_sonard(pty, plan, out, locks)
             try:
                 if i == KILL_TRIALS:  # this start finalises the last killed log
@@ -103,23 +109,55 @@ def test_sigkilled_sonards_leave_logs_plain_h5py_opens_after_the_next_start(
                     _, err = proc.communicate(timeout=30)
                     assert proc.returncode == 0, err
                     break
-                time.sleep(float(rng.uniform(0.8, 3.0)))
-                killed.append((out, time.time()))
+                last_poll = _wait_until_polled_for(_trace, start, float(rng.uniform(0.8, 3.0)))
+                killed.append((out, last_poll))
                 proc.kill()
                 proc.wait(10)
             finally:
                 stop_process(proc)
     assert not any(locks.iterdir())  # stale lock files were taken over and removed
-    for path, kill_t in killed:
-        if not path.exists():
-            continue  # killed before its first reading: the next start removed it
-        with h5py.File(path, "r") as f:
+    for path, last_poll in killed:
+        with h5py.File(path, "r") as f:  # each was killed after it had polled for 0.8 s
             n = f["readings"].shape[0]
         log = read_log(path)
-        assert log.log_state == "crashed" and n == log.intact_rows
-        if n:
-            assert kill_t - float(log.readings["t"].max()) <= 1.0
-            assert log.time_ordered
+        assert log.log_state == "crashed" and n == log.intact_rows and n > 0
+        # The loss is what sonard had polled but not written: from its last poll (robot
+        # clock, in UNIX time through the log's clock event) back to its last reading.
+        # The design bound is 1 s (0.25 s flushes); a writer thread starved by two busy
+        # loops and other tests on 2 cores flushes late by the scheduler's delay, so 1 s
+        # more is allowed, as in the e2e SIGKILL trials.
+        assert last_poll + clock_offset(log) - float(log.readings["t"].max()) <= 2.0
+        assert log.time_ordered
+
+
+def _commands(trace: Path) -> list[dict[str, Any]]:
+    """The commands the emulator received so far (a line cut mid-write is skipped)."""
+    if not trace.exists():
+        return []
+    recs = []
+    for line in trace.read_text().splitlines():
+        with contextlib.suppress(json.JSONDecodeError):
+            rec = json.loads(line)
+            if rec["type"] == "command":
+                recs.append(rec)
+    return recs
+
+
+def _wait_until_polled_for(trace: Path, start: int, seconds: float) -> float:
+    """Wait until the sonard whose commands begin at index ``start`` has polled (GS) for
+    ``seconds`` of robot time; return the robot time of its last poll.
+
+    Counted on the robot's clock from sonard's own polls: on a loaded machine a sonard
+    start-up took 20 s of wall time, and a wall-clock delay after start killed every
+    trial before its first reading (trials that tested nothing).
+    """
+    deadline = time.monotonic() + 90  # generous: start-up beside two busy loops
+    while time.monotonic() < deadline:
+        polls = [c["t"] for c in _commands(trace)[start:] if c["cmd"] == "GS"]
+        if polls and polls[-1] - polls[0] >= seconds:
+            return float(polls[-1])
+        time.sleep(0.05)
+    raise AssertionError(f"sonard did not poll for {seconds:.2f} s within 90 s")
 
 
 def _wait_until_owner(locks: Path, pid: int, timeout: float = 30.0) -> None:
