@@ -9,7 +9,8 @@ from sonarsim.geometry import FloatArray
 from sonarsim.segments import Segments
 
 _BLOCK = 64
-"""Segments per bounding box in the coarse pass."""
+"""Segments per bounding box: a ray is tested against a block's segments only where its
+box overlaps the block's."""
 
 CHUNK_ELEMENTS = 2_000_000
 """Upper bound on ray x segment elements held at once."""
@@ -59,46 +60,34 @@ def blocked(
     box_lo, box_hi, starts = _boxes(segs)
     ray_lo = np.minimum(q0, q1)
     ray_hi = np.maximum(q0, q1)
-    # Coarse pass: which (ray, block) bounding boxes overlap.
-    rows_per = max(1, CHUNK_ELEMENTS // max(1, len(starts)))
-    ray_idx_parts = []
-    blk_idx_parts = []
-    for c0 in range(0, k, rows_per):
-        sl = slice(c0, c0 + rows_per)
-        ov = (
-            (ray_lo[sl, None, 0] <= box_hi[None, :, 0])
-            & (ray_hi[sl, None, 0] >= box_lo[None, :, 0])
-            & (ray_lo[sl, None, 1] <= box_hi[None, :, 1])
-            & (ray_hi[sl, None, 1] >= box_lo[None, :, 1])
+    d_all = q1 - q0
+    length = np.hypot(d_all[:, 0], d_all[:, 1])
+    ut_all = tol / np.where(length > 0.0, length, 1.0)
+    # Block by block: the rays whose boxes overlap the block's (and are not yet blocked)
+    # against the block's segments, a contiguous slice broadcast over them (no gather of
+    # segments per ray, which cost more than the arithmetic).
+    for b, s0 in enumerate(starts):
+        rays = np.flatnonzero(
+            (ray_lo[:, 0] <= box_hi[b, 0])
+            & (ray_hi[:, 0] >= box_lo[b, 0])
+            & (ray_lo[:, 1] <= box_hi[b, 1])
+            & (ray_hi[:, 1] >= box_lo[b, 1])
+            & ~out
         )
-        r, b = np.nonzero(ov)
-        ray_idx_parts.append(r + c0)
-        blk_idx_parts.append(b)
-    ray_idx = np.concatenate(ray_idx_parts)
-    blk_idx = np.concatenate(blk_idx_parts)
-    if ray_idx.size == 0:
-        return out
-    # Fine pass: every segment of each overlapping block.
-    n_seg = len(segs)
-    per = _BLOCK
-    step = max(1, CHUNK_ELEMENTS // per)
-    offs = np.arange(per, dtype=np.intp)
-    for c0 in range(0, ray_idx.size, step):
-        ri = ray_idx[c0 : c0 + step]
-        si = starts[blk_idx[c0 : c0 + step], None] + offs[None, :]
-        valid = si < n_seg
-        si = np.minimum(si, n_seg - 1)
-        p0 = q0[ri][:, None, :]
-        d = (q1[ri] - q0[ri])[:, None, :]
-        a = segs.a[si]
-        e = segs.b[si] - a
-        w = a - p0
-        den = d[..., 0] * e[..., 1] - d[..., 1] * e[..., 0]
-        safe = np.where(den != 0.0, den, 1.0)
-        u = (w[..., 0] * e[..., 1] - w[..., 1] * e[..., 0]) / safe
-        v = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / safe
-        length = np.hypot(d[..., 0], d[..., 1])
-        ut = tol / np.where(length > 0.0, length, 1.0)
-        hit = valid & (den != 0.0) & (u > ut) & (u < 1.0 - ut) & (v >= 0.0) & (v <= 1.0)
-        np.logical_or.at(out, ri, hit.any(axis=1))
+        if rays.size == 0:
+            continue
+        a = segs.a[s0 : s0 + _BLOCK]
+        e = segs.b[s0 : s0 + _BLOCK] - a
+        rows_per = max(1, CHUNK_ELEMENTS // len(a))
+        for c0 in range(0, rays.size, rows_per):
+            ri = rays[c0 : c0 + rows_per]
+            d = d_all[ri][:, None, :]
+            w = a[None] - q0[ri][:, None, :]
+            den = d[..., 0] * e[None, :, 1] - d[..., 1] * e[None, :, 0]
+            safe = np.where(den != 0.0, den, 1.0)
+            u = (w[..., 0] * e[None, :, 1] - w[..., 1] * e[None, :, 0]) / safe
+            v = (w[..., 0] * d[..., 1] - w[..., 1] * d[..., 0]) / safe
+            ut = ut_all[ri][:, None]
+            hit = (den != 0.0) & (u > ut) & (u < 1.0 - ut) & (v >= 0.0) & (v <= 1.0)
+            out[ri] |= hit.any(axis=1)
     return out
