@@ -501,9 +501,18 @@ def _near_found(c: FloatArray, found_xy: FloatArray, found: list[PointFeature]) 
 
 def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
     """The cheap tests: readings, distinct poses, and no plane within the range noise."""
-    if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
-        return False
-    return plane_rms(echoes.xy[idx], echoes.range_m[idx]) >= PLANE_NOISE_FACTOR * RANGE_NOISE_M
+    return _cheap_tests(echoes, idx) is not None
+
+
+def _cheap_tests(echoes: EchoGeometry, idx: IntArray) -> tuple[int, float] | None:
+    """:func:`_enough`'s tests; when they pass, the distinct poses and :func:`plane_rms`."""
+    if idx.size < MIN_READINGS:
+        return None
+    poses = _distinct_poses(echoes.xy[idx])
+    if poses < MIN_POSES:
+        return None
+    prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
+    return (poses, prms) if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
 
 
 def _enough_all(echoes: EchoGeometry, gathers: list[IntArray]) -> npt.NDArray[np.int8]:
@@ -583,15 +592,16 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     -------
     PointFeature or None
     """
-    if not _enough(echoes, idx):
+    cheap = _cheap_tests(echoes, idx)
+    if cheap is None:
         return None
+    poses, prms = cheap
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
-    prms = plane_rms(xy, rng)
     if prms < PLANE_POINT_RATIO * rms:
         return None
     if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
         return None
     if _radius_says_cylinder(xy, rng, p):
         return None
-    return PointFeature(p, idx, _distinct_poses(xy), rms, prms, _span(xy, p))
+    return PointFeature(p, idx, poses, rms, prms, _span(xy, p))
