@@ -12,7 +12,7 @@ import json
 import sys
 import threading
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -39,6 +39,9 @@ from sonarproc.cli.options import (
     build_run_mode,
 )
 from sonarproc.cli.paths import check_output_dir
+
+if TYPE_CHECKING:
+    from sonarproc.pipeline.result import RunResult
 
 __all__ = ["run_command"]
 
@@ -218,6 +221,7 @@ def run_command(
     """
     from sonarproc.fit import FitFailure
     from sonarproc.report import default_out_dir, write_report
+    from sonarproc.report.ahead import AheadFigures, draw_ahead
     from sonarproc.report.plots import parse_figure_formats
     from sonarproc.run_modes import run_log
 
@@ -232,18 +236,30 @@ def run_command(
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
+        ahead: list[AheadFigures | None] = []
+
+        def draw_figures_ahead(fitted: RunResult) -> None:
+            # the figures are drawn on the other core while the quality is measured
+            ahead.append(draw_ahead(fitted, formats))
+
         try:
             read = {
                 "sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees,
                 "pose_frame": pose_frame,
             }  # fmt: skip
-            result, record = run_log(log, params, mode, read=read, progress=progress)
+            result, record = run_log(
+                log, params, mode, read=read, progress=progress, on_fitted=draw_figures_ahead
+            )
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            doc = write_report(result, out_dir, auto=record, figures=formats)
+            pending = ahead[-1] if ahead else None
+            doc = write_report(result, out_dir, auto=record, figures=formats, ahead=pending)
         finally:
             progress.close()
+            for figs in ahead:
+                if figs is not None:
+                    figs.cancel()
         if result.surfaces is not None and not result.surfaces.surfaces:
             reason = result.surfaces.reason or "no group of cells was long enough"
             typer.echo(f"sonarproc: warning: no surface found: {reason}", err=True)

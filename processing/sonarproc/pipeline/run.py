@@ -80,6 +80,7 @@ def process(
     cpu_start: float | None = None,
     aligned: Aligned | None = None,
     quality_of_curves: bool = True,
+    on_fitted: Callable[[RunResult], None] | None = None,
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
@@ -106,6 +107,10 @@ def process(
         Measure the quality of a map that is one curve (no surfaces). ``False`` where the
         caller replaces such a result (``run``'s default mode hands it to ``--auto``, which
         measures its own choice), so nothing is measured for nothing.
+    on_fitted : callable, optional
+        Called with the result as its quality starts to be measured: mapped, fitted and
+        measured but for its quality and timings (``run`` draws its figures meanwhile).
+        Not called where the result is handed on (``quality_of_curves`` false on a curve).
 
     Returns
     -------
@@ -134,6 +139,10 @@ def process(
 
         if result.surfaces is None and not quality_of_curves:
             return
+        if on_fitted is not None:
+            if aligned is not None:
+                result.alignment = aligned.record
+            on_fitted(result)
         result.quality = measure_quality(mapped, params, build_arc_map, beams, grid, mmap, result)
 
     result, _ = map_log(

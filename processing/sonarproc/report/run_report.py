@@ -14,7 +14,7 @@ import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +24,9 @@ from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
 from sonarproc.version import __version__
+
+if TYPE_CHECKING:
+    from sonarproc.report.ahead import AheadFigures
 
 __all__ = [
     "DEFAULT_FIGURES",
@@ -226,11 +229,14 @@ def write_report(
     *,
     auto: dict[str, Any] | None = None,
     figures: Sequence[str] = DEFAULT_FIGURES,
+    ahead: AheadFigures | None = None,
 ) -> dict[str, Any]:
     """Write the files of :func:`report_files` into ``out_dir``; return the report dict.
 
     ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html);
-    ``figures``: the figure formats (``png``, ``svg``; empty: no figures).
+    ``figures``: the figure formats (``png``, ``svg``; empty: no figures); ``ahead``: the
+    figures already being drawn (:func:`sonarproc.report.ahead.draw_ahead`), used when
+    they were drawn for this result, formats and record, else drawn here.
     """
     from sonarproc.report import plots
     from sonarproc.report.html import render_html
@@ -245,7 +251,9 @@ def write_report(
 
         write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
         write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
-    drawn = plots.render_figures(result, figures, auto=auto)
+    drawn = ahead.collect(result, figures, auto) if ahead is not None else None
+    if drawn is None:
+        drawn = plots.render_figures(result, figures, auto=auto)
     for name, data in drawn.items():
         (out / name).write_bytes(data)
     (out / "report.html").write_text(render_html(doc, drawn), encoding="utf-8")
