@@ -186,7 +186,7 @@ def run_command(
     robust: RunRobustOption = None,
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
-    figures: FiguresOption = "png,svg",
+    figures: FiguresOption = "png",
     no_align: NoAlignOption = False,
     pose_frame: PoseFrameOption = None,
     degrees: Annotated[

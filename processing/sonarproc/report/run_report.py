@@ -1,8 +1,8 @@
 """Write a run's report directory: report.json, profile.csv, three figures and report.html.
 
-Each figure is written as a 150 dpi PNG (embedded in ``report.html``) and/or a vector SVG
-beside it, for print, as ``figures`` asks (``--figures``); with none, no figure is drawn
-and matplotlib is not imported.
+Each figure is written as a 150 dpi PNG (embedded in ``report.html``; the default) and/or
+a vector SVG beside it, for print, as ``figures`` asks (``--figures``); with none, no
+figure is drawn and matplotlib is not imported.
 
 :func:`report_dict` is the single source of every number the files show; the writers only
 format it. The file set is documented in docs/formats.md.
@@ -54,8 +54,10 @@ REPORT_FILES = (
     "fit.svg",
     "report.html",
 )
-#: The figure formats written when none are named (``--figures png,svg``).
-DEFAULT_FIGURES = ("png", "svg")
+#: The figure formats written when none are named (``--figures png``): the PNGs are what
+#: report.html shows; an SVG of a dense map costs as much again to draw and is for print,
+#: one option away (``--figures png,svg``).
+DEFAULT_FIGURES = ("png",)
 
 
 def report_files(figures: Sequence[str] = DEFAULT_FIGURES) -> tuple[str, ...]:

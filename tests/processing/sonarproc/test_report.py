@@ -14,6 +14,7 @@ from sonarproc.pipeline import RunResult, process
 from sonarproc.report import REPORT_FILES, default_out_dir, report_dict, write_report
 from sonarproc.report.html import render_html
 from sonarproc.report.plots import block_max
+from sonarproc.report.run_report import report_files
 from sonarproc.report.units import length_cm
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
@@ -59,7 +60,8 @@ def test_no_truth_omits_E1_E2(result: RunResult) -> None:
 def test_write_report_files(tmp_path: Path, result: RunResult) -> None:
     doc = write_report(result, tmp_path / "out")
     out = tmp_path / "out"
-    assert sorted(p.name for p in out.iterdir()) == sorted(REPORT_FILES)
+    assert sorted(p.name for p in out.iterdir()) == sorted(report_files())
+    assert report_files() == tuple(n for n in REPORT_FILES if not n.endswith(".svg"))
     assert json.loads((out / "report.json").read_text()) == json.loads(json.dumps(doc))
     for name in ("arcmap.png", "processed.png", "fit.png"):
         assert (out / name).read_bytes()[:8] == PNG
