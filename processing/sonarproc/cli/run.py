@@ -12,7 +12,7 @@ import json
 import sys
 import threading
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import typer
 
@@ -39,9 +39,6 @@ from sonarproc.cli.options import (
     build_run_mode,
 )
 from sonarproc.cli.paths import check_output_dir
-
-if TYPE_CHECKING:
-    from sonarproc.pipeline.result import RunResult
 
 __all__ = ["run_command"]
 
@@ -221,7 +218,7 @@ def run_command(
     """
     from sonarproc.fit import FitFailure
     from sonarproc.report import default_out_dir, write_report
-    from sonarproc.report.ahead import AheadFigures, draw_ahead
+    from sonarproc.report.ahead import AheadFigures
     from sonarproc.report.plots import parse_figure_formats
     from sonarproc.run_modes import run_log
 
@@ -235,31 +232,27 @@ def run_command(
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
+        # a child imports matplotlib meanwhile and draws as the quality stage starts
+        # (forked first: the progress bar's thread would make a fork unsafe)
+        ahead = AheadFigures.start(formats)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
-        ahead: list[AheadFigures | None] = []
-
-        def draw_figures_ahead(fitted: RunResult) -> None:
-            # the figures are drawn on the other core while the quality is measured
-            ahead.append(draw_ahead(fitted, formats))
-
         try:
             read = {
                 "sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees,
                 "pose_frame": pose_frame,
             }  # fmt: skip
             result, record = run_log(
-                log, params, mode, read=read, progress=progress, on_fitted=draw_figures_ahead
-            )
+                log, params, mode, read=read, progress=progress,
+                on_fitted=ahead.send if ahead is not None else None,
+            )  # fmt: skip
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            pending = ahead[-1] if ahead else None
-            doc = write_report(result, out_dir, auto=record, figures=formats, ahead=pending)
+            doc = write_report(result, out_dir, auto=record, figures=formats, ahead=ahead)
         finally:
             progress.close()
-            for figs in ahead:
-                if figs is not None:
-                    figs.cancel()
+            if ahead is not None:
+                ahead.cancel()
         if result.surfaces is not None and not result.surfaces.surfaces:
             reason = result.surfaces.reason or "no group of cells was long enough"
             typer.echo(f"sonarproc: warning: no surface found: {reason}", err=True)

@@ -237,8 +237,8 @@ def write_report(
 
     ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html);
     ``figures``: the figure formats (``png``, ``svg``; empty: no figures); ``ahead``: the
-    figures already being drawn (:func:`sonarproc.report.ahead.draw_ahead`), used when
-    they were drawn for this result, formats and record, else drawn here.
+    figures being drawn in a child (:class:`sonarproc.report.ahead.AheadFigures`), used
+    when drawn for this result, formats and record, else drawn here.
     """
     from sonarproc.report import plots
     from sonarproc.report.html import render_html

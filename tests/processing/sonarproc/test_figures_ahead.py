@@ -26,20 +26,23 @@ needs_fork = pytest.mark.skipif(
 )
 
 # A fresh interpreter (one thread, as a user's run) runs the CLI and says on stderr whether
-# the figures were drawn ahead; AHEAD=0 forbids the fork, so the report draws them itself.
+# the figures were drawn ahead, and whether this process imported matplotlib to draw them;
+# AHEAD=0 forbids the fork, so the report draws them itself.
 CHILD = """
 import os, sys
 from sonarproc.report import ahead, drawing
 if os.environ["AHEAD"] == "0":
     ahead.fork_is_safe = lambda: False
-_draw = ahead.draw_ahead
+_start = ahead.AheadFigures.start
 def _told(*a, **k):
-    got = _draw(*a, **k)
+    got = _start(*a, **k)
     sys.stderr.write(f"AHEAD={got is not None}\\n")
     return got
-ahead.draw_ahead = _told
+ahead.AheadFigures.start = _told
 from sonarproc.cli import main
-sys.exit(main(sys.argv[1:]))
+code = main(sys.argv[1:])
+sys.stderr.write(f"DREW_HERE={'matplotlib' in sys.modules}\\n")
+sys.exit(code)
 """
 
 
@@ -101,9 +104,9 @@ def test_figures_drawn_ahead_are_those_drawn_after_the_run(
     log: Path = request.getfixturevalue(scene)
     args = ["run", str(log), "--cell", "0.02", "--json", *options]
     told = run_cli([*args, "--out", str(tmp_path / "ahead")], ahead=True)
-    assert "AHEAD=True" in told
+    assert "AHEAD=True" in told and "DREW_HERE=False" in told
     told = run_cli([*args, "--out", str(tmp_path / "after")], ahead=False)
-    assert "AHEAD=False" in told
+    assert "AHEAD=False" in told and "DREW_HERE=True" in told
     same_reports(tmp_path / "ahead", tmp_path / "after")
     formats = tuple(options[-1].split(","))
     assert sorted(p.name for p in (tmp_path / "ahead").glob("*.*g")) == sorted(
@@ -123,42 +126,65 @@ def test_a_failed_child_leaves_the_figures_to_the_report(room: Path, tmp_path: P
         env={**os.environ, "AHEAD": "1"}, capture_output=True, text=True,
     )  # fmt: skip
     assert proc.returncode == 0, proc.stderr
-    assert "AHEAD=True" in proc.stderr
+    assert "AHEAD=True" in proc.stderr and "DREW_HERE=True" in proc.stderr
     run_cli([*args, "--out", str(tmp_path / "after")], ahead=False)
     same_reports(tmp_path / "crashed", tmp_path / "after")
 
 
-def test_figures_drawn_for_another_result_are_not_used() -> None:
-    class Child:
-        pid = 0
-        cancelled = collected = False
+class FakeChild:
+    """A drawing child that records what was asked of it."""
 
-        def cancel(self) -> None:
-            self.cancelled = True
+    pid = 0
 
-        def collect(self) -> dict[str, bytes]:
-            self.collected = True
-            return {"fit.png": b"x"}
+    def __init__(self) -> None:
+        self.cancelled = self.collected = False
 
+    def cancel(self) -> None:
+        self.cancelled = True
+
+    def collect(self) -> dict[str, bytes]:
+        self.collected = True
+        return {"fit.png": b"x"}
+
+
+def fake_ahead(monkeypatch: pytest.MonkeyPatch) -> tuple[ahead_module.AheadFigures, FakeChild]:
+    """An AheadFigures on a fake child whose sending needs no pickling or pipe."""
+    child = FakeChild()
+    figs = ahead_module.AheadFigures(child, -1, -1, ("png",))  # type: ignore[arg-type]
+
+    def send(result: object, auto: object = None) -> None:
+        if figs._sent is None:
+            figs._sent = (result, auto)  # type: ignore[assignment]
+
+    monkeypatch.setattr(figs, "send", send)
+    return figs, child
+
+
+def test_figures_drawn_for_another_result_are_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
     drawn_for, other = object(), object()
-    child = Child()
-    figs = ahead_module.AheadFigures(child, drawn_for, ("png",), None)  # type: ignore[arg-type]
+    figs, child = fake_ahead(monkeypatch)
+    figs.send(drawn_for)  # type: ignore[arg-type]
     assert figs.collect(other, ("png",)) is None  # type: ignore[arg-type]
     assert child.cancelled and not child.collected
-    assert figs.collect(drawn_for, ("png",)) is None  # type: ignore[arg-type]  # once only
-    child = Child()
-    figs = ahead_module.AheadFigures(child, drawn_for, ("png",), None)  # type: ignore[arg-type]
+    assert figs.collect(drawn_for, ("png",)) is None  # type: ignore[arg-type]  # stopped
+    figs, child = fake_ahead(monkeypatch)
     assert figs.collect(drawn_for, ("png", "svg")) is None  # type: ignore[arg-type]
-    child = Child()
-    figs = ahead_module.AheadFigures(child, drawn_for, ("png",), None)  # type: ignore[arg-type]
+    assert child.cancelled
+    figs, child = fake_ahead(monkeypatch)
+    figs.send(drawn_for, {"method": "arc-median"})  # type: ignore[arg-type]
+    assert figs.collect(drawn_for, ("png",)) is None  # type: ignore[arg-type]  # another record
+    figs, child = fake_ahead(monkeypatch)
+    figs.send(drawn_for)  # type: ignore[arg-type]
     assert figs.collect(drawn_for, ("png",)) == {"fit.png": b"x"}  # type: ignore[arg-type]
     figs.cancel()
-    assert not child.cancelled
+    assert child.collected and not child.cancelled
+    figs, child = fake_ahead(monkeypatch)  # never sent before the report: sent there
+    assert figs.collect(drawn_for, ("png",)) == {"fit.png": b"x"}  # type: ignore[arg-type]
 
 
 def test_nothing_is_forked_without_figures_or_beside_another_thread(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    assert ahead_module.draw_ahead(object(), ()) is None  # type: ignore[arg-type]
+    assert ahead_module.AheadFigures.start(()) is None
     monkeypatch.setattr(ahead_module, "fork_is_safe", lambda: False)
-    assert ahead_module.draw_ahead(object(), ("png",)) is None  # type: ignore[arg-type]
+    assert ahead_module.AheadFigures.start(("png",)) is None
