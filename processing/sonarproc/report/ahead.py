@@ -83,9 +83,8 @@ class AheadFigures:
             return
         self._sent = (result, auto)
         try:
-            payload = pickle.dumps((_for_figures(result), self.formats, auto), protocol=5)
-            with os.fdopen(os.dup(self._payload_fd), "wb") as fh:
-                fh.write(payload)
+            with os.fdopen(os.dup(self._payload_fd), "wb") as fh:  # no copy in memory
+                pickle.dump((_for_figures(result), self.formats, auto), fh, protocol=5)
             os.write(self._go_fd, b"1")
         except (OSError, pickle.PicklingError, TypeError, AttributeError) as err:
             log.debug("figures: not drawn ahead (%s)", err)
@@ -147,5 +146,5 @@ def _draw_when_sent(go_fd: int, payload_fd: int) -> dict[str, bytes]:
         os._exit(0)
     with os.fdopen(os.dup(payload_fd), "rb") as fh:
         fh.seek(0)
-        result, formats, auto = pickle.loads(fh.read())  # our own parent's result
+        result, formats, auto = pickle.load(fh)  # our own parent's result
     return plots.render_figures(result, formats, auto=auto)
