@@ -116,11 +116,9 @@ def run_log(
     import time
 
     from sonarproc.pipeline import load_log, process
-    from sonarproc.pipeline.run import align_stage
+    from sonarproc.pipeline.run import align_stage, import_stage_modules
 
-    if params.fit == "auto":
-        # loading modules is the interpreter's start-up, not the run's CPU time
-        import sonarproc.pipeline.surfacefit  # noqa: F401
+    import_stage_modules(params)  # start-up, not the run's CPU time
     cpu0 = time.process_time()
     wall0 = time.perf_counter()
     if isinstance(source, (str, Path)):
