@@ -96,6 +96,7 @@ def same_reports(a: Path, b: Path) -> None:
     [
         ("room", ["--figures", "png,svg"]),  # the default mode on a room: its surfaces
         ("curve", ["--fit", "poly", "--order", "9", "--figures", "png"]),  # given fit
+        ("curve", ["--figures", "png"]),  # a curve's default: --auto's choice, sent at the report
     ],
 )
 def test_figures_drawn_ahead_are_those_drawn_after_the_run(
