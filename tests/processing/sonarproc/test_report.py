@@ -117,5 +117,19 @@ def test_block_max_keeps_every_set_cell() -> None:
     assert block_max(a[:10, :10]) is not None
 
 
+@pytest.mark.parametrize("shape", [(2001, 2001), (2501, 1203), (7, 1000), (1000, 1000)])
+@pytest.mark.parametrize("dtype", [np.uint32, np.uint16, np.bool_])
+def test_block_max_is_the_maximum_of_each_block(shape: tuple[int, int], dtype: type) -> None:
+    rng = np.random.default_rng(shape[0] + shape[1])
+    a = (rng.random(shape) > 0.97).astype(dtype) * (1 if dtype is np.bool_ else 7)
+    a = a.astype(dtype)
+    f = int(np.ceil(max(shape) / 300))
+    padded = np.pad(a, ((0, (-shape[0]) % f), (0, (-shape[1]) % f)))
+    want = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).max(axis=(1, 3))
+    got = block_max(a, limit=300)
+    assert got.dtype == a.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+
+
 def test_default_out_dir() -> None:
     assert default_out_dir("/data/scan.h5") == Path("/data/scan_report")
