@@ -56,10 +56,14 @@ class AheadFigures:
         Returns None (no child) when there is nothing to draw or no child may be forked.
         """
         shown = tuple(formats)
-        if not shown or not fork_is_safe():
+        if not shown or not fork_is_safe() or not hasattr(os, "memfd_create"):
+            return None
+        try:
+            payload_fd = os.memfd_create("sonarproc-figures", os.MFD_CLOEXEC)
+        except OSError as err:  # a kernel without memfd: the report draws them
+            log.debug("figures: not drawn ahead (%s)", err)
             return None
         go_read, go_write = os.pipe()
-        payload_fd = os.memfd_create("sonarproc-figures", os.MFD_CLOEXEC)
 
         def draw() -> dict[str, bytes]:
             os.close(go_write)  # so that a parent gone without sending is an end of file
