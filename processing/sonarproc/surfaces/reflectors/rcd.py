@@ -435,11 +435,15 @@ def find_point_features(
     return found
 
 
-def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
-    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+def _enough(echoes: EchoGeometry, idx: IntArray) -> float | None:
+    """The cheap tests: readings, distinct poses, and no plane within the range noise.
+
+    Returns the best plane's RMS residual (m, :func:`plane_rms`) when they pass, else None.
+    """
     if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
-        return False
-    return plane_rms(echoes.xy[idx], echoes.range_m[idx]) >= PLANE_NOISE_FACTOR * RANGE_NOISE_M
+        return None
+    prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
+    return prms if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
 
 
 def _test_point(
@@ -450,7 +454,7 @@ def _test_point(
     idx = _gather(echoes, free, p, index)
     # the cheap tests first: most candidates lie on walls, whose readings a plane explains
     for _ in range(GATHER_ROUNDS):
-        if not _enough(echoes, idx):
+        if _enough(echoes, idx) is None:
             return None
         p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
         idx = _gather(echoes, free, p, index)
@@ -473,11 +477,11 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     -------
     PointFeature or None
     """
-    if not _enough(echoes, idx):
+    prms = _enough(echoes, idx)
+    if prms is None:
         return None
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
-    prms = plane_rms(xy, rng)
     if prms < PLANE_POINT_RATIO * rms:
         return None
     if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
