@@ -26,7 +26,7 @@ from sonarlog import SonarLog
 from sonarproc.fit import FitFailure
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
-from sonarproc.pipeline.evaluation import fit_and_measure, map_counts, no_arc_message
+from sonarproc.pipeline.evaluation import SeenAhead, fit_and_measure, map_counts, no_arc_message
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
@@ -123,11 +123,17 @@ def evaluate_map(
     # the kept cells column by column, for the fit and auto's test of one function of x
     ix, iy = np.nonzero(mmap.processed.T)
     cells = (ix, iy)
+    seen, seen_cpu = None, 0.0
     if params.fit == "auto":
         from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
+        ahead = None
+        if truth is not None and beams is not None and np.isnan(truth).any():
+            ahead = SeenAhead(truth, beams)  # a truth of several surfaces: seen meanwhile
         auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
         fit_params = replace(params, fit="poly")
+        if ahead is not None:
+            seen, seen_cpu = ahead.result(), ahead.cpu_s
     # The paper's E1 and E2 compare one curve y = f(x) with one true curve y = f(x).
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
     single = truth is None or params.fit == "polar" or not np.isnan(truth).any()
@@ -140,7 +146,7 @@ def evaluate_map(
         n = len(auto.surfaces.surfaces)
         why = f"{n} surface(s) fitted one by one: see surfaces.csv"
         ev.fit = FitFailure("surfaces", why if n else str(auto.surfaces.reason))
-    t_cpu = time.process_time() - cpu_start
+    t_cpu = time.process_time() - cpu_start - seen_cpu  # the method's, not the measure's
     result = RunResult.of(
         ev,
         source=source,
@@ -167,7 +173,7 @@ def evaluate_map(
         result.surface_metrics = measure_surfaces(
             found, truth, (tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading,
             beams.path), tx_half_beamwidth=tp.tx_half_beamwidth,
-            rx_half_beamwidth=tp.rx_half_beamwidth,
+            rx_half_beamwidth=tp.rx_half_beamwidth, seen=seen,
         )  # fmt: skip
     result.log_state = log_.log_state
     result.log_warning = log_.integrity_warning()

@@ -57,6 +57,7 @@ __all__ = [
     "column_spans",
     "measure_surfaces",
     "refine_surfaces",
+    "seen_of_truth",
     "silent_geometry",
     "surface_kind",
     "surfaces_fit_record",
@@ -311,17 +312,34 @@ def silent_geometry(beams: Beams) -> EchoGeometry | None:
 
 
 def measure_surfaces(
-    found: SurfaceSet, truth: npt.NDArray[np.float64], arcs_args: tuple[Any, ...], **beams: Any
+    found: SurfaceSet,
+    truth: npt.NDArray[np.float64],
+    arcs_args: tuple[Any, ...],
+    *,
+    seen: npt.NDArray[np.bool_] | None = None,
+    **beams: Any,
 ) -> dict[str, Any]:
     """Precision and completeness of the fitted surfaces against a multi-surface truth.
 
     ``arcs_args`` and ``beams`` are the readings' geometry (transmitter and receiver
     positions and headings, path lengths; half beamwidths), which says which part of the
-    truth the sonars could see.
+    truth the sonars could see; ``seen`` is that part when the caller has it already
+    (:func:`seen_of_truth` of the same readings).
     """
-    pts = np.concatenate(truth_points(truth))
-    seen = seen_truth(pts, *arcs_args, **beams)
+    if seen is None:
+        pts = np.concatenate(truth_points(truth))
+        seen = seen_truth(pts, *arcs_args, **beams)
     return dict(surface_metrics(found.polylines(), truth, seen=seen).to_json())
+
+
+def seen_of_truth(truth: npt.NDArray[np.float64], beams: Beams) -> npt.NDArray[np.bool_]:
+    """The points of ``truth`` (:func:`truth_points`) some reading of ``beams`` could have
+    produced (:func:`seen_truth`): what :func:`measure_surfaces` measures completeness on."""
+    tp = beams.poses
+    pts = np.concatenate(truth_points(truth))
+    return seen_truth(pts, tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
+                      tx_half_beamwidth=tp.tx_half_beamwidth,
+                      rx_half_beamwidth=tp.rx_half_beamwidth)  # fmt: skip
 
 
 def surface_kind(model: str | None) -> str:
