@@ -116,6 +116,10 @@ class SeenAhead:
             self._error = err
         self.cpu_s = time.thread_time() - cpu0
 
+    def join(self) -> None:
+        """Wait for the thread to end."""
+        self._thread.join()
+
     def result(self) -> npt.NDArray[np.bool_]:
         """The seen truth points (waits for the thread; raises what it raised)."""
         self._thread.join()

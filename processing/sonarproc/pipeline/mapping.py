@@ -130,7 +130,11 @@ def evaluate_map(
         ahead = None
         if truth is not None and beams is not None and np.isnan(truth).any():
             ahead = SeenAhead(truth, beams)  # a truth of several surfaces: seen meanwhile
-        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
+        try:
+            auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
+        finally:  # no thread outlives the fit, even a failed one
+            if ahead is not None:
+                ahead.join()
         fit_params = replace(params, fit="poly")
         if ahead is not None:
             seen, seen_cpu = ahead.result(), ahead.cpu_s
