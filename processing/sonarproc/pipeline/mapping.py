@@ -127,9 +127,9 @@ def evaluate_map(
     if params.fit == "auto":
         from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
 
-        ahead = None
-        if truth is not None and beams is not None and np.isnan(truth).any():
-            ahead = SeenAhead(truth, beams)  # a truth of several surfaces: seen meanwhile
+        # surfaces are measured against what the sonars saw of the truth: found meanwhile
+        # (a map of one curve y = f(x) has no use for it; its work on the idle core is lost)
+        ahead = None if truth is None or beams is None else SeenAhead(truth, beams)
         try:
             auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
         finally:  # no thread outlives the fit, even a failed one
