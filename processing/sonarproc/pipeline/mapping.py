@@ -125,11 +125,14 @@ def evaluate_map(
     cells = (ix, iy)
     seen, seen_cpu = None, 0.0
     if params.fit == "auto":
-        from sonarproc.pipeline.surfacefit import choose_fit  # scipy's graph and trees: lazily
+        from sonarproc.pipeline.surfacefit import choose_fit, one_curve_at_a_glance
 
         # surfaces are measured against what the sonars saw of the truth: found meanwhile
-        # (a map of one curve y = f(x) has no use for it; its work on the idle core is lost)
-        ahead = None if truth is None or beams is None else SeenAhead(truth, beams)
+        # (not for a map that is one curve y = f(x) at a glance, which has no use for it)
+        ahead = None
+        glance = truth is None or one_curve_at_a_glance(mmap.processed, grid.cell, cells=cells)
+        if truth is not None and beams is not None and not glance:
+            ahead = SeenAhead(truth, beams)
         try:
             auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
         finally:  # no thread outlives the fit, even a failed one

@@ -56,6 +56,7 @@ __all__ = [
     "coarse_counts",
     "column_spans",
     "measure_surfaces",
+    "one_curve_at_a_glance",
     "refine_surfaces",
     "seen_of_truth",
     "silent_geometry",
@@ -137,6 +138,29 @@ def column_spans(
     bottom = m.argmax(axis=0)[occupied]
     top = m.shape[0] - 1 - m[::-1].argmax(axis=0)[occupied]
     return (top - bottom + 1).astype(np.float64) * cell
+
+
+def one_curve_at_a_glance(
+    processed: npt.NDArray[np.bool_],
+    cell: float,
+    *,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+) -> bool:
+    """:func:`choose_fit`'s first test: the kept cells are one thin band, one function of x.
+
+    True when :func:`choose_fit` answers "function" without extracting surfaces (the
+    median column span at most :data:`MEDIAN_SPAN_M`, 90 % at most :data:`P90_SPAN_M`).
+
+    >>> m = np.zeros((50, 40), bool); m[20, :] = True
+    >>> one_curve_at_a_glance(m, 0.05), one_curve_at_a_glance(np.ones((50, 40), bool), 0.05)
+    (True, False)
+    """
+    spans = column_spans(processed, cell, cells=cells)
+    if spans.size == 0:
+        return False
+    return (
+        float(np.median(spans)) <= MEDIAN_SPAN_M and float(np.percentile(spans, 90)) <= P90_SPAN_M
+    )
 
 
 def choose_fit(
