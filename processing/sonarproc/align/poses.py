@@ -244,21 +244,19 @@ def align_poses(
     first_matches = None
     for k in range(rounds):
         radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
-        at = rays.reading
-        o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
-        now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
-        pts = rays.points(*now)
+        if k == 0:  # no correction yet: the raw frame (a long log is often declined here)
+            pts, look = raw_points, raw_look
+        else:
+            at = rays.reading
+            o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
+            now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
+            pts, look = rays.points(*now), rays.sensors(*now)[1]
         query, nbrs = match_lines(pts, stretch, queries, radius=radius, min_points=min_points,
                                   max_thickness=echo_sigma)  # fmt: skip
         if query.size == 0:
             break
         matches = line_matches(
-            query,
-            nbrs,
-            raw,
-            rays.sensors(*now)[1][query],
-            min_points=min_points,
-            min_places=min_places,
+            query, nbrs, raw, look[query], min_points=min_points, min_places=min_places
         )
         if matches.size < MATCHES_PER_NODE * nodes.count:
             # each node has three unknowns: with fewer echo constraints than a few per

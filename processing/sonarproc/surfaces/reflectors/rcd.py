@@ -15,8 +15,8 @@ their beams, while no plane explains the same ranges.
 2. **Gathering**: the readings whose range is within :data:`RANGE_TOL_M` of their
    sensor's distance to the candidate, and whose beam (its half-width times
    :data:`BEAM_SLACK`) holds it.
-3. **Position**: ``p`` by least squares on those ranges
-   (:func:`scipy.optimize.least_squares`), gathering again round the new ``p``, twice.
+3. **Position**: ``p`` by least squares on those ranges (MINPACK's Levenberg-Marquardt),
+   gathering again round the new ``p``, twice.
 4. **Tests**, each with its physical reason:
 
    * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
@@ -54,7 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 from scipy import ndimage
-from scipy.optimize import least_squares
+from scipy.optimize import leastsq
 from scipy.spatial import cKDTree
 
 from sonarproc.grid import Grid
@@ -194,6 +194,24 @@ def _gather(
     return idx[off <= BEAM_SLACK * echoes.half_beam[idx]]
 
 
+def _levenberg_marquardt(
+    res: Callable[[FloatArray], FloatArray], jac: Callable[[FloatArray], FloatArray], x0: FloatArray
+) -> FloatArray:
+    """MINPACK's Levenberg-Marquardt (``lmder``) on ``res`` from ``x0``: the solution.
+
+    The solver and settings of ``least_squares(res, x0, jac=jac, method="lm")`` (scipy >=
+    1.16: tolerances 1e-8, at most 100 evaluations per unknown, step bound factor 100,
+    scaled by the Jacobian's columns), so the same answer to the last bit, called through
+    :func:`scipy.optimize.leastsq`, whose wrapper costs a quarter of ``least_squares``'s: a
+    run tests a few hundred candidate points of a few dozen readings each, where the
+    wrapper, not the solve, was the cost.
+    """
+    x0 = np.asarray(x0, dtype=np.float64)
+    out = leastsq(res, x0, Dfun=jac, full_output=True, ftol=1e-8, xtol=1e-8, gtol=1e-8,
+                  maxfev=100 * x0.size, factor=100.0)  # fmt: skip
+    return np.asarray(out[0], dtype=np.float64)
+
+
 def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatArray, float]:
     """Least-squares point through the ranges, and its RMS residual (m).
 
@@ -208,8 +226,7 @@ def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatAr
         d = p - xy
         return np.asarray(d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None])
 
-    sol = least_squares(res, p0, jac=jac, method="lm")
-    p = np.asarray(sol.x, dtype=np.float64)
+    p = _levenberg_marquardt(res, jac, p0)
     return p, float(np.sqrt(np.mean(res(p) ** 2)))
 
 
@@ -275,11 +292,12 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
         u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
         return np.column_stack((u, -np.ones(xy.shape[0])))
 
-    sol = least_squares(res, np.r_[p, 0.0], jac=jac, method="lm")
-    radius = float(sol.x[2])
+    q = _levenberg_marquardt(res, jac, np.r_[p, 0.0])
+    radius = float(q[2])
     if radius <= MAX_POINT_RADIUS_M:
         return False
-    jtj = sol.jac.T @ sol.jac
+    j = jac(q)
+    jtj = j.T @ j
     try:
         cov = np.linalg.inv(jtj) * RANGE_NOISE_M**2
     except np.linalg.LinAlgError:
@@ -288,8 +306,16 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
 
 
 def _distinct_poses(xy: FloatArray) -> int:
+    """Distinct :data:`RANGE_TOL_M` cells the sensor positions ``xy`` fall in.
+
+    >>> _distinct_poses(np.array([[0.0, 0.0], [0.01, 0.0], [0.05, 0.0], [0.0, 0.05]]))
+    3
+    """
+    if xy.shape[0] == 0:
+        return 0
     cells = np.floor(xy / RANGE_TOL_M).astype(np.int64)
-    return int(np.unique(cells, axis=0).shape[0])
+    cells = cells[np.lexsort((cells[:, 1], cells[:, 0]))]  # rows of one cell side by side
+    return 1 + int(np.count_nonzero(np.any(cells[1:] != cells[:-1], axis=1)))
 
 
 def _span(xy: FloatArray, p: FloatArray) -> float:
@@ -409,11 +435,15 @@ def find_point_features(
     return found
 
 
-def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
-    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+def _enough(echoes: EchoGeometry, idx: IntArray) -> float | None:
+    """The cheap tests: readings, distinct poses, and no plane within the range noise.
+
+    Returns the best plane's RMS residual (m, :func:`plane_rms`) when they pass, else None.
+    """
     if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
-        return False
-    return plane_rms(echoes.xy[idx], echoes.range_m[idx]) >= PLANE_NOISE_FACTOR * RANGE_NOISE_M
+        return None
+    prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
+    return prms if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
 
 
 def _test_point(
@@ -424,7 +454,7 @@ def _test_point(
     idx = _gather(echoes, free, p, index)
     # the cheap tests first: most candidates lie on walls, whose readings a plane explains
     for _ in range(GATHER_ROUNDS):
-        if not _enough(echoes, idx):
+        if _enough(echoes, idx) is None:
             return None
         p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
         idx = _gather(echoes, free, p, index)
@@ -447,11 +477,11 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     -------
     PointFeature or None
     """
-    if not _enough(echoes, idx):
+    prms = _enough(echoes, idx)
+    if prms is None:
         return None
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
-    prms = plane_rms(xy, rng)
     if prms < PLANE_POINT_RATIO * rms:
         return None
     if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
