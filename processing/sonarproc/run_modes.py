@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING, Any, Literal
 from sonarproc.errors import ParameterError
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from sonarlog import SonarLog
     from sonarproc.params import RunParams
     from sonarproc.pipeline import RunResult
@@ -81,6 +83,7 @@ def run_log(
     *,
     read: dict[str, Any] | None = None,
     progress: Any = None,
+    on_fitted: Callable[[RunResult], None] | None = None,
 ) -> tuple[RunResult, dict[str, Any] | None]:
     """Run a log in ``mode``: the result, and ``--auto``'s record where a choice was made.
 
@@ -99,6 +102,9 @@ def run_log(
         ``robot``, ``degrees``, ``pose_frame``) for a path.
     progress : callable, optional
         Called with each stage's name, as :func:`sonarproc.pipeline.process` does.
+    on_fitted : callable, optional
+        Called with the result before its quality is measured, where that result is the
+        one returned with no record (see :func:`sonarproc.pipeline.process`).
 
     Returns
     -------
@@ -110,11 +116,9 @@ def run_log(
     import time
 
     from sonarproc.pipeline import load_log, process
-    from sonarproc.pipeline.run import align_stage
+    from sonarproc.pipeline.run import align_stage, import_stage_modules
 
-    if params.fit == "auto":
-        # loading modules is the interpreter's start-up, not the run's CPU time
-        import sonarproc.pipeline.surfacefit  # noqa: F401
+    import_stage_modules(params)  # start-up, not the run's CPU time
     cpu0 = time.process_time()
     wall0 = time.perf_counter()
     if isinstance(source, (str, Path)):
@@ -137,6 +141,7 @@ def run_log(
             cpu_start=cpu0,
             aligned=aligned,
             quality_of_curves=mode == "given",
+            on_fitted=on_fitted,
         )
         result.timings_s = {"read": read_s, **result.timings_s}
         if mode == "given" or result.surfaces is not None:

@@ -48,7 +48,14 @@ from sonarproc.align.echoes import EchoRays
 from sonarproc.align.matching import LineMatches
 from sonarproc.align.track import Nodes, interpolate_offsets
 
-__all__ = ["CALIBRATION_PRIOR", "GraphSolution", "OdometryTies", "odometry_ties", "solve_graph"]
+__all__ = [
+    "CALIBRATION_PRIOR",
+    "GraphSolution",
+    "OdometryTies",
+    "match_cost",
+    "odometry_ties",
+    "solve_graph",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -234,6 +241,21 @@ def robust_cost(residuals: FloatArray) -> float:
     """The ``soft_l1`` cost :func:`least_squares` minimises, for given residuals."""
     z = (residuals / ROBUST_SCALE) ** 2
     return float(0.5 * ROBUST_SCALE**2 * np.sum(2.0 * (np.sqrt(1.0 + z) - 1.0)))
+
+
+def match_cost(
+    nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
+    matches: LineMatches, offsets: FloatArray, calibration: FloatArray, *, echo_sigma: float,
+) -> float:  # fmt: skip
+    """The robust cost of given node offsets and calibration on given matches.
+
+    The same cost :func:`solve_graph` minimises (odometry ties, calibration prior and
+    echo residuals), evaluated without solving: a correction found on one set of matches
+    can be judged on another.
+    """
+    prob = _Problem(nodes, ties, rays, track, matches, echo_sigma)
+    x = np.concatenate((np.asarray(offsets[1:], dtype=np.float64).ravel(), calibration))
+    return robust_cost(prob.residuals(x))
 
 
 def solve_graph(

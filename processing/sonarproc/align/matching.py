@@ -12,6 +12,7 @@ points), so that the line moves with that stretch's correction.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,18 @@ IntArray = npt.NDArray[np.intp]
 NEIGHBOURS = 48
 #: Travel (m) between two readings for them to count as seen from distinct places.
 MIN_STEP = 0.01
+#: Most threads the neighbour search runs on: the queries are independent (the answer is
+#: the same on any number), and beyond a few cores memory bandwidth gains nothing more.
+MAX_SEARCH_THREADS = 4
+
+
+def _search_threads() -> int:
+    """The CPUs this process may run on, at most :data:`MAX_SEARCH_THREADS`."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on every platform
+        n = os.cpu_count() or 1
+    return max(1, min(n, MAX_SEARCH_THREADS))
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,7 +117,10 @@ def match_lines(
         return empty, np.zeros((0, NEIGHBOURS), dtype=np.intp)
     k = min(NEIGHBOURS, points.shape[0])
     tree = cKDTree(points)
-    dist, nb = tree.query(points[queries], k=k, distance_upper_bound=radius)
+    # the run's costliest search on a long log (a few dozen neighbours of 10^4 queries)
+    dist, nb = tree.query(
+        points[queries], k=k, distance_upper_bound=radius, workers=_search_threads()
+    )
     dist = dist.reshape(queries.size, k)
     nb = nb.reshape(queries.size, k)
     found = np.isfinite(dist)

@@ -11,7 +11,13 @@ import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import echo_rays
-from sonarproc.align.graph import CALIBRATION_PRIOR, NCAL, odometry_ties, solve_graph
+from sonarproc.align.graph import (
+    CALIBRATION_PRIOR,
+    NCAL,
+    match_cost,
+    odometry_ties,
+    solve_graph,
+)
 from sonarproc.align.matching import RayFrame, line_matches, match_lines
 from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
 
@@ -49,7 +55,8 @@ class Alignment:
     matches : int
         Echo points matched to another stretch's lines in the last round.
     cost_before, cost_after : float
-        The last round's robust cost with no correction and with the correction.
+        The robust cost of the first round's matches (those found at the raw poses)
+        with no correction and with the final correction.
     calibration : ndarray, shape (2,)
         The odometry's systematic errors found: distance scale error (fraction) and
         heading error per metre driven (rad/m), as corrections (the raw odometry's own
@@ -234,33 +241,33 @@ def align_poses(
     first, last = match_radius
     done = evaluations = matched = 0
     cost_before = cost_after = 0.0
+    first_matches = None
     for k in range(rounds):
         radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
-        at = rays.reading
-        o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
-        now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
-        pts = rays.points(*now)
+        if k == 0:  # no correction yet: the raw frame (a long log is often declined here)
+            pts, look = raw_points, raw_look
+        else:
+            at = rays.reading
+            o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
+            now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
+            pts, look = rays.points(*now), rays.sensors(*now)[1]
         query, nbrs = match_lines(pts, stretch, queries, radius=radius, min_points=min_points,
                                   max_thickness=echo_sigma)  # fmt: skip
         if query.size == 0:
             break
         matches = line_matches(
-            query,
-            nbrs,
-            raw,
-            rays.sensors(*now)[1][query],
-            min_points=min_points,
-            min_places=min_places,
+            query, nbrs, raw, look[query], min_points=min_points, min_places=min_places
         )
         if matches.size < MATCHES_PER_NODE * nodes.count:
             # each node has three unknowns: with fewer echo constraints than a few per
             # unknown, chance matches would decide the correction, not the walls
             matched = matches.size
             break
+        if first_matches is None:
+            first_matches = matches
         sol = solve_graph(nodes, ties, rays, track, matches, offsets, calibration,
                           echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
         done, evaluations, matched = k + 1, evaluations + sol.evaluations, matches.size
-        cost_before, cost_after = sol.cost_before, sol.cost_after
         moved = _largest_move(sol.offsets - offsets)
         offsets, calibration = sol.offsets, sol.calibration
         log.debug("alignment round %d: radius %.3f m, %d matches, moved %.4f m",
@@ -282,6 +289,14 @@ def align_poses(
             f"the correction found is implausible for odometry (scale {calibration[0]:+.3f}, "
             f"heading {math.degrees(calibration[1]) * 10.0:+.1f} degrees per 10 m)",
         )
+    if first_matches is not None:
+        # Judged on the matches found at the raw poses, not on the last round's: those
+        # were chosen near the corrected poses, so the raw poses' cost on them is inflated
+        # by the choice itself (an echo's structure, such as a corner's, read as drift).
+        cost_before = match_cost(nodes, ties, rays, track, first_matches, np.zeros_like(offsets),
+                                 np.zeros(NCAL), echo_sigma=echo_sigma)  # fmt: skip
+        cost_after = match_cost(nodes, ties, rays, track, first_matches, offsets, calibration,
+                                echo_sigma=echo_sigma)  # fmt: skip
     per = interpolate_offsets(offsets, nodes.lo, nodes.w, nodes.w_xy)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)

@@ -119,7 +119,7 @@ def compare_command(
             help="Also export each method's map: ros-map, geojson, ply (comma-separated)."
         ),
     ] = None,
-    figures: FiguresOption = "png,svg",
+    figures: FiguresOption = "png",
     as_json: Annotated[
         bool, typer.Option("--json", help="Print compare.json to stdout instead of a table.")
     ] = False,

@@ -152,7 +152,8 @@ FiguresOption = Annotated[
     typer.Option(
         "--figures",
         metavar="FORMATS",
-        help="Figure files to write: png,svg, png, svg or none (no figure; fastest).",
+        help="Figure files to write: png (default), png,svg (vector copies for print), svg, "
+        "or none (no figure; fastest).",
     ),
 ]
 

@@ -183,7 +183,7 @@ def run_command(
     robust: RunRobustOption = None,
     span: SpanOption = "truth",
     arc_step: ArcStepOption = None,
-    figures: FiguresOption = "png,svg",
+    figures: FiguresOption = "png",
     no_align: NoAlignOption = False,
     pose_frame: PoseFrameOption = None,
     degrees: Annotated[
@@ -217,7 +217,9 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
+    from sonarproc.pipeline.run import import_stage_modules
     from sonarproc.report import default_out_dir, write_report
+    from sonarproc.report.ahead import AheadFigures
     from sonarproc.report.plots import parse_figure_formats
     from sonarproc.run_modes import run_log
 
@@ -231,19 +233,30 @@ def run_command(
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
+        # A child imports matplotlib meanwhile and draws as the quality stage starts;
+        # forked after the modules the run loads anyway (the child unpickles the result's
+        # surfaces with them) and before the progress bar's thread (no fork beside one).
+        if formats:
+            import_stage_modules(params)
+        ahead = AheadFigures.start(formats)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
         try:
             read = {
                 "sensors": sensors, "truth": truth, "robot": robot, "degrees": degrees,
                 "pose_frame": pose_frame,
             }  # fmt: skip
-            result, record = run_log(log, params, mode, read=read, progress=progress)
+            result, record = run_log(
+                log, params, mode, read=read, progress=progress,
+                on_fitted=ahead.send if ahead is not None else None,
+            )  # fmt: skip
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
-            doc = write_report(result, out_dir, auto=record, figures=formats)
+            doc = write_report(result, out_dir, auto=record, figures=formats, ahead=ahead)
         finally:
             progress.close()
+            if ahead is not None:
+                ahead.cancel()
         if result.surfaces is not None and not result.surfaces.surfaces:
             reason = result.surfaces.reason or "no group of cells was long enough"
             typer.echo(f"sonarproc: warning: no surface found: {reason}", err=True)

@@ -59,7 +59,7 @@ def watch_command(
     drop_crosstalk: DropCrosstalkOption = False,
     robust: RobustOption = "none",
     span: SpanOption = "truth",
-    figures: FiguresOption = "png,svg",
+    figures: FiguresOption = "png",
     foxglove: FoxgloveOption = None,
 ) -> None:
     """Process a log while it is being written; keep the report directory current.

@@ -9,9 +9,11 @@ live accumulator (:mod:`sonarproc.pipeline.live`) and the other methods (:mod:`s
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -39,7 +41,17 @@ from sonarproc.metrics import (
 )
 from sonarproc.params import MAX_AUTO_ORDER, RunParams
 
-__all__ = ["Evaluation", "fit_and_measure", "map_counts", "measure_profile", "no_arc_message"]
+if TYPE_CHECKING:
+    from sonarproc.pipeline.selection import Beams
+
+__all__ = [
+    "Evaluation",
+    "SeenAhead",
+    "fit_and_measure",
+    "map_counts",
+    "measure_profile",
+    "no_arc_message",
+]
 
 Stage = Callable[[str], None]
 
@@ -71,6 +83,50 @@ class Evaluation:
     metrics: Metrics
     centre: tuple[float, float] | None
     robot_xy: npt.NDArray[np.float64]
+
+
+class SeenAhead:
+    """Which truth points the readings could have produced, found on a second thread.
+
+    What the sonars saw (:func:`sonarproc.surfaces.seen_truth`) depends on the truth and
+    the readings only, not on any fit: it is found while the surfaces are fitted, on the
+    core the fit leaves idle, and the surfaces' precision and completeness are then
+    measured against it (:func:`sonarproc.pipeline.surfacefit.measure_surfaces`). The
+    answer is the one found after the fit. Its work is array operations and k-d tree
+    searches, which release the GIL.
+    """
+
+    def __init__(self, truth: npt.NDArray[np.float64], beams: Beams) -> None:
+        self._seen: npt.NDArray[np.bool_] | None = None
+        self._error: BaseException | None = None
+        #: CPU seconds the thread took (a run's ``t_cpu_s`` leaves the measure out)
+        self.cpu_s = 0.0
+        self._thread = threading.Thread(
+            target=self._run, args=(truth, beams), name="seen-truth", daemon=True
+        )
+        self._thread.start()
+
+    def _run(self, truth: npt.NDArray[np.float64], beams: Beams) -> None:
+        from sonarproc.pipeline.surfacefit import seen_of_truth
+
+        cpu0 = time.thread_time()
+        try:
+            self._seen = seen_of_truth(truth, beams)
+        except BaseException as err:  # handed to the caller, on its own thread
+            self._error = err
+        self.cpu_s = time.thread_time() - cpu0
+
+    def join(self) -> None:
+        """Wait for the thread to end."""
+        self._thread.join()
+
+    def result(self) -> npt.NDArray[np.bool_]:
+        """The seen truth points (waits for the thread; raises what it raised)."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        assert self._seen is not None
+        return self._seen
 
 
 def _fit_binned(params: RunParams, bins: Bins) -> Fit:

@@ -31,7 +31,15 @@ from sonarproc.pipeline.selection import Beams
 if TYPE_CHECKING:
     from sonarproc.pipeline.alignment import AlignmentRecord
 
-__all__ = ["METHOD", "Aligned", "align_stage", "load_log", "process", "run_file"]
+__all__ = [
+    "METHOD",
+    "Aligned",
+    "align_stage",
+    "import_stage_modules",
+    "load_log",
+    "process",
+    "run_file",
+]
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
 
@@ -45,6 +53,20 @@ class Aligned(NamedTuple):
     record: AlignmentRecord
     wall_s: float
     cpu_s: float
+
+
+def import_stage_modules(params: RunParams) -> None:
+    """Import the modules a run with ``params`` loads as it goes, now.
+
+    Loading modules is the interpreter's start-up, counted in a run's wall time but not
+    in its processing's CPU time, so callers import them before the clock starts. The
+    surface stage's (``fit = "auto"``) are most of it: scipy's trees, graphs and solvers.
+    A process forked after this call (``run``'s figure child) has them too.
+    """
+    if params.fit == "auto":
+        import sonarproc.pipeline.surfacefit
+    if params.align:
+        import sonarproc.pipeline.alignment  # noqa: F401
 
 
 def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
@@ -80,6 +102,7 @@ def process(
     cpu_start: float | None = None,
     aligned: Aligned | None = None,
     quality_of_curves: bool = True,
+    on_fitted: Callable[[RunResult], None] | None = None,
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
@@ -106,6 +129,10 @@ def process(
         Measure the quality of a map that is one curve (no surfaces). ``False`` where the
         caller replaces such a result (``run``'s default mode hands it to ``--auto``, which
         measures its own choice), so nothing is measured for nothing.
+    on_fitted : callable, optional
+        Called with the result as its quality starts to be measured: mapped, fitted and
+        measured but for its quality and timings (``run`` draws its figures meanwhile).
+        Not called where the result is handed on (``quality_of_curves`` false on a curve).
 
     Returns
     -------
@@ -134,6 +161,10 @@ def process(
 
         if result.surfaces is None and not quality_of_curves:
             return
+        if on_fitted is not None:
+            if aligned is not None:
+                result.alignment = aligned.record
+            on_fitted(result)
         result.quality = measure_quality(mapped, params, build_arc_map, beams, grid, mmap, result)
 
     result, _ = map_log(
@@ -221,12 +252,9 @@ def run_file(
 ) -> RunResult:
     """Read a log (:func:`load_log`) and :func:`process` it; ``t_cpu_s`` includes reading.
 
-    The surface stage's modules (and the scipy subpackages they use) are loaded before
-    the clock starts: loading modules is the interpreter's start-up, counted in the
-    run's wall time, not the processing's CPU time.
+    The stages' modules (:func:`import_stage_modules`) are loaded before the clock starts.
     """
-    if params.fit == "auto":
-        import sonarproc.pipeline.surfacefit  # noqa: F401
+    import_stage_modules(params)
     cpu0 = time.process_time()
     wall0 = time.perf_counter()
     if progress is not None:

@@ -56,7 +56,9 @@ __all__ = [
     "coarse_counts",
     "column_spans",
     "measure_surfaces",
+    "one_curve_at_a_glance",
     "refine_surfaces",
+    "seen_of_truth",
     "silent_geometry",
     "surface_kind",
     "surfaces_fit_record",
@@ -136,6 +138,29 @@ def column_spans(
     bottom = m.argmax(axis=0)[occupied]
     top = m.shape[0] - 1 - m[::-1].argmax(axis=0)[occupied]
     return (top - bottom + 1).astype(np.float64) * cell
+
+
+def one_curve_at_a_glance(
+    processed: npt.NDArray[np.bool_],
+    cell: float,
+    *,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+) -> bool:
+    """:func:`choose_fit`'s first test: the kept cells are one thin band, one function of x.
+
+    True when :func:`choose_fit` answers "function" without extracting surfaces (the
+    median column span at most :data:`MEDIAN_SPAN_M`, 90 % at most :data:`P90_SPAN_M`).
+
+    >>> m = np.zeros((50, 40), bool); m[20, :] = True
+    >>> one_curve_at_a_glance(m, 0.05), one_curve_at_a_glance(np.ones((50, 40), bool), 0.05)
+    (True, False)
+    """
+    spans = column_spans(processed, cell, cells=cells)
+    if spans.size == 0:
+        return False
+    return (
+        float(np.median(spans)) <= MEDIAN_SPAN_M and float(np.percentile(spans, 90)) <= P90_SPAN_M
+    )
 
 
 def choose_fit(
@@ -311,17 +336,34 @@ def silent_geometry(beams: Beams) -> EchoGeometry | None:
 
 
 def measure_surfaces(
-    found: SurfaceSet, truth: npt.NDArray[np.float64], arcs_args: tuple[Any, ...], **beams: Any
+    found: SurfaceSet,
+    truth: npt.NDArray[np.float64],
+    arcs_args: tuple[Any, ...],
+    *,
+    seen: npt.NDArray[np.bool_] | None = None,
+    **beams: Any,
 ) -> dict[str, Any]:
     """Precision and completeness of the fitted surfaces against a multi-surface truth.
 
     ``arcs_args`` and ``beams`` are the readings' geometry (transmitter and receiver
     positions and headings, path lengths; half beamwidths), which says which part of the
-    truth the sonars could see.
+    truth the sonars could see; ``seen`` is that part when the caller has it already
+    (:func:`seen_of_truth` of the same readings).
     """
-    pts = np.concatenate(truth_points(truth))
-    seen = seen_truth(pts, *arcs_args, **beams)
+    if seen is None:
+        pts = np.concatenate(truth_points(truth))
+        seen = seen_truth(pts, *arcs_args, **beams)
     return dict(surface_metrics(found.polylines(), truth, seen=seen).to_json())
+
+
+def seen_of_truth(truth: npt.NDArray[np.float64], beams: Beams) -> npt.NDArray[np.bool_]:
+    """The points of ``truth`` (:func:`truth_points`) some reading of ``beams`` could have
+    produced (:func:`seen_truth`): what :func:`measure_surfaces` measures completeness on."""
+    tp = beams.poses
+    pts = np.concatenate(truth_points(truth))
+    return seen_truth(pts, tp.tx_xy, tp.tx_heading, tp.rx_xy, tp.rx_heading, beams.path,
+                      tx_half_beamwidth=tp.tx_half_beamwidth,
+                      rx_half_beamwidth=tp.rx_half_beamwidth)  # fmt: skip
 
 
 def surface_kind(model: str | None) -> str:

@@ -282,15 +282,17 @@ def heldout_curves(params: RunParams, grid: Grid, mmap: MethodMap, beams: Beams)
     finds one curve y = f(x); else the run's own fit), without its metrics."""
     from sonarproc.pipeline.evaluation import fit_and_measure
 
-    ix, iy = np.nonzero(mmap.processed.T)
     fit_params = params
     if params.fit == "auto":
         from sonarproc.pipeline.surfacefit import choose_fit
 
-        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=(ix, iy))
+        # its test of one curve reads the map's column spans off the map itself: the kept
+        # cells one by one (millions on a long log's map) are needed for a curve's fit only
+        auto = choose_fit(mmap.processed, mmap.evidence, grid, beams)
         if auto.surfaces is not None:
             return curves_of(auto.surfaces, FitFailure("surfaces", ""), grid.cell)
         fit_params = replace(params, fit="poly")
+    ix, iy = np.nonzero(mmap.processed.T)
     if ix.size == 0:
         return MapCurves([], [], single=True)
     ev = fit_and_measure(fit_params, grid, mmap.processed, mmap.evidence, truth=None,

@@ -27,6 +27,7 @@ from sonarproc.pipeline.result import RunResult
 from sonarproc.report import style
 from sonarproc.report.auto_record import auto_record_html
 from sonarproc.report.plots import FIGURE_FORMATS, figure_bytes
+from sonarproc.report.run_report import DEFAULT_FIGURES
 from sonarproc.report.units import MISSING, length_cm, number, sig3
 from sonarproc.report.view import block_max, broken_at_jumps, clip_polyline, fit_curve, view_box
 
@@ -275,7 +276,7 @@ def write_comparison(
     out_dir: str | Path,
     *,
     auto: dict[str, Any] | None = None,
-    figures: Sequence[str] = FIGURE_FORMATS,
+    figures: Sequence[str] = DEFAULT_FIGURES,
 ) -> dict[str, Any]:
     """Write :data:`COMPARE_FILES` into ``out_dir``; return the ``compare.json`` dict.
 

@@ -20,7 +20,7 @@ import os
 import pickle
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -31,7 +31,7 @@ from sonarproc.report import style
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["PNG_COMPRESSION", "figure_bytes", "figures_bytes"]
+__all__ = ["PNG_COMPRESSION", "DrawingChild", "figure_bytes", "figures_bytes", "fork_is_safe"]
 
 log = logging.getLogger(__name__)
 
@@ -62,7 +62,7 @@ def figures_bytes(
     # encoder thread. (Measured on the 90 000-reading room run: the two take about as
     # long; a PNG more for the child makes it the slower of the two.)
     share = [job for job in jobs if job[2] == "svg"] if _can_fork(formats) else []
-    child = _DrawingChild.start(share) if share else None
+    child = DrawingChild.start(share) if share else None
     theirs_names = {name for name, _, _ in share} if child is not None else set()
     mine = [job for job in jobs if job[0] not in theirs_names]
     drawn: dict[str, bytes | Future[bytes]] = {}
@@ -88,12 +88,16 @@ def _result(value: Any) -> bytes:
 
 def _can_fork(formats: Sequence[str]) -> bool:
     """Whether the SVGs may go to a forked child: there are other formats to draw
-    meanwhile, two cores to draw on, not already shared with the sibling workers of a
-    pool (this is no pool's worker), and a fork is safe (Linux, no other thread)."""
+    meanwhile, and :func:`fork_is_safe`."""
+    return "svg" in formats and len(formats) >= 2 and fork_is_safe()
+
+
+def fork_is_safe() -> bool:
+    """Whether drawing may go to a forked child: two cores to draw on, not already shared
+    with the sibling workers of a pool (this is no pool's worker), and a fork is safe
+    (Linux, no other thread: a lone thread holds no lock the child could inherit locked)."""
     import multiprocessing
 
-    if "svg" not in formats or len(formats) < 2:
-        return False
     if sys.platform != "linux" or not hasattr(os, "fork"):
         return False
     if multiprocessing.parent_process() is not None:
@@ -105,15 +109,20 @@ def _can_fork(formats: Sequence[str]) -> bool:
 Job = tuple[str, "Figure", str]
 
 
-class _DrawingChild:
+class DrawingChild:
     """A forked child saving figures; :meth:`collect` reads its bytes."""
 
     def __init__(self, pid: int, fd: int) -> None:
         self.pid, self.fd = pid, fd
 
     @classmethod
-    def start(cls, jobs: Sequence[Job]) -> _DrawingChild | None:
+    def start(cls, jobs: Sequence[Job]) -> DrawingChild | None:
         """Fork a child that sends back ``{name: figure_bytes(fig, fmt)}`` of ``jobs``."""
+        return cls.start_work(lambda: {name: figure_bytes(fig, fmt) for name, fig, fmt in jobs})
+
+    @classmethod
+    def start_work(cls, work: Callable[[], dict[str, bytes]]) -> DrawingChild | None:
+        """Fork a child that sends back what ``work()`` returns (None: no child)."""
         read_fd, write_fd = os.pipe()
         try:
             pid = os.fork()
@@ -123,7 +132,7 @@ class _DrawingChild:
             os.close(write_fd)
             return None
         if pid == 0:  # the child: draw, send, and leave without running any exit handler
-            _child_main(jobs, read_fd, write_fd)
+            _child_main(work, read_fd, write_fd)
         os.close(write_fd)
         return cls(pid, read_fd)
 
@@ -138,12 +147,22 @@ class _DrawingChild:
         files = pickle.loads(payload)  # our own child's {name: bytes}
         return {str(k): bytes(v) for k, v in files.items()}
 
+    def cancel(self) -> None:
+        """Stop the child (its files are no longer wanted) and reap it."""
+        import signal
+        from contextlib import suppress
 
-def _child_main(jobs: Sequence[Job], read_fd: int, write_fd: int) -> None:
+        with suppress(ProcessLookupError):  # it has exited: it is reaped below all the same
+            os.kill(self.pid, signal.SIGKILL)
+        os.close(self.fd)
+        os.waitpid(self.pid, 0)
+
+
+def _child_main(work: Callable[[], dict[str, bytes]], read_fd: int, write_fd: int) -> None:
     code = 1
     try:
         os.close(read_fd)
-        payload = pickle.dumps({name: figure_bytes(fig, fmt) for name, fig, fmt in jobs})
+        payload = pickle.dumps(work())
         with os.fdopen(write_fd, "wb") as pipe:
             pipe.write(payload)
         code = 0

@@ -1,8 +1,8 @@
 """Write a run's report directory: report.json, profile.csv, three figures and report.html.
 
-Each figure is written as a 150 dpi PNG (embedded in ``report.html``) and/or a vector SVG
-beside it, for print, as ``figures`` asks (``--figures``); with none, no figure is drawn
-and matplotlib is not imported.
+Each figure is written as a 150 dpi PNG (embedded in ``report.html``; the default) and/or
+a vector SVG beside it, for print, as ``figures`` asks (``--figures``); with none, no
+figure is drawn and matplotlib is not imported.
 
 :func:`report_dict` is the single source of every number the files show; the writers only
 format it. The file set is documented in docs/formats.md.
@@ -14,7 +14,7 @@ import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +24,9 @@ from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.run import METHOD
 from sonarproc.report.jsonable import to_jsonable
 from sonarproc.version import __version__
+
+if TYPE_CHECKING:
+    from sonarproc.report.ahead import AheadFigures
 
 __all__ = [
     "DEFAULT_FIGURES",
@@ -51,8 +54,10 @@ REPORT_FILES = (
     "fit.svg",
     "report.html",
 )
-#: The figure formats written when none are named (``--figures png,svg``).
-DEFAULT_FIGURES = ("png", "svg")
+#: The figure formats written when none are named (``--figures png``): the PNGs are what
+#: report.html shows; an SVG of a dense map costs as much again to draw and is for print,
+#: one option away (``--figures png,svg``).
+DEFAULT_FIGURES = ("png",)
 
 
 def report_files(figures: Sequence[str] = DEFAULT_FIGURES) -> tuple[str, ...]:
@@ -226,11 +231,14 @@ def write_report(
     *,
     auto: dict[str, Any] | None = None,
     figures: Sequence[str] = DEFAULT_FIGURES,
+    ahead: AheadFigures | None = None,
 ) -> dict[str, Any]:
     """Write the files of :func:`report_files` into ``out_dir``; return the report dict.
 
     ``auto``: the ``--auto`` record (report.json's ``auto``, a section of report.html);
-    ``figures``: the figure formats (``png``, ``svg``; empty: no figures).
+    ``figures``: the figure formats (``png``, ``svg``; empty: no figures); ``ahead``: the
+    figures being drawn in a child (:class:`sonarproc.report.ahead.AheadFigures`), used
+    when drawn for this result, formats and record, else drawn here.
     """
     from sonarproc.report import plots
     from sonarproc.report.html import render_html
@@ -245,7 +253,9 @@ def write_report(
 
         write_surfaces_csv(result.surfaces.surfaces, out / "surfaces.csv")
         write_surfaces_geojson(result.surfaces.surfaces, out / "surfaces.geojson")
-    drawn = plots.render_figures(result, figures, auto=auto)
+    drawn = ahead.collect(result, figures, auto) if ahead is not None else None
+    if drawn is None:
+        drawn = plots.render_figures(result, figures, auto=auto)
     for name, data in drawn.items():
         (out / name).write_bytes(data)
     (out / "report.html").write_text(render_html(doc, drawn), encoding="utf-8")

@@ -41,6 +41,8 @@ def test_compare_writes_every_file(
             "10",
             "--set",
             "occupancy.select=ridge",
+            "--figures",
+            "png,svg",
             "--json",
         ]
     )

@@ -89,7 +89,7 @@ def result() -> RunResult:
 @pytest.fixture(scope="module")
 def report(result: RunResult, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("figs")
-    write_report(result, out)
+    write_report(result, out, figures=("png", "svg"))
     return out
 
 
@@ -331,7 +331,7 @@ def test_compare_figure_is_a_labelled_grid(tmp_path: Path) -> None:
             xy = line.get_xydata()
             ok = np.isfinite(xy).all(axis=1)
             assert np.all((xy[ok, 0] >= box[0]) & (xy[ok, 0] <= box[1]))
-    write_comparison("scan.h5", params, results, tmp_path)
+    write_comparison("scan.h5", params, results, tmp_path, figures=("png", "svg"))
     assert png_info((tmp_path / "compare.png").read_bytes())[2] == 150
     root = ElementTree.fromstring((tmp_path / "compare.svg").read_bytes())
     assert root.tag == f"{SVG}svg"

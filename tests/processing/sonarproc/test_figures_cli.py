@@ -92,7 +92,7 @@ def test_watch_once_on_a_truth_log_with_an_extrapolating_fit(
                header="x,y", comments="")  # fmt: skip
     out = tmp_path / "w"
     code = main(["watch", str(fig12), "--once", "--out", str(out), "--truth", str(truth),
-                 "--fit", "poly", "--order", "9"])  # fmt: skip
+                 "--fit", "poly", "--order", "9", "--figures", "png,svg"])  # fmt: skip
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "Traceback" not in captured.err + captured.out

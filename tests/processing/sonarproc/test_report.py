@@ -14,6 +14,7 @@ from sonarproc.pipeline import RunResult, process
 from sonarproc.report import REPORT_FILES, default_out_dir, report_dict, write_report
 from sonarproc.report.html import render_html
 from sonarproc.report.plots import block_max
+from sonarproc.report.run_report import report_files
 from sonarproc.report.units import length_cm
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "configs" / "sensors"
@@ -59,7 +60,8 @@ def test_no_truth_omits_E1_E2(result: RunResult) -> None:
 def test_write_report_files(tmp_path: Path, result: RunResult) -> None:
     doc = write_report(result, tmp_path / "out")
     out = tmp_path / "out"
-    assert sorted(p.name for p in out.iterdir()) == sorted(REPORT_FILES)
+    assert sorted(p.name for p in out.iterdir()) == sorted(report_files())
+    assert report_files() == tuple(n for n in REPORT_FILES if not n.endswith(".svg"))
     assert json.loads((out / "report.json").read_text()) == json.loads(json.dumps(doc))
     for name in ("arcmap.png", "processed.png", "fit.png"):
         assert (out / name).read_bytes()[:8] == PNG
@@ -113,6 +115,20 @@ def test_block_max_keeps_every_set_cell() -> None:
     b = block_max(a, limit=1000)
     assert max(b.shape) <= 1000 and b.sum() <= a.sum() and b.any() == a.any()
     assert block_max(a[:10, :10]) is not None
+
+
+@pytest.mark.parametrize("shape", [(2001, 2001), (2501, 1203), (7, 1000), (1000, 1000)])
+@pytest.mark.parametrize("dtype", [np.uint32, np.uint16, np.bool_])
+def test_block_max_is_the_maximum_of_each_block(shape: tuple[int, int], dtype: type) -> None:
+    rng = np.random.default_rng(shape[0] + shape[1])
+    a = (rng.random(shape) > 0.97).astype(dtype) * (1 if dtype is np.bool_ else 7)
+    a = a.astype(dtype)
+    f = int(np.ceil(max(shape) / 300))
+    padded = np.pad(a, ((0, (-shape[0]) % f), (0, (-shape[1]) % f)))
+    want = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f).max(axis=(1, 3))
+    got = block_max(a, limit=300)
+    assert got.dtype == a.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
 
 
 def test_default_out_dir() -> None:

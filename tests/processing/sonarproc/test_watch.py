@@ -15,7 +15,7 @@ import pytest
 from procs import stop_process
 
 from sonarproc.cli import main
-from sonarproc.report import REPORT_FILES
+from sonarproc.report import report_files
 from sonarproc.simulate import simulate_to_log
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "configs" / "scenarios"
@@ -205,7 +205,7 @@ def test_watch_once_on_a_finished_log(
     assert code == 0
     assert "stopped (once) after 1 update(s), 10787 readings" in capsys.readouterr().out
     live = json.loads((out / "report.json").read_text(encoding="utf-8"))
-    assert sorted(os.listdir(out)) == sorted(REPORT_FILES)
+    assert sorted(os.listdir(out)) == sorted(report_files())  # the PNGs only, by default
     assert main(["run", str(source_log), "--out", str(tmp_path / "b"), "--ops", "thinning:6"]) == 0
     capsys.readouterr()
     batch = json.loads((tmp_path / "b" / "report.json").read_text(encoding="utf-8"))

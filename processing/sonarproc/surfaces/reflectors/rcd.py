@@ -361,6 +361,11 @@ def pose_keys(xy: FloatArray) -> npt.NDArray[np.int64]:
 
 
 def _distinct_poses(xy: FloatArray) -> int:
+    """Distinct :data:`RANGE_TOL_M` cells the sensor positions ``xy`` fall in.
+
+    >>> _distinct_poses(np.array([[0.0, 0.0], [0.01, 0.0], [0.05, 0.0], [0.0, 0.05]]))
+    3
+    """
     return int(np.unique(pose_keys(xy)).size)
 
 

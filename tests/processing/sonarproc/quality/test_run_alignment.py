@@ -48,7 +48,9 @@ def test_run_removes_the_drift_and_restores_the_surfaces(name: str, seed: int, t
     exact, drifted = _looped(name, seed, tmp)
     aligned, record = align_log(drifted)
     assert record.applied, record.reason
-    assert record.cost_drop_x2 > 3 * record.threshold  # far beyond the chance level
+    # beyond the chance level, judged on the matches found at the raw poses (measured:
+    # hall-pillar 231 against 140, about 1.6x)
+    assert record.cost_drop_x2 > 1.25 * record.threshold
     truth = exact.readings
     before = pose_error_rms(truth, drifted.readings["x"], drifted.readings["y"])
     after = pose_error_rms(truth, aligned.readings["x"], aligned.readings["y"])
@@ -110,3 +112,23 @@ def test_the_alignment_figure_is_drawn_when_applied(tmp: str, tmp_path: Path) ->
     assert (out / "alignment.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     page = (out / "report.html").read_text()
     assert "Odometry drift correction" in page and "alignment.png" in page
+
+
+@pytest.mark.parametrize(
+    "scenario",
+    [
+        "office-door",
+        str(Path(__file__).resolve().parents[3] / "data/scenarios/heldout-u-hall.yaml"),
+    ],
+)
+def test_a_drift_free_transducer_log_keeps_its_poses(scenario: str, tmp_path: Path) -> None:
+    """Corner and edge echoes and time walk are not drift: judged on the matches found at
+    the raw poses, the correction of these exact-pose logs is not significant (measured:
+    twice the cost drop 70.6 against 83.5 and 45.2 against 68.7; judged on the solver's
+    last matches it passed, and moved their poses by 11 and 38 cm)."""
+    log = tmp_path / "log.h5"
+    assert main(["simulate", scenario, "--out", str(log)]) == 0
+    _, record = align_log(read_log(log))
+    assert record.applied is False, record.reason
+    assert record.max_shift_m == 0.0
+    assert record.cost_drop_x2 <= record.threshold
