@@ -33,7 +33,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -41,9 +41,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from sonarlog.schema import SENSOR_DTYPE
 from sonarlog.sources.errors import SourceError
-from sonarsim.arrays import SensorArray, circular_array, linear_array, make_array
-from sonarsim.scenario_spec import CircularArray, ExplicitArray, LinearArray, SensorFile
-from sonarsim.shipped import resolve_shipped, shipped_names
+
+if TYPE_CHECKING:
+    from sonarsim.arrays import SensorArray
+    from sonarsim.scenario_spec import SensorFile
+
+# sonarsim (the shipped presets, the array shapes) is imported where it is needed: its
+# import costs most of a second, and a sensors table read from a file needs none of it
 
 __all__ = ["SensorSet", "load_sensors", "preset_names", "sensors_for"]
 
@@ -122,6 +126,8 @@ class _TableFile(BaseModel):
 
 def preset_names() -> list[str]:
     """Names of the shipped sensors files usable as ``robot`` presets, sorted."""
+    from sonarsim.shipped import shipped_names
+
     return shipped_names("sensors")
 
 
@@ -140,6 +146,9 @@ def _limits(spec: SensorFile) -> dict[str, float]:
 
 
 def _array_table(source: str, spec: SensorFile) -> np.ndarray:
+    from sonarsim.arrays import circular_array, linear_array, make_array
+    from sonarsim.scenario_spec import CircularArray, ExplicitArray, LinearArray
+
     a = spec.array
     lim = _limits(spec)
     arr: SensorArray
@@ -174,6 +183,8 @@ def _from_mapping(source: str, doc: dict[str, Any]) -> SensorSet:
             np.array(rows, dtype=SENSOR_DTYPE), tf.robot, tf.speed_of_sound, frames, source
         )
     if "array" in doc:
+        from sonarsim.scenario_spec import SensorFile
+
         try:
             sf = SensorFile.model_validate(doc)
         except ValidationError as err:
@@ -187,11 +198,20 @@ def _ring(name: str, m: re.Match[str]) -> SensorSet:
     radius = float(m.group(2)) if m.group(2) else _DEFAULT_RING_RADIUS
     if not 1 <= count <= 360 or not radius > 0:
         raise SourceError(f"{name}: a ring needs 1-360 sensors and a positive radius")
+    from sonarsim.arrays import circular_array
+
     arr = circular_array(count, radius, half_beamwidth=math.radians(15.0), min_range=0.02,
                          max_range=4.0)  # fmt: skip
     return SensorSet(
         np.asarray(arr.records()).astype(SENSOR_DTYPE), name, None, {}, f"preset {name}"
     )
+
+
+def _shipped(ref: str | Path) -> Path:
+    """The shipped sensors file ``ref`` names (:func:`sonarsim.shipped.resolve_shipped`)."""
+    from sonarsim.shipped import resolve_shipped
+
+    return resolve_shipped(ref, kind="sensors")
 
 
 def load_sensors(ref: str | Path) -> SensorSet:
@@ -217,7 +237,7 @@ def load_sensors(ref: str | Path) -> SensorSet:
     if ring and not Path(name).exists():
         return _ring(name, ring)
     try:
-        path = resolve_shipped(ref, kind="sensors")
+        path = Path(name) if Path(name).exists() else _shipped(ref)
     except FileNotFoundError as err:
         raise SourceError(
             f"{name}: no such sensors file and no preset of that name "

@@ -129,7 +129,8 @@ def confirm_points(
     polys = [s.polyline for s in surfaces if s.polyline.shape[0] >= 2]
     closed = [s.closed for s in surfaces if s.polyline.shape[0] >= 2]
     walls = line_ends(surfaces)
-    todo = [k for k, f in enumerate(points) if not (walls and bool(inside_walls(f.xy, walls)[0]))]
+    boxes = _WallBoxes(walls)
+    todo = [k for k, f in enumerate(points) if not boxes.inside(f.xy)]
     explained = np.zeros(echoes.size, dtype=bool)
     if polys and todo:
         # the points' readings at once (each belongs to one point)
@@ -149,9 +150,30 @@ def confirm_points(
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces):
             continue
-        if _anchored(new, walls):
+        if _anchored(new, walls, boxes):
             out.append((k, new))
     return out
+
+
+class _WallBoxes:
+    """The fitted planes near a point, by their bounding boxes, for :func:`inside_walls`.
+
+    A point inside a plane lies within :data:`LINE_REACH_M` of its segment, so within its
+    bounding box grown by that (and a micrometre for rounding); only those planes are
+    tested, which gives :func:`inside_walls`' answer for every plane without testing
+    the rest one by one.
+    """
+
+    def __init__(self, walls: list[tuple[FloatArray, FloatArray]]) -> None:
+        self.walls = walls
+        ends = np.array(walls, dtype=np.float64).reshape(-1, 2, 2)
+        reach = LINE_REACH_M + 1e-6
+        self.lo, self.hi = ends.min(axis=1) - reach, ends.max(axis=1) + reach
+
+    def inside(self, xy: FloatArray) -> bool:
+        """Whether ``xy`` lies inside a plane (:func:`inside_walls`)."""
+        near = np.flatnonzero(((self.lo <= xy) & (xy <= self.hi)).all(axis=1))
+        return bool(near.size) and bool(inside_walls(xy, [self.walls[i] for i in near])[0])
 
 
 def on_circles(xy: npt.ArrayLike, surfaces: list[SurfaceFit]) -> bool:
@@ -245,7 +267,9 @@ def _far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
     return _poses(echoes.xy[far]) if far.size else 0
 
 
-def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bool:
+def _anchored(
+    f: PointFeature, walls: list[tuple[FloatArray, FloatArray]], boxes: _WallBoxes
+) -> bool:
     """Whether a point is where a fitted plane ends.
 
     A point reflector is the end of a wall (a corner, a box's edge, a jamb): it lies on a
@@ -255,7 +279,7 @@ def _anchored(f: PointFeature, walls: list[tuple[FloatArray, FloatArray]]) -> bo
     several surfaces cross by chance at points, a few times each, and what is seen of a
     real reflector without any wall (a thin post) is fitted as a curve by the map.
     """
-    if not walls or bool(inside_walls(f.xy, walls)[0]):
+    if not walls or boxes.inside(f.xy):
         return False
     return bool(on_wall_lines(f.xy, walls)[0])
 

@@ -15,8 +15,9 @@ their beams, while no plane explains the same ranges.
 2. **Gathering**: the readings whose range is within :data:`RANGE_TOL_M` of their
    sensor's distance to the candidate, and whose beam (its half-width times
    :data:`BEAM_SLACK`) holds it.
-3. **Position**: ``p`` by least squares on those ranges (MINPACK's Levenberg-Marquardt),
-   gathering again round the new ``p``, twice.
+3. **Position**: ``p`` by least squares on those ranges
+   (Levenberg-Marquardt, :func:`scipy.optimize.leastsq`), gathering again round the new
+   ``p``, twice.
 4. **Tests**, each with its physical reason:
 
    * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
@@ -110,6 +111,18 @@ GATHER_ROUNDS = 2
 #: local maxima of the map; the weakest are the many chance crossings of arcs.
 MAX_CANDIDATES = 400
 
+# The directions :func:`plane_rms` and :func:`diffuse_rms` try (every half degree), and
+# the products of their cosines and sines, computed once.
+_PLANE_A = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+_PLANE_CA, _PLANE_SA = np.cos(_PLANE_A), np.sin(_PLANE_A)
+_PLANE_CC, _PLANE_CS2, _PLANE_SS = _PLANE_CA * _PLANE_CA, 2 * _PLANE_CA * _PLANE_SA, _PLANE_SA**2
+_DIFFUSE_A = np.linspace(0.0, np.pi, 360, endpoint=False)
+_DIFFUSE_N = np.column_stack((np.cos(_DIFFUSE_A), np.sin(_DIFFUSE_A)))
+_GRAZING = math.sin(math.radians(3.0))
+#: A batched screening value within this (m) of its threshold is recomputed by the
+#: candidate's own test: the batched sums round differently (by about 1e-15 m).
+_SCREEN_MARGIN_M = 1e-9
+
 
 @dataclass(frozen=True, eq=False)
 class PointFeature:
@@ -175,6 +188,32 @@ class _ArcIndex:
         parts = [rows[tree.query_ball_point(p, r)] for rows, tree, r in self.groups]
         return np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)
 
+    def near_many(self, pts: FloatArray) -> tuple[IntArray, IntArray]:
+        """:meth:`near` of every point of ``pts`` (C, 2) at once: (point, reading) pairs."""
+        which, rows_near = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
+        for rows, tree, r in self.groups:
+            hits = tree.query_ball_point(pts, r)
+            counts = np.fromiter(map(len, hits), dtype=np.intp, count=len(hits))
+            if counts.sum() == 0:
+                continue
+            which.append(np.repeat(np.arange(len(hits)), counts))
+            rows_near.append(rows[np.concatenate([h for h in hits if h]).astype(np.intp)])
+        return np.concatenate(which), np.concatenate(rows_near)
+
+
+def _passes(echoes: EchoGeometry, idx: IntArray, d: FloatArray) -> npt.NDArray[np.bool_]:
+    """Whether readings ``idx``, ``d`` (N, 2) from the point to their sensors, pass through it.
+
+    Through it: the range within :data:`RANGE_TOL_M` of the distance, the point inside
+    the beam (its half-width times :data:`BEAM_SLACK`).
+    """
+    dist = np.hypot(d[:, 0], d[:, 1])
+    ok = np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M
+    bearing = np.arctan2(-d[ok, 1], -d[ok, 0])
+    off = np.abs(_wrap(bearing - echoes.heading[idx[ok]]))
+    ok[ok] = off <= BEAM_SLACK * echoes.half_beam[idx[ok]]
+    return ok
+
 
 def _gather(
     echoes: EchoGeometry, free: npt.NDArray[np.bool_], p: FloatArray, index: _ArcIndex | None
@@ -183,33 +222,43 @@ def _gather(
     idx = np.flatnonzero(free) if index is None else np.sort(index.near(p))
     if index is not None:
         idx = idx[free[idx]]
-    d = echoes.xy[idx] - p
-    dist = np.hypot(d[:, 0], d[:, 1])
-    near = np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M
-    idx, d = idx[near], d[near]
-    if idx.size == 0:
-        return idx
-    bearing = np.arctan2(-d[:, 1], -d[:, 0])
-    off = np.abs(_wrap(bearing - echoes.heading[idx]))
-    return idx[off <= BEAM_SLACK * echoes.half_beam[idx]]
+    return idx[_passes(echoes, idx, echoes.xy[idx] - p)]
+
+
+def _gather_all(
+    echoes: EchoGeometry, free: npt.NDArray[np.bool_], starts: FloatArray, index: _ArcIndex
+) -> list[IntArray]:
+    """:func:`_gather` round every start at once (each list sorted, as :func:`_gather`'s).
+
+    A reading passes or not whatever the other readings do, so a gather made now and
+    restricted later to the readings still free is the gather made then.
+    """
+    which, idx = index.near_many(starts)
+    keep = free[idx]
+    which, idx = which[keep], idx[keep]
+    keep = _passes(echoes, idx, echoes.xy[idx] - starts[which])
+    which, idx = which[keep], idx[keep]
+    order = np.lexsort((idx, which))
+    which, idx = which[order], idx[order]
+    return np.split(idx, np.searchsorted(which, np.arange(1, starts.shape[0])))
 
 
 def _levenberg_marquardt(
     res: Callable[[FloatArray], FloatArray], jac: Callable[[FloatArray], FloatArray], x0: FloatArray
 ) -> FloatArray:
-    """MINPACK's Levenberg-Marquardt (``lmder``) on ``res`` from ``x0``: the solution.
+    """The least-squares solution from ``x0``: MINPACK's Levenberg-Marquardt (``lmder``).
 
-    The solver and settings of ``least_squares(res, x0, jac=jac, method="lm")`` (scipy >=
-    1.16: tolerances 1e-8, at most 100 evaluations per unknown, step bound factor 100,
-    scaled by the Jacobian's columns), so the same answer to the last bit, called through
-    :func:`scipy.optimize.leastsq`, whose wrapper costs a quarter of ``least_squares``'s: a
-    run tests a few hundred candidate points of a few dozen readings each, where the
-    wrapper, not the solve, was the cost.
+    :func:`scipy.optimize.leastsq` runs the ``lmder`` that
+    ``scipy.optimize.least_squares(method="lm")`` runs, with the same tolerances (1e-8),
+    step bound factor (100), scaling (by the Jacobian's columns) and evaluation limit
+    (100 per unknown), so the solution is the same to the last bit; it skips
+    ``least_squares``' per-call set-up, about 3 times the solve for 2 or 3 unknowns and
+    hundreds of candidate points per log. The full output keeps a solve that stops at
+    its evaluation limit silent, as ``least_squares``' is.
     """
-    x0 = np.asarray(x0, dtype=np.float64)
-    out = leastsq(res, x0, Dfun=jac, full_output=True, ftol=1e-8, xtol=1e-8, gtol=1e-8,
-                  maxfev=100 * x0.size, factor=100.0)  # fmt: skip
-    return np.asarray(out[0], dtype=np.float64)
+    x = leastsq(res, x0, Dfun=jac, full_output=True, ftol=1e-8, xtol=1e-8, gtol=1e-8,
+                maxfev=100 * x0.size, factor=100.0)[0]  # fmt: skip
+    return np.asarray(x, dtype=np.float64)
 
 
 def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatArray, float]:
@@ -248,10 +297,8 @@ def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
     m = np.column_stack((xy, rng))
     m = m - m.mean(axis=0)
     c = (m.T @ m) / m.shape[0]
-    a = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
-    ca, sa = np.cos(a), np.sin(a)
-    var = (c[2, 2] + 2 * (ca * c[0, 2] + sa * c[1, 2])
-           + ca * ca * c[0, 0] + 2 * ca * sa * c[0, 1] + sa * sa * c[1, 1])  # fmt: skip
+    var = (c[2, 2] + 2 * (_PLANE_CA * c[0, 2] + _PLANE_SA * c[1, 2])
+           + _PLANE_CC * c[0, 0] + _PLANE_CS2 * c[0, 1] + _PLANE_SS * c[1, 1])  # fmt: skip
     return float(math.sqrt(max(float(var.min()), 0.0)))
 
 
@@ -271,11 +318,9 @@ def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.Arr
     0.0
     """
     q = np.asarray(p, dtype=np.float64)
-    a = np.linspace(0.0, np.pi, 360, endpoint=False)
-    n = np.column_stack((np.cos(a), np.sin(a)))
-    num = (q - xy) @ n.T
-    den = np.column_stack((np.cos(heading), np.sin(heading))) @ n.T
-    ok = np.abs(den) > math.sin(math.radians(3.0))
+    num = (q - xy) @ _DIFFUSE_N.T
+    den = np.column_stack((np.cos(heading), np.sin(heading))) @ _DIFFUSE_N.T
+    ok = np.abs(den) > _GRAZING
     t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
     miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
     return float(np.sqrt(np.mean(miss * miss, axis=0)).min())
@@ -305,17 +350,23 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
     return radius > 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0))
 
 
+def pose_keys(xy: FloatArray) -> npt.NDArray[np.int64]:
+    """One integer per :data:`RANGE_TOL_M` cell of the sensor positions ``xy`` (N, 2).
+
+    Positions in one cell give the same range to any point (they add no geometry); equal
+    keys are equal cells (a cell index fits in 31 bits up to 64 000 km from the origin).
+    """
+    cells = np.floor(xy / RANGE_TOL_M).astype(np.int64)
+    return np.asarray(cells[:, 0] * (1 << 32) + cells[:, 1], dtype=np.int64)
+
+
 def _distinct_poses(xy: FloatArray) -> int:
     """Distinct :data:`RANGE_TOL_M` cells the sensor positions ``xy`` fall in.
 
     >>> _distinct_poses(np.array([[0.0, 0.0], [0.01, 0.0], [0.05, 0.0], [0.0, 0.05]]))
     3
     """
-    if xy.shape[0] == 0:
-        return 0
-    cells = np.floor(xy / RANGE_TOL_M).astype(np.int64)
-    cells = cells[np.lexsort((cells[:, 1], cells[:, 0]))]  # rows of one cell side by side
-    return 1 + int(np.count_nonzero(np.any(cells[1:] != cells[:-1], axis=1)))
+    return int(np.unique(pose_keys(xy)).size)
 
 
 def _span(xy: FloatArray, p: FloatArray) -> float:
@@ -424,38 +475,107 @@ def find_point_features(
     starts = candidates(counts, grid, around=around, reach=reach)
     if skip is not None and starts.size:
         starts = starts[~skip(starts)]
-    index = _ArcIndex(echoes, free) if starts.size else None
-    for c in starts:
-        if found and min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M:
+    if not starts.size:
+        return found
+    index = _ArcIndex(echoes, free)
+    # every candidate's first gather and cheap tests at once: most fail them (they lie
+    # on walls); an accepted point's readings are taken out of the later gathers
+    gathers = _gather_all(echoes, free, starts, index)
+    verdicts = _enough_all(echoes, gathers)
+    found_xy = np.zeros((0, 2))
+    for c, idx, verdict in zip(starts, gathers, verdicts.tolist(), strict=True):
+        if found and _near_found(c, found_xy, found):
             continue
-        feature = _test_point(echoes, free, c, index)
+        still = free[idx]
+        first = (idx, verdict) if still.all() else (idx[still], -1)
+        feature = _test_point(echoes, free, c, index, first)
         if feature is not None:
             free[feature.readings] = False
             found.append(feature)
+            found_xy = np.vstack((found_xy, feature.xy))
     return found
 
 
-def _enough(echoes: EchoGeometry, idx: IntArray) -> float | None:
-    """The cheap tests: readings, distinct poses, and no plane within the range noise.
+def _near_found(c: FloatArray, found_xy: FloatArray, found: list[PointFeature]) -> bool:
+    """Whether ``c`` lies within :data:`CANDIDATE_SPACING_M` of a point found already."""
+    gap = float(np.hypot(found_xy[:, 0] - c[0], found_xy[:, 1] - c[1]).min())
+    if abs(gap - CANDIDATE_SPACING_M) > _SCREEN_MARGIN_M:
+        return gap < CANDIDATE_SPACING_M
+    return min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M
 
-    Returns the best plane's RMS residual (m, :func:`plane_rms`) when they pass, else None.
-    """
-    if idx.size < MIN_READINGS or _distinct_poses(echoes.xy[idx]) < MIN_POSES:
+
+def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
+    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+    return _cheap_tests(echoes, idx) is not None
+
+
+def _cheap_tests(echoes: EchoGeometry, idx: IntArray) -> tuple[int, float] | None:
+    """:func:`_enough`'s tests; when they pass, the distinct poses and :func:`plane_rms`."""
+    if idx.size < MIN_READINGS:
+        return None
+    poses = _distinct_poses(echoes.xy[idx])
+    if poses < MIN_POSES:
         return None
     prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
-    return prms if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
+    return (poses, prms) if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
+
+
+def _enough_all(echoes: EchoGeometry, gathers: list[IntArray]) -> npt.NDArray[np.int8]:
+    """:func:`_enough` of every gather at once: 1 passes, 0 fails, -1 too close to tell.
+
+    The readings and distinct poses are counted exactly; :func:`plane_rms` is evaluated
+    for all gathers together (the same quadratic form, from per-gather sums that round
+    differently), and a value within :data:`_SCREEN_MARGIN_M` of the threshold is left
+    to :func:`_enough`.
+    """
+    sizes = np.fromiter(map(len, gathers), dtype=np.intp, count=len(gathers))
+    verdict = np.zeros(len(gathers), dtype=np.int8)
+    if not len(gathers) or sizes.max(initial=0) < MIN_READINGS:
+        return verdict
+    which = np.repeat(np.arange(len(gathers)), sizes)
+    idx = np.concatenate(gathers)
+    # distinct poses: distinct (gather, pose cell) pairs
+    key = np.unique(np.column_stack((which, pose_keys(echoes.xy[idx]))), axis=0)[:, 0]
+    poses = np.bincount(key, minlength=len(gathers))
+    test = np.flatnonzero((sizes >= MIN_READINGS) & (poses >= MIN_POSES))
+    if test.size == 0:
+        return verdict
+    rows = np.isin(which, test)
+    which, idx = np.searchsorted(test, which[rows]), idx[rows]
+    n = sizes[test].astype(np.float64)
+    m = np.column_stack((echoes.xy[idx], echoes.range_m[idx]))
+    mean = np.stack([np.bincount(which, m[:, j], test.size) for j in range(3)], axis=1) / n[:, None]
+    m = m - mean[which]
+
+    def cov(i: int, j: int) -> FloatArray:
+        return np.bincount(which, m[:, i] * m[:, j], test.size)[:, None] / n[:, None]
+
+    var = (cov(2, 2) + 2 * (_PLANE_CA * cov(0, 2) + _PLANE_SA * cov(1, 2))
+           + _PLANE_CC * cov(0, 0) + _PLANE_CS2 * cov(0, 1) + _PLANE_SS * cov(1, 1))  # fmt: skip
+    rms = np.sqrt(np.maximum(var.min(axis=1), 0.0))
+    threshold = PLANE_NOISE_FACTOR * RANGE_NOISE_M
+    verdict[test] = np.where(np.abs(rms - threshold) <= _SCREEN_MARGIN_M, -1, rms >= threshold)
+    return verdict
 
 
 def _test_point(
-    echoes: EchoGeometry, free: npt.NDArray[np.bool_], start: FloatArray, index: _ArcIndex | None
+    echoes: EchoGeometry,
+    free: npt.NDArray[np.bool_],
+    start: FloatArray,
+    index: _ArcIndex | None,
+    first: tuple[IntArray, int] | None = None,
 ) -> PointFeature | None:
-    """The point reflector the free readings make round ``start``, or None (module notes)."""
+    """The point reflector the free readings make round ``start``, or None (module notes).
+
+    ``first``: the gather round ``start`` and its :func:`_enough_all` verdict, when known.
+    """
     p = start
-    idx = _gather(echoes, free, p, index)
+    idx, verdict = (_gather(echoes, free, p, index), -1) if first is None else first
     # the cheap tests first: most candidates lie on walls, whose readings a plane explains
     for _ in range(GATHER_ROUNDS):
-        if _enough(echoes, idx) is None:
+        if not (bool(verdict) if verdict >= 0 else _enough(echoes, idx)):
             return None
+        verdict = -1
         p, _ = _fit_point(echoes.xy[idx], echoes.range_m[idx], p)
         idx = _gather(echoes, free, p, index)
     return point_feature(echoes, idx, p)
@@ -477,9 +597,10 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     -------
     PointFeature or None
     """
-    prms = _enough(echoes, idx)
-    if prms is None:
+    cheap = _cheap_tests(echoes, idx)
+    if cheap is None:
         return None
+    poses, prms = cheap
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
     if prms < PLANE_POINT_RATIO * rms:
@@ -488,4 +609,4 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
         return None
     if _radius_says_cylinder(xy, rng, p):
         return None
-    return PointFeature(p, idx, _distinct_poses(xy), rms, prms, _span(xy, p))
+    return PointFeature(p, idx, poses, rms, prms, _span(xy, p))
