@@ -10,6 +10,7 @@ import pytest
 
 from sonarsim import ScenarioError, SimResult, load_scenario, scenario_from_dict, simulate
 from sonarsim.records import FLAG_NO_ECHO, READING_DTYPE, SENSOR_DTYPE
+from sonarsim.transducer import time_walk
 
 ROOT = Path(__file__).resolve().parents[3]
 SHIPPED = sorted((ROOT / "configs/scenarios").glob("*.yaml"))
@@ -80,6 +81,9 @@ def test_every_scenario_simulates_consistently(path: Path) -> None:
     gap = np.min(np.abs(d - path_len[:, None]), axis=1)
     imp = scn.imperfections
     tol = 1e-3 + 2 * (5 * imp.range_noise_sigma + (imp.quantum if imp.quantise else 0.0))
+    if scn.physics == "transducer":
+        # an echo just above the threshold reads long by the time walk (at most this)
+        tol += float(time_walk(scn.transducer.threshold, scn.transducer, C))
     if imp.spurious_probability > 0:
         # spurious echoes are off the surface by design (and, earlier than a true echo,
         # push it down the echo ranks): a few times their probability of the channels
@@ -89,9 +93,9 @@ def test_every_scenario_simulates_consistently(path: Path) -> None:
         listeners = 1 if scn.pairs == "own" else len(res.sensors)
         channels = len(scn.poses) * len(res.sensors) * listeners
         assert np.sum(gap > tol) <= (4 * imp.spurious_probability + 0.01) * max(channels, len(r))
-    elif scn.max_order == 1:
+    elif scn.max_order == 1 and all(surface.truth for surface in scn.world.surfaces):
         assert np.all(gap <= tol)
-    else:  # higher orders (room corners) are not tangent to the truth
+    else:  # higher orders (room corners), or surfaces left out of the truth (a room)
         assert np.mean(gap <= tol) > 0.5
 
 
