@@ -4,7 +4,8 @@ The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wanderin
 20 m x 20 m room, 90 000 readings. ``sonarproc.pipeline.process`` with the default
 options (``fit = "auto"``, no truth, as a robot's log) runs with the free-space stages
 (:func:`~sonarproc.surfaces.echoes.openings.cut_openings`,
-:func:`~sonarproc.surfaces.echoes.openings.join_pieces` and the gap test of
+:func:`~sonarproc.surfaces.echoes.openings.join_pieces`,
+:func:`~sonarproc.surfaces.echoes.unseen.cut_unseen` and the gap test of
 :func:`~sonarproc.surfaces.fitting.merge.merge_collinear`) and without them (the same
 functions replaced by ones that pass their input through, and no silent readings
 selected), runs interleaved, best of five each, in CPU seconds of this process (the
@@ -42,6 +43,7 @@ def _without_free_space() -> Iterator[None]:
     """The run as it was before free space: no silent readings, no cut, no join, the
     merge's fixed gap."""
     saved = (refine.cut_openings, refine.join_pieces, refine.merge_collinear)
+    saved_unseen = refine.cut_unseen
     saved_silent = selection._silent
 
     def passthrough(fits: Any, points: Any, readings: Any, cones: Any, **_: Any) -> Any:
@@ -51,12 +53,14 @@ def _without_free_space() -> Iterator[None]:
         return saved[2](fits, cells, cell=cell)
 
     refine.cut_openings, refine.join_pieces = passthrough, passthrough  # type: ignore[assignment]
+    refine.cut_unseen = passthrough  # type: ignore[assignment]
     refine.merge_collinear = merge  # type: ignore[assignment]
     selection._silent = lambda log_: None  # type: ignore[assignment]
     try:
         yield
     finally:
         refine.cut_openings, refine.join_pieces, refine.merge_collinear = saved  # type: ignore[assignment]
+        refine.cut_unseen = saved_unseen  # type: ignore[assignment]
         selection._silent = saved_silent  # type: ignore[assignment]
 
 
@@ -65,6 +69,7 @@ _STAGES = (
     (selection, "_silent"),
     (refine, "cut_openings"),
     (refine, "join_pieces"),
+    (refine, "cut_unseen"),
     (refine, "viewpoint_ids"),
     (freespace, "viewpoint_ids"),
     (merge_module, "_closed"),

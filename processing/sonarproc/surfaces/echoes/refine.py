@@ -51,6 +51,7 @@ from sonarproc.surfaces.echoes.occlusion import contradicted
 from sonarproc.surfaces.echoes.openings import cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
+from sonarproc.surfaces.echoes.unseen import cut_unseen
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.batch import fit_surfaces
 from sonarproc.surfaces.fitting.merge import merge_collinear
@@ -158,6 +159,19 @@ def _enough(idx: IntArray, pts: FloatArray, view: IntArray, need: int) -> bool:
     )
 
 
+def _surfaces_left(
+    fits: list[SurfaceFit], pts: list[SurfaceCells], idx: list[IntArray], cones: FreeCones,
+    min_echoes: int,
+) -> tuple[list[SurfaceFit], list[SurfaceCells], list[IntArray]]:  # fmt: skip
+    """The pieces whose echoes still make a surface (:func:`_enough`)."""
+    kept = [
+        i
+        for i, (r, c) in enumerate(zip(idx, pts, strict=True))
+        if _enough(r, np.stack((c.x, c.y), axis=1), cones.viewpoint, min_echoes)
+    ]
+    return [fits[i] for i in kept], [pts[i] for i in kept], [idx[i] for i in kept]
+
+
 def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
     """The readings of ``a``, then those of ``b`` (``a``'s rows keep their indices)."""
     return EchoGeometry(np.concatenate((a.xy, b.xy)), np.concatenate((a.heading, b.heading)),
@@ -254,17 +268,14 @@ def refine_fits(
         # openings: free space (readings that saw through a wall) cuts it
         cur, pts_cells, pts_idx = cut_openings(cur, pts_cells, pts_idx, cones,
                                                margin=rounds[-1], cell=cell)  # fmt: skip
-        kept = [
-            i
-            for i, (idx, c) in enumerate(zip(pts_idx, pts_cells, strict=True))
-            if _enough(idx, np.stack((c.x, c.y), axis=1), cones.viewpoint, min_echoes)
-        ]
-        cur = [cur[i] for i in kept]
-        pts_cells = [pts_cells[i] for i in kept]
-        pts_idx = [pts_idx[i] for i in kept]
-        # ... and joins the pieces of one wall where it did not see through the gap
+        cur, pts_cells, pts_idx = _surfaces_left(cur, pts_cells, pts_idx, cones, min_echoes)
+        # ... and joins the pieces of one wall where it did not see through the gap; a
+        # stretch no sensor could see at all is not wall, though
         cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, cones,
                                               margin=rounds[-1], cell=cell)  # fmt: skip
+        cur, pts_cells, pts_idx = cut_unseen(cur, pts_cells, pts_idx, cones, margin=rounds[-1],
+                                              cell=cell)  # fmt: skip
+        cur, pts_cells, pts_idx = _surfaces_left(cur, pts_cells, pts_idx, cones, min_echoes)
     weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
     through = count_seen_through(
         [cur[i].polyline for i in weak],

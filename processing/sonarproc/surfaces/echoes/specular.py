@@ -372,14 +372,18 @@ def _candidate_pairs(
         read = np.concatenate((r_l[ball], r_c))
     else:
         k, read = _ball_pairs(c, h, mid, reach)
-    # The surface lies between |s - c| - h and |s - c| + h from a sensor s and within
-    # asin(h / |s - c|) of the direction of c: the foot can only be in range and in the
-    # beam if those intervals meet (cheap; most readings of a big room fail it).
+    # The surface lies between |s - c| - h and |s - c| + h from a sensor s and, seen from
+    # outside its disc (|s - c| > h), within asin(h / |s - c|) of the direction of c: the
+    # foot can only be in range and in the beam if those intervals meet (cheap; most
+    # readings of a big room fail it). From inside the disc (a robot in the bend of a
+    # long curved or cornered surface) the surface may lie in any direction.
     to_c = c[k] - echoes.xy[read]
     dist = np.sqrt(np.einsum("ij,ij->i", to_c, to_c))
     keep = np.abs(dist - echoes.range_m[read]) <= h[k] + tol
     k, read, to_c, dist = k[keep], read[keep], to_c[keep], dist[keep]
-    spread = np.arcsin(np.minimum(h[k] / np.maximum(dist, 1e-12), 1.0))
+    spread = np.where(
+        dist > h[k], np.arcsin(np.minimum(h[k] / np.maximum(dist, 1e-12), 1.0)), math.pi
+    )
     off_c = np.abs(
         (np.arctan2(to_c[:, 1], to_c[:, 0]) - echoes.heading[read] + math.pi) % (2 * math.pi)
         - math.pi

@@ -38,6 +38,7 @@ from sonarproc.surfaces.reflectors.classify import (
     on_circles,
     point_kind,
 )
+from sonarproc.surfaces.reflectors.complete import complete_to_corners
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -184,7 +185,8 @@ def refine_with_points(
         out.append(point_fit(p, point_kind(p, echoes, fits)))
         one = np.ones(1)
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))
-    return out, out_cells
+    # a wall found short of the corner it runs into ends there
+    return complete_to_corners(out, echoes), out_cells
 
 
 def _still_a_point(

@@ -1,0 +1,130 @@
+"""Walls completed to the corners they run into.
+
+A wall refitted through its echo points stops where the last perpendicular from a sensor
+met it (:mod:`sonarproc.surfaces.reflectors.walls`): a robot driving round a room keeps
+clear of its walls, so it never stands square to the last metre or so before each
+corner, and each wall is found that much short of it. A concave corner is where two walls
+meet, and it retro-reflects from anywhere inside its opening, so the map does know where
+those walls end: at the ``corner`` their lines run into.
+
+:func:`complete_to_corners` therefore stretches a straight surface's end to a reported
+``corner`` that lies on its line beyond that end
+(:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`: within the ranges' tolerance
+of the line, up to :data:`~sonarproc.surfaces.reflectors.walls.WALL_GAP_M` past the end),
+the nearest such corner at each end. The stretch is not made where readings from
+:data:`~sonarproc.surfaces.freespace.MIN_FREE_POSES` distinct viewpoints saw through it
+(:func:`~sonarproc.surfaces.freespace.free_feet`: an opening between the wall's end and
+the corner stays open), nor where it would cross another fitted surface (the corner is
+another room's).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.occlusion import segment_crossings
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
+from sonarproc.surfaces.planar.polylines import resample
+from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.walls import on_wall_lines
+
+__all__ = ["complete_to_corners"]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: A stretch shorter than this (m) is not worth making (a polyline step).
+MIN_STRETCH_M = 0.01
+#: Segments of the other surfaces overlap their neighbours by this (m).
+_OVERLAP_M = 1e-3
+#: The stretch's last part (m) next to the wall's end and to the corner is not tested for
+#: crossings: other walls meet it there.
+CROSS_END_M = 0.10
+
+
+def _crosses(p: FloatArray, q: FloatArray, others: list[FloatArray]) -> bool:
+    """Whether the segment ``p q`` (less its last :data:`CROSS_END_M` at both ends)
+    properly crosses one of the polylines."""
+    length = float(np.hypot(*(q - p)))
+    if length <= 2 * CROSS_END_M or not others:
+        return False
+    u = (q - p) / length
+    a, b = (p + CROSS_END_M * u)[None, :], (q - CROSS_END_M * u)[None, :]
+    s0 = np.concatenate([o[:-1] for o in others if len(o) >= 2] or [np.zeros((0, 2))])
+    s1 = np.concatenate([o[1:] for o in others if len(o) >= 2] or [np.zeros((0, 2))])
+    if s0.shape[0] == 0:
+        return False
+    # each segment overlaps its neighbours by a hair: a crossing through a shared vertex
+    # is no proper crossing of either
+    d = (s1 - s0) / np.maximum(np.hypot(*(s1 - s0).T), 1e-300)[:, None]
+    rows, _, _ = segment_crossings(a, b, s0 - _OVERLAP_M * d, s1 + _OVERLAP_M * d)
+    return bool(rows.size)
+
+
+def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[SurfaceFit]:
+    """The fits with each straight surface stretched to its corners (module notes).
+
+    Parameters
+    ----------
+    fits : list of SurfaceFit
+        The surfaces, point reflectors included (model ``corner`` or ``edge``).
+    echoes : EchoGeometry
+        The readings (their free space guards the stretches).
+
+    Returns
+    -------
+    list of SurfaceFit
+        The same surfaces in the same order; stretched ones replaced.
+
+    Examples
+    --------
+    A wall y = 0 found from x = 1 to 4 and a corner reported at (0, 0):
+
+    >>> from sonarproc.surfaces.fitting.models import SurfaceFit
+    >>> wall = SurfaceFit("line", resample([[1.0, 0.0], [4.0, 0.0]], 0.01), 3.0, 0.0, 50,
+    ...                   50, False, {"point": [2.5, 0.0], "direction": [1.0, 0.0]})
+    >>> corner = SurfaceFit("corner", np.array([[0.0, 0.01]]), 0.0, 0.0, 9, 9, False, {})
+    >>> none = EchoGeometry(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0))
+    >>> out = complete_to_corners([wall, corner], none)
+    >>> out[0].polyline[[0, -1]].tolist(), round(out[0].length_m, 2)
+    ([[0.0, 0.0], [4.0, 0.0]], 4.0)
+    """
+    corners = np.array([f.polyline[0] for f in fits if f.model == "corner"]).reshape(-1, 2)
+    if corners.shape[0] == 0:
+        return list(fits)
+    cones = FreeCones.of(echoes.xy, echoes.heading, echoes.half_beam, echoes.range_m)
+    out = list(fits)
+    for i, f in enumerate(fits):
+        if f.model != "line" or f.closed or len(f.polyline) < 2:
+            continue
+        a, b = np.asarray(f.polyline[0], dtype=np.float64), np.asarray(f.polyline[-1])
+        length = float(np.hypot(*(b - a)))
+        if length <= 0:
+            continue
+        t = (b - a) / length
+        on = corners[on_wall_lines(corners, [(a, b)])]
+        along = (on - a) @ t
+        others = [g.polyline for j, g in enumerate(fits) if j != i and len(g.polyline) >= 2]
+        lo, hi = 0.0, length
+        for end_before, s in ((True, along[along < 0.0]), (False, along[along > length])):
+            if s.size == 0:
+                continue
+            target = float(s.max() if end_before else s.min())
+            p = a + t * (target if end_before else length)
+            q = a + t * (0.0 if end_before else target)
+            if float(np.hypot(*(q - p))) < MIN_STRETCH_M or _crosses(p, q, others):
+                continue
+            _, read, _ = free_feet(p[None, :], q[None, :], cones, margin=RANGE_TOL_M)
+            if np.unique(cones.viewpoint[read]).size >= MIN_FREE_POSES:
+                continue
+            lo, hi = (target, hi) if end_before else (lo, target)
+        if lo == 0.0 and hi == length:
+            continue
+        step = length / (len(f.polyline) - 1)  # the polyline keeps its step
+        poly = resample(np.stack((a + t * lo, a + t * hi)), step)
+        out[i] = replace(f, polyline=poly, length_m=float(hi - lo))
+    return out

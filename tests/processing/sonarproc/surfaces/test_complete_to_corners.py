@@ -1,0 +1,58 @@
+"""Walls completed to the corners they run into (``complete_to_corners``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sonarproc.surfaces import EchoGeometry
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.planar.polylines import resample
+from sonarproc.surfaces.reflectors.complete import complete_to_corners
+
+NONE = EchoGeometry(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0))
+
+
+def _wall(a: tuple[float, float], b: tuple[float, float]) -> SurfaceFit:
+    poly = resample(np.array([a, b], dtype=np.float64), 0.01)
+    d = (np.array(b) - np.array(a)) / np.hypot(*(np.array(b) - np.array(a)))
+    return SurfaceFit("line", poly, float(np.hypot(*(np.array(b) - np.array(a)))), 0.0, 50,
+                      50, False, {"point": list(a), "direction": d.tolist()})  # fmt: skip
+
+
+def _point(kind: str, xy: tuple[float, float]) -> SurfaceFit:
+    return SurfaceFit(kind, np.array([xy], dtype=np.float64), 0.0, 0.0, 9, 9, False, {})
+
+
+def test_two_walls_found_short_of_their_corner_meet_in_it() -> None:
+    bottom, left = _wall((0.8, 0.0), (4.0, 0.0)), _wall((0.0, 3.0), (0.0, 0.7))
+    out = complete_to_corners([bottom, left, _point("corner", (0.01, -0.01))], NONE)
+    np.testing.assert_allclose(out[0].polyline[[0, -1]], [[0.01, 0.0], [4.0, 0.0]], atol=1e-9)
+    np.testing.assert_allclose(out[1].polyline[[0, -1]], [[0.0, 3.0], [0.0, -0.01]], atol=1e-9)
+    assert round(out[0].length_m, 2) == 3.99 and round(out[1].length_m, 2) == 3.01
+    assert np.allclose(np.diff(out[0].polyline[:, 0]).max(), 0.01, atol=1e-3)
+    assert out[2] is not None and out[2].model == "corner"
+
+
+def test_an_edge_or_a_corner_off_the_line_stretches_nothing() -> None:
+    wall = _wall((0.8, 0.0), (4.0, 0.0))
+    out = complete_to_corners([wall, _point("edge", (0.0, 0.0)), _point("corner", (0.0, 0.2))],
+                              NONE)  # fmt: skip
+    assert out[0] is wall
+
+
+def test_an_opening_seen_through_is_not_bridged_to_a_corner() -> None:
+    # a doorway between the wall's end (x = 0.8) and the corner: sensors below x = 0.2 .. 0.6
+    # looked through it and ranged 3 m
+    wall = _wall((0.8, 0.0), (4.0, 0.0))
+    x = np.arange(0.2, 0.65, 0.1)
+    seen = EchoGeometry(np.c_[x, np.full(x.size, 1.0)], np.full(x.size, -np.pi / 2),
+                        np.full(x.size, 0.2), np.full(x.size, 3.0))  # fmt: skip
+    assert complete_to_corners([wall, _point("corner", (0.0, 0.0))], seen)[0] is wall
+
+
+def test_a_corner_beyond_another_wall_is_not_reached() -> None:
+    # the corner of the next room: a partition x = 0.4 stands between the wall and it
+    wall = _wall((0.8, 0.0), (4.0, 0.0))
+    partition = _wall((0.4, -1.0), (0.4, 1.0))
+    out = complete_to_corners([wall, partition, _point("corner", (-1.0, 0.0))], NONE)
+    assert out[0] is wall
