@@ -13,23 +13,13 @@ process keeps freed memory for reuse, as the ``sonarproc`` command does
 
 from __future__ import annotations
 
-import importlib.util
 import time
 from pathlib import Path
 
 import pytest
+from benchroom import ROOM, write_room_log
 
 TARGET_S = 5.0
-
-
-def _room_log_writer():  # type: ignore[no-untyped-def]
-    spec = importlib.util.spec_from_file_location(
-        "bench_run", Path(__file__).with_name("test_bench_run.py")
-    )
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod.write_room_log, mod.ROOM
 
 
 @pytest.mark.benchmark
@@ -40,7 +30,7 @@ def test_bench_auto_on_the_room_log(tmp_path: Path) -> None:
     from sonarproc.runtime import retain_freed_memory
 
     retained = retain_freed_memory()
-    write_room_log, room = _room_log_writer()
+    room = ROOM
     path = tmp_path / "hour.h5"
     n = write_room_log(path, 1.0)
     lg = load_log(path)

@@ -15,21 +15,11 @@ crosses the wall, so its accuracy figures here say nothing (only its time does).
 
 from __future__ import annotations
 
-import importlib.util
 import time
 from pathlib import Path
-from types import ModuleType
 
 import pytest
-
-
-def _bench_run_module() -> ModuleType:
-    path = Path(__file__).with_name("test_bench_run.py")
-    spec = importlib.util.spec_from_file_location("_bench_run_for_methods", path)
-    assert spec is not None and spec.loader is not None
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from benchroom import ROOM, write_room_log
 
 
 @pytest.mark.benchmark
@@ -38,10 +28,9 @@ def test_bench_methods(tmp_path: Path) -> None:
     from sonarproc.params import RunParams
     from sonarproc.pipeline import load_log
 
-    bench = _bench_run_module()
     path = tmp_path / "room.h5"
-    n = bench.write_room_log(path, hours=1.0)
-    room = float(bench.ROOM)
+    n = write_room_log(path, hours=1.0)
+    room = ROOM
     lg = load_log(path)
     params = RunParams(cell=0.01, bbox=(0.0, room, 0.0, room), fit="polar")
     rows = []

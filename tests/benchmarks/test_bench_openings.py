@@ -17,7 +17,6 @@ stages' share is printed here.
 
 from __future__ import annotations
 
-import importlib.util
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from benchroom import ROOM, write_room_log
 
 from sonarlog import read_log
 from sonarproc.params import RunParams
@@ -35,15 +35,6 @@ from sonarproc.surfaces.echoes import refine
 from sonarproc.surfaces.fitting import merge as merge_module
 
 TARGET = 0.25
-
-_spec = importlib.util.spec_from_file_location(
-    "bench_run", Path(__file__).with_name("test_bench_run.py")
-)
-assert _spec is not None and _spec.loader is not None
-_bench_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_run)
-ROOM: float = _bench_run.ROOM
-write_room_log = _bench_run.write_room_log
 
 
 @contextmanager

@@ -12,27 +12,18 @@ also printed over the fit stage's (about 1 at best).
 
 from __future__ import annotations
 
-import importlib.util
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from benchroom import ROOM, write_room_log
 
 from sonarlog import read_log
 from sonarproc.params import RunParams
 from sonarproc.pipeline import process
 from sonarproc.pipeline.arcmap import build_arc_map
 from sonarproc.pipeline.mapping import map_log
-
-_spec = importlib.util.spec_from_file_location(
-    "bench_run", Path(__file__).with_name("test_bench_run.py")
-)
-assert _spec is not None and _spec.loader is not None
-_bench_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_run)
-ROOM: float = _bench_run.ROOM
-write_room_log = _bench_run.write_room_log
 
 
 @pytest.mark.benchmark

@@ -10,12 +10,12 @@ free-space cut of the openings, is at most 25 %.
 
 from __future__ import annotations
 
-import importlib.util
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from benchroom import ROOM, write_room_log
 
 from sonarlog import read_log
 from sonarproc.params import RunParams
@@ -24,15 +24,6 @@ from sonarproc.pipeline import surfacefit as surfacefit_module
 from sonarproc.surfaces.reflectors.points import ClaimedPoints
 
 TARGET = 0.25
-
-_spec = importlib.util.spec_from_file_location(
-    "bench_run", Path(__file__).with_name("test_bench_run.py")
-)
-assert _spec is not None and _spec.loader is not None
-_bench_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_run)
-ROOM: float = _bench_run.ROOM
-write_room_log = _bench_run.write_room_log
 
 
 def _none(echoes, *args, **kwargs) -> ClaimedPoints:  # type: ignore[no-untyped-def]

@@ -11,27 +11,19 @@ call (Linux: the peak is reset first). Target: under 150 MB extra.
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from benchroom import write_room_log
 from scipy.spatial import cKDTree
 
 from sonarlog import read_log
 from sonarproc.surfaces import seen_truth, truth_points
 
 TARGET_MB = 150.0
-
-_spec = importlib.util.spec_from_file_location(
-    "bench_run", Path(__file__).with_name("test_bench_run.py")
-)
-assert _spec is not None and _spec.loader is not None
-_bench_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_run)
-write_room_log = _bench_run.write_room_log
 
 
 def _status_mb(key: str) -> float:

@@ -15,7 +15,6 @@ the modules' bytecode cached as in an installed package).
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import time
 from dataclasses import replace
@@ -23,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchroom import ROOM, RUN, run_child, write_room_log
 
 from sonarlog import read_log
 from sonarproc.params import RunParams
@@ -32,16 +32,6 @@ from sonarproc.surfaces import find_surfaces, ridge_nms, seen_truth, surface_met
 TARGET = 0.20
 
 # the room log of the whole-run benchmark (a sibling test module: load it by path)
-_spec = importlib.util.spec_from_file_location(
-    "bench_run", Path(__file__).with_name("test_bench_run.py")
-)
-assert _spec is not None and _spec.loader is not None
-_bench_run = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_bench_run)
-ROOM: float = _bench_run.ROOM
-write_room_log = _bench_run.write_room_log
-child = _bench_run._child
-RUN: str = _bench_run.RUN
 
 
 def _best(fn, repeat: int = 3) -> tuple[float, object]:  # type: ignore[no-untyped-def]
@@ -79,7 +69,7 @@ def _cli_runs(log: Path, tmp: Path, fits: tuple[str, ...], repeat: int = 5) -> d
             out.mkdir(parents=True, exist_ok=True)
             args = ["-c", RUN, "run", str(log), "--out", str(out), "--cell", "0.01",
                     "--bbox", f"0,{ROOM:g},0,{ROOM:g}", "--fit", fit, "--json"]  # fmt: skip
-            wall, _, _, _ = child(args, out, env)
+            wall, _, _, _ = run_child(args, out, env)
             if k:
                 best[fit] = min(best[fit], wall)
     return best
