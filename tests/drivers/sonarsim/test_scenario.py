@@ -89,9 +89,10 @@ def test_every_scenario_simulates_consistently(path: Path) -> None:
         listeners = 1 if scn.pairs == "own" else len(res.sensors)
         channels = len(scn.poses) * len(res.sensors) * listeners
         assert np.sum(gap > tol) <= (4 * imp.spurious_probability + 0.01) * max(channels, len(r))
-    elif scn.max_order == 1:
+    elif scn.max_order == 1 and scn.physics == "ideal":
         assert np.all(gap <= tol)
-    else:  # higher orders (room corners) are not tangent to the truth
+    else:  # higher orders (room corners), and the transducer's corner and edge echoes and
+        # time walk, are not tangent to the truth
         assert np.mean(gap <= tol) > 0.5
 
 
