@@ -4,10 +4,10 @@ Every :data:`POLL_S` the rows appended since the last poll are read (:class:`Log
 and published at once (beams, raw rows, pose, path, transforms), and rasterised onto the
 live count map (:class:`~sonarproc.pipeline.live.LiveAccumulator`). The map, the
 surfaces and the quality figures are redone by a snapshot, which costs time in
-proportion to the map, not to the new readings: so snapshots are spaced so that they use
-at most :data:`SNAPSHOT_DUTY` of one core (the gap after a snapshot is its CPU time
-divided by the duty), and at least :data:`MIN_SNAPSHOT_GAP_S` apart. A snapshot
-publishes only what changed (:class:`~sonarproc.live.map_messages.MapPublisher`).
+proportion to the map, not to the new readings; :class:`~sonarproc.live.pacing.SnapshotPacer`
+decides when: within the latency promise of the oldest reading not yet mapped, within a
+CPU budget. A snapshot publishes only what changed
+(:class:`~sonarproc.live.map_messages.MapPublisher`).
 
 The report directory is written once, when the watch ends (a live viewer replaces the
 report page's reloads).
@@ -27,6 +27,14 @@ from typing import Any
 import numpy as np
 
 from sonarproc.errors import SonarprocError
+from sonarproc.live.pacing import (
+    LATENCY_PROMISE_S,
+    MAX_SNAPSHOT_DUTY,
+    MIN_SNAPSHOT_GAP_S,
+    POLL_S,
+    SNAPSHOT_DUTY,
+    SnapshotPacer,
+)
 from sonarproc.live.session import LiveServer
 from sonarproc.live.tail import LogTail
 from sonarproc.params import RunParams
@@ -34,19 +42,18 @@ from sonarproc.pipeline.live import LiveAccumulator
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.watch import WatchOutcome
 
-__all__ = ["MIN_SNAPSHOT_GAP_S", "POLL_S", "SNAPSHOT_DUTY", "follow_live", "live_watch"]
+__all__ = [
+    "LATENCY_PROMISE_S",
+    "MAX_SNAPSHOT_DUTY",
+    "MIN_SNAPSHOT_GAP_S",
+    "POLL_S",
+    "SNAPSHOT_DUTY",
+    "follow_live",
+    "live_watch",
+]
 
 log = logging.getLogger(__name__)
 
-#: Seconds between reads of the log: sonard makes readings visible every 0.25 s
-#: (its flush interval), so polling faster only finds nothing.
-POLL_S = 0.2
-#: Share of one core the snapshots may use; reading and publishing the readings
-#: themselves take a few per cent more at 25 readings/s.
-SNAPSHOT_DUTY = 0.12
-#: Shortest gap between snapshots (s): a viewer sees no difference in faster map updates,
-#: and it keeps a small map's surfaces well within 2 s of the readings that made them.
-MIN_SNAPSHOT_GAP_S = 0.5
 #: Readings published per batch when catching up on a log that already holds many.
 CATCH_UP_BATCH = 500
 
@@ -103,6 +110,10 @@ def follow_live(
     sonarlog.SonarLogError, OSError
         The log cannot be read, or the port cannot be bound.
     """
+    # the fit's modules (scipy's graphs and trees, 1-2 s to import on a busy host) are
+    # imported lazily by a run; here the first map update would pay for them, late for the
+    # readings waiting on it, and its cost would space the next updates as if it were theirs
+    import sonarproc.pipeline.surfacefit  # noqa: F401
     from sonarlog import SonarLogError, read_log, writer_closed
     from sonarlog.csvlog import read_truth_csv
 
@@ -147,10 +158,11 @@ def _serve(
     acc = LiveAccumulator(first, params)
     tail = LogTail(log_path, start=len(first.readings))
     recorded = _recorded(log_path)
-    pending = _take(server, acc, first.readings)
+    pacer = SnapshotPacer()
+    if _take(server, acc, first.readings):
+        pacer.taken(time.monotonic())
     result: RunResult | None = None
     updates = 0
-    gap, last_snapshot = MIN_SNAPSHOT_GAP_S, -math.inf
     last_new = time.monotonic()
     reason = "once"
     try:
@@ -162,17 +174,15 @@ def _serve(
                 except OSError as err:  # a write in flight; try again at the next poll
                     log.debug("%s", err)
                     new = first.readings[:0]
-                if len(new):
-                    pending |= _take(server, acc, new)
+                if _take(server, acc, new):
                     last_new = time.monotonic()
+                    pacer.taken(last_new)
             server.catch_up()
             final = once or stop.is_set() or (closed and time.monotonic() - last_new >= idle)
-            if pending and (final or time.monotonic() - last_snapshot >= gap):
-                cpu0 = time.process_time()
+            if pacer.pending and (final or pacer.due(time.monotonic())):
+                cpu0, start = time.process_time(), time.monotonic()
                 snap = _snapshot(server, acc)
-                cost = time.process_time() - cpu0
-                last_snapshot, pending = time.monotonic(), False
-                gap = max(MIN_SNAPSHOT_GAP_S, cost / SNAPSHOT_DUTY)
+                pacer.done(start, time.monotonic(), time.process_time() - cpu0)
                 if snap is not None:
                     result, updates = snap, updates + 1
                     if status is not None:
@@ -180,7 +190,7 @@ def _serve(
             if final:
                 reason = "once" if once else ("signal" if stop.is_set() else "closed")
                 break
-            stop.wait(POLL_S)
+            stop.wait(pacer.next_check_s(time.monotonic()))
     finally:
         tail.close()
     doc = None
@@ -210,6 +220,7 @@ def _take(server: LiveServer, acc: LiveAccumulator, rows: np.ndarray) -> bool:
 
 
 def _snapshot(server: LiveServer, acc: LiveAccumulator) -> RunResult | None:
+    wall0 = time.monotonic()
     try:
         result = acc.snapshot()
     except (SonarprocError, ValueError) as err:  # nothing to map yet, or a bad bbox
@@ -218,7 +229,13 @@ def _snapshot(server: LiveServer, acc: LiveAccumulator) -> RunResult | None:
     if result is None:
         return None
     t_last = float(acc.readings["t"][-1]) if acc.n_readings else math.nan
-    server.result(result, t=time.time(), readings=acc.n_readings, last_reading_t=t_last)
+    server.result(
+        result,
+        t=time.time(),
+        readings=acc.n_readings,
+        last_reading_t=t_last,
+        update_s=time.monotonic() - wall0,
+    )
     return result
 
 

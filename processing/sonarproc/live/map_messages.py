@@ -69,6 +69,7 @@ QUALITY_SCHEMA: dict[str, Any] = {
         "counts": {"type": "object", "description": "readings, arcs and cells counted"},
         "quality": {"type": "object", "description": "truth-free quality figures"},
         "metrics": {"type": "object", "description": "the paper's measures (m)"},
+        "live": {"type": "object", "description": "a live update: update_s, last_reading_t"},
     },
 }
 
@@ -130,7 +131,13 @@ class MapPublisher:
         self.updates = 0
 
     def publish(
-        self, result: RunResult, *, t: float, readings: int = 0, last_reading_t: float = math.nan
+        self,
+        result: RunResult,
+        *,
+        t: float,
+        readings: int = 0,
+        last_reading_t: float = math.nan,
+        update_s: float | None = None,
     ) -> dict[str, int]:
         """Publish what changed in ``result`` with log time ``t`` (UNIX s).
 
@@ -144,6 +151,10 @@ class MapPublisher:
             Readings the result was made from (into the surfaces' metadata).
         last_reading_t : float
             Firing time of the newest of them (UNIX s).
+        update_s : float, optional
+            Wall time the live view took to make ``result`` (s). Given (by ``watch``), it
+            goes into ``/map/quality`` with ``readings`` and ``last_reading_t``, so a client
+            can tell how far behind the readings the map is.
 
         Returns
         -------
@@ -171,7 +182,9 @@ class MapPublisher:
         if n or gone:
             self.surfaces_channel.log(update, log_time=t_ns)
         sent["surfaces"], sent["deleted"] = n, gone
-        self._last_quality = json.dumps(quality_figures(result)).encode()
+        self._last_quality = json.dumps(
+            quality_figures(result, live=_live_figures(update_s, readings, last_reading_t))
+        ).encode()
         self.quality_channel.log(self._last_quality, log_time=t_ns)
         self.updates += 1
         return sent
@@ -338,12 +351,23 @@ def surfaces_of(result: RunResult) -> list[SurfaceFit]:
     ]
 
 
-def quality_figures(result: RunResult) -> dict[str, Any]:
+def _live_figures(
+    update_s: float | None, readings: int, last_reading_t: float
+) -> dict[str, Any] | None:
+    if update_s is None:
+        return None
+    t = float(last_reading_t)
+    return {"update_s": round(float(update_s), 6), "readings": int(readings),
+            "last_reading_t": t if math.isfinite(t) else None}  # fmt: skip
+
+
+def quality_figures(result: RunResult, *, live: dict[str, Any] | None = None) -> dict[str, Any]:
     """The ``/map/quality`` document: truth-free figures if the run has them, else counts.
 
     Always holds ``surfaces`` (how many) and ``counts``; ``quality`` when the run carries
     its truth-free figures, else ``metrics`` (the paper's measures, ``None`` where
-    undefined).
+    undefined); ``live`` when given (a live map update: its wall time ``update_s``, the
+    ``readings`` it maps and the firing time ``last_reading_t`` of the newest).
     """
     doc: dict[str, Any] = {
         "surfaces": len(result.surfaces.surfaces) if result.surfaces is not None else 0,
@@ -354,6 +378,8 @@ def quality_figures(result: RunResult) -> dict[str, Any]:
         doc["quality"] = quality if isinstance(quality, dict) else _jsonable(quality)
     else:
         doc["metrics"] = result.metrics.to_json()
+    if live is not None:
+        doc["live"] = live
     return doc
 
 

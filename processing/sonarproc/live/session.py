@@ -96,10 +96,18 @@ class LiveServer:
         self.robot.readings(rows)
 
     def result(
-        self, result: RunResult, *, t: float, readings: int = 0, last_reading_t: float = math.nan
+        self,
+        result: RunResult,
+        *,
+        t: float,
+        readings: int = 0,
+        last_reading_t: float = math.nan,
+        update_s: float | None = None,
     ) -> dict[str, int]:
         """Publish what changed in a run's result (see :meth:`MapPublisher.publish`)."""
-        return self.map.publish(result, t=t, readings=readings, last_reading_t=last_reading_t)
+        return self.map.publish(
+            result, t=t, readings=readings, last_reading_t=last_reading_t, update_s=update_s
+        )
 
     def close(self) -> None:
         """Stop the server (clients are disconnected)."""

@@ -52,14 +52,18 @@ EXPECTED = {
     "/map/surfaces": ("protobuf", "foxglove.SceneUpdate"),
     "/map/quality": ("json", "sonarmorph.Quality"),
 }
-#: The live view's promise is surfaces within 2 s of the readings that create them (the
-#: median, printed). Every update is held to a looser bound set by the design: snapshots
-#: are spaced by their own CPU time over SNAPSHOT_DUTY (0.12), so a reading that lands
-#: just after a snapshot waits one gap and then one snapshot, about (1 + 1/0.12) x 0.3 s
-#: = 2.8 s on this log (3.05 s measured alone on a quiet machine); the suite's other
-#: robots, daemons and servers share the 2 cores and stretch that (4.85 s measured).
-LATENCY_TARGET_S = 2.0
-LATENCY_BOUND_S = 3 * LATENCY_TARGET_S
+#: The live view's promise: a reading is on the map within 2 s of its beam. ``watch``
+#: starts a map update once the oldest reading not yet mapped has waited the promise less
+#: one poll less the update's expected wall time (the longest of the last four), so what it
+#: cannot foresee is an update the shared cores stretch more than the recent ones: each
+#: update is held to the promise plus its own wall time (``update_s`` in /map/quality,
+#: measured by ``watch``), plus LOOP_SLACK_S.
+LATENCY_PROMISE_S = 2.0
+#: The work between two polls (reading the log's new rows, publishing their beams) and this
+#: client's own receiving, each a few tens of ms of CPU, that the suite's other robots,
+#: daemons and servers on the 2 shared cores (and a busy loop per core under load) can
+#: stretch several-fold.
+LOOP_SLACK_S = 1.0
 #: The killed client gets this long to connect and subscribe (the run lasts ~25 s).
 KILL_AFTER_S = 3.0
 
@@ -97,6 +101,17 @@ def _port(line: str) -> int:
     return int(m.group(1))
 
 
+def _misbehaving_clients(port: int) -> list[Any]:
+    """One client that subscribes and never reads, one killed mid-stream after KILL_AFTER_S."""
+    stalled = stalled_client(f"ws://127.0.0.1:{port}")
+    killed = subprocess.Popen(
+        [sys.executable, str(SUPPORT / "foxglove_client.py"), f"ws://127.0.0.1:{port}"],
+        env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    threading.Timer(KILL_AFTER_S, killed.send_signal, (signal.SIGKILL,)).start()
+    return [stalled, killed]
+
+
 def _plan(tmp: Path) -> Path:
     plan = yaml.safe_load(PLAN.read_text())
     plan["steps"] = STEPS
@@ -118,6 +133,9 @@ def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
     extra: list[Any] = []
     try:
         sonard_port = _port(_wait_for_line(sonard.stderr, r"Foxglove live view", 60, sonard_err))
+        # sonard's misbehaving clients at once: in virtual time its plan may be over before
+        # watch, a second Python start-up on the shared cores, is listening
+        extra += _misbehaving_clients(sonard_port)
         end = time.monotonic() + 60
         while not log.exists() and time.monotonic() < end:
             time.sleep(0.05)
@@ -128,15 +146,7 @@ def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
         )  # fmt: skip
         watch_out: list[str] = []
         watch_port = _port(_wait_for_line(watch.stdout, r"Foxglove live view", 60, watch_out))
-        # the misbehaving clients: one never reads, one is killed mid-stream
-        for port in (sonard_port, watch_port):
-            extra.append(stalled_client(f"ws://127.0.0.1:{port}"))
-            killed = subprocess.Popen(
-                [sys.executable, str(SUPPORT / "foxglove_client.py"), f"ws://127.0.0.1:{port}"],
-                env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-            )  # fmt: skip
-            extra.append(killed)
-            threading.Timer(KILL_AFTER_S, os.kill, (killed.pid, signal.SIGKILL)).start()
+        extra += _misbehaving_clients(watch_port)
         session = collect_sync(f"ws://127.0.0.1:{watch_port}", seconds=150)
         sonard_rc = sonard.wait(60)
         watch_rc = watch.wait(60)
@@ -198,30 +208,43 @@ def _check_session(session: Session, log: Path) -> None:
     tf = session.on("/tf")[-1].data["transforms"]
     children = {t["child_frame_id"] for t in tf}
     assert {"odom", "base_link"} <= children and {f"sonar_{i}" for i in range(16)} <= children
-    # surfaces: decoded, and within the bound of the reading that made them
+    # surfaces: decoded
     surfaces = session.on("/map/surfaces")
     assert surfaces, "no surfaces message"
-    arrival = {m.log_time_ns: m.received for m in readings}
-    latencies = []
     for m in surfaces:
         for entity in m.data.get("entities", []):
             meta = {kv["key"]: kv["value"] for kv in entity["metadata"]}
             assert meta["kind"] in ("plane", "curve", "cylinder", "corner", "edge")
             assert float(meta["length_m"]) > 0 and int(meta["support"]) > 0
-            t_ns = round(float(meta["last_reading_t"]) * 1e9)
-            if t_ns in arrival:
-                latencies.append(m.received - arrival[t_ns])
-    assert latencies, "no surface update made from a reading this client saw"
-    print(f"surface latency after the reading: median {np.median(latencies):.3f} s "
-          f"(promise {LATENCY_TARGET_S} s), max {max(latencies):.3f} s over "
-          f"{len(latencies)} updates")  # fmt: skip
-    assert max(latencies) <= LATENCY_BOUND_S
+    _check_latency(readings, session.on("/map/quality"))
     grids = session.on("/map/arcs")
     assert grids and grids[-1].data["fields"][0]["name"] == "count"
     g = grids[-1].data
     assert len(g["data"]) == g["row_stride"] * (len(g["data"]) // g["row_stride"])
     quality = session.on("/map/quality")[-1].data
     assert quality["counts"]["readings_total"] > 0
+
+
+def _check_latency(readings: list[Any], updates: list[Any]) -> None:
+    """Every reading this client got is on a map update within the promise.
+
+    A reading's latency: from its beam's arrival to the arrival of the first map update
+    (``/map/quality``, sent with every update) whose newest reading is as new as it.
+    """
+    live = [(m.received, q["last_reading_t"], q["update_s"]) for m in updates
+            if (q := m.data.get("live")) and q["last_reading_t"] is not None]  # fmt: skip
+    latencies, excess = [], []
+    for m in readings:
+        t = m.log_time_ns / 1e9
+        first = next(((at, w) for at, t_last, w in live if t_last >= t - 1e-6), None)
+        assert first is not None, f"the reading at {t} is on no map update"
+        latencies.append(first[0] - m.received)
+        excess.append(latencies[-1] - first[1])
+    print(f"map latency after the reading: median {np.median(latencies):.3f} s, "
+          f"max {max(latencies):.3f} s (promise {LATENCY_PROMISE_S} s); less the update's "
+          f"own wall time: max {max(excess):.3f} s; over {len(latencies)} readings and "
+          f"{len(live)} updates")  # fmt: skip
+    assert max(excess) <= LATENCY_PROMISE_S + LOOP_SLACK_S
 
 
 #: What ``run --foxglove`` sends a client that subscribes after the result went out.
