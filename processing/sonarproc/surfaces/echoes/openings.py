@@ -43,7 +43,7 @@ from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
 
-__all__ = ["STRAIGHT_SHARE", "cut_openings", "join_pieces"]
+__all__ = ["STRAIGHT_SHARE", "cut_openings", "join_pieces", "split_line"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -166,23 +166,11 @@ def cut_openings(
         f, p = fits[i], points[i]
         length = float(np.hypot(*(b[k] - a[k])))
         t = (b[k] - a[k]) / max(length, 1e-300)
-        es = (np.stack((p.x, p.y), axis=1) - a[k]) @ t
-        o = np.argsort(es, kind="stable")
-        stretches = _pieces(length, es[o], along[lo:hi], cones.viewpoint[read[lo:hi]])
+        es = np.sort((np.stack((p.x, p.y), axis=1) - a[k]) @ t)
+        stretches = _pieces(length, es, along[lo:hi], cones.viewpoint[read[lo:hi]])
         if stretches == [(0.0, length)]:
             continue
-        out = []
-        for s0, s1 in stretches:
-            inside = o[(es[o] >= s0) & (es[o] <= s1)]
-            if inside.size == 0 or s1 <= s0:
-                continue
-            poly = resample(np.stack((a[k] + t * s0, a[k] + t * s1)), cell)
-            sub = SurfaceCells(p.x[inside], p.y[inside], es[inside] - es[inside][0],
-                               p.weight[inside], False)  # fmt: skip
-            piece = replace(f, polyline=poly, length_m=float(s1 - s0),
-                            support=int(inside.size), arcs=int(inside.size))  # fmt: skip
-            out.append((piece, sub, readings[i][inside]))
-        cut[i] = out
+        cut[i] = split_line(f, p, readings[i], a[k], t, stretches, cell)
     new_fits: list[SurfaceFit] = []
     new_points: list[SurfaceCells] = []
     new_reads: list[IntArray] = []
@@ -192,6 +180,36 @@ def cut_openings(
             new_points.append(p)
             new_reads.append(r)
     return new_fits, new_points, new_reads
+
+
+def split_line(
+    fit: SurfaceFit,
+    cells: SurfaceCells,
+    rows: IntArray,
+    start: FloatArray,
+    direction: FloatArray,
+    stretches: list[tuple[float, float]],
+    cell: float,
+) -> list[tuple[SurfaceFit, SurfaceCells, IntArray]]:
+    """The pieces of a straight surface over ``stretches`` (m along it from ``start``).
+
+    Each piece is the line over its stretch with the echo points (and their readings'
+    rows) that fall in it, in order along the line; a stretch holding none gives no piece.
+    """
+    along = (np.stack((cells.x, cells.y), axis=1) - start) @ direction
+    order = np.argsort(along, kind="stable")
+    pieces = []
+    for s0, s1 in stretches:
+        inside = order[(along[order] >= s0) & (along[order] <= s1)]
+        if inside.size == 0 or s1 <= s0:
+            continue
+        poly = resample(np.stack((start + direction * s0, start + direction * s1)), cell)
+        sub = SurfaceCells(cells.x[inside], cells.y[inside], along[inside] - along[inside][0],
+                           cells.weight[inside], False)  # fmt: skip
+        piece = replace(fit, polyline=poly, length_m=float(s1 - s0),
+                        support=int(inside.size), arcs=int(inside.size))  # fmt: skip
+        pieces.append((piece, sub, rows[inside]))
+    return pieces
 
 
 def _spanning(fit: SurfaceFit, pieces: list[SurfaceFit], cell: float) -> SurfaceFit:

@@ -25,16 +25,14 @@ make a surface goes, as in the refinement.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.surfaces.echoes.openings import split_line
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.merge import MERGE_GAP_M
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.freespace import FREE_BEAM_FRACTION, MIN_FREE_POSES, FreeCones
-from sonarproc.surfaces.planar.polylines import resample
 
 __all__ = ["SIGHT_STEP_M", "cut_unseen", "facing_views"]
 
@@ -156,17 +154,9 @@ def cut_unseen(
             out_r.append(r)
             continue
         ends = [0.0] + [x for run in cuts for x in run] + [length]
-        along = (np.stack((p.x, p.y), axis=1) - a) @ t
-        for s0, s1 in zip(ends[::2], ends[1::2], strict=True):
-            inside = np.flatnonzero((along >= s0) & (along <= s1))
-            if inside.size == 0 or s1 <= s0:
-                continue
-            inside = inside[np.argsort(along[inside], kind="stable")]
-            poly = resample(np.stack((a + t * s0, a + t * s1)), cell)
-            sub = SurfaceCells(p.x[inside], p.y[inside], along[inside] - along[inside][0],
-                               p.weight[inside], False)  # fmt: skip
-            out_f.append(replace(f, polyline=poly, length_m=float(s1 - s0),
-                                 support=int(inside.size), arcs=int(inside.size)))  # fmt: skip
+        stretches = list(zip(ends[::2], ends[1::2], strict=True))
+        for piece, sub, rows in split_line(f, p, r, a, t, stretches, cell):
+            out_f.append(piece)
             out_p.append(sub)
-            out_r.append(r[inside])
+            out_r.append(rows)
     return out_f, out_p, out_r
