@@ -52,7 +52,7 @@ __all__ = [
     "CALIBRATION_PRIOR",
     "GraphSolution",
     "OdometryTies",
-    "match_cost",
+    "correction_costs",
     "odometry_ties",
     "solve_graph",
 ]
@@ -243,11 +243,11 @@ def robust_cost(residuals: FloatArray) -> float:
     return float(0.5 * ROBUST_SCALE**2 * np.sum(2.0 * (np.sqrt(1.0 + z) - 1.0)))
 
 
-def match_cost(
+def correction_costs(
     nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
     matches: LineMatches, offsets: FloatArray, calibration: FloatArray, *, echo_sigma: float,
-) -> float:  # fmt: skip
-    """The robust cost of given node offsets and calibration on given matches.
+) -> tuple[float, float]:  # fmt: skip
+    """The robust cost on given matches without a correction, and with the given one.
 
     The same cost :func:`solve_graph` minimises (odometry ties, calibration prior and
     echo residuals), evaluated without solving: a correction found on one set of matches
@@ -255,7 +255,7 @@ def match_cost(
     """
     prob = _Problem(nodes, ties, rays, track, matches, echo_sigma)
     x = np.concatenate((np.asarray(offsets[1:], dtype=np.float64).ravel(), calibration))
-    return robust_cost(prob.residuals(x))
+    return robust_cost(prob.residuals(np.zeros_like(x))), robust_cost(prob.residuals(x))
 
 
 def solve_graph(

@@ -14,7 +14,7 @@ from sonarproc.align.echoes import echo_rays
 from sonarproc.align.graph import (
     CALIBRATION_PRIOR,
     NCAL,
-    match_cost,
+    correction_costs,
     odometry_ties,
     solve_graph,
 )
@@ -293,10 +293,9 @@ def align_poses(
         # Judged on the matches found at the raw poses, not on the last round's: those
         # were chosen near the corrected poses, so the raw poses' cost on them is inflated
         # by the choice itself (an echo's structure, such as a corner's, read as drift).
-        cost_before = match_cost(nodes, ties, rays, track, first_matches, np.zeros_like(offsets),
-                                 np.zeros(NCAL), echo_sigma=echo_sigma)  # fmt: skip
-        cost_after = match_cost(nodes, ties, rays, track, first_matches, offsets, calibration,
-                                echo_sigma=echo_sigma)  # fmt: skip
+        cost_before, cost_after = correction_costs(
+            nodes, ties, rays, track, first_matches, offsets, calibration, echo_sigma=echo_sigma
+        )
     per = interpolate_offsets(offsets, nodes.lo, nodes.w, nodes.w_xy)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)
