@@ -131,7 +131,10 @@ def match_lines(
     chosen = stretch[nb[np.arange(queries.size), first]]
     member = other & (stretch[nb] == chosen[:, None]) & has[:, None]
     count = member.sum(axis=1)
-    keep = count >= min_points
+    # only the queries with enough neighbours go on (on a log whose stretches rarely see
+    # one wall, a few in a hundred): each row's sums below are the same on the subset
+    rows = np.flatnonzero(count >= min_points)
+    member, nb, count = member[rows], nb[rows], count[rows]
     # principal components of each query's chosen neighbours, in closed form (2 x 2)
     px = np.where(member, points[nb, 0], 0.0)
     py = np.where(member, points[nb, 1], 0.0)
@@ -143,12 +146,13 @@ def match_lines(
     root = np.sqrt(np.maximum(half_tr**2 - det, 0.0))
     lam_min, lam_max = np.maximum(half_tr - root, 0.0), half_tr + root
     # a line: thin (echo noise), and several times longer than thick (not a blob)
-    keep &= (np.sqrt(lam_min) <= max_thickness) & (lam_max >= 9.0 * lam_min)
+    keep = (np.sqrt(lam_min) <= max_thickness) & (lam_max >= 9.0 * lam_min)
     keep &= np.sqrt(lam_max) >= max_thickness
-    out = np.where(member, nb, -1)[keep]
+    rows = rows[keep]
+    out = np.where(member[keep], nb[keep], -1)
     if k < NEIGHBOURS:
         out = np.pad(out, ((0, 0), (0, NEIGHBOURS - k)), constant_values=-1)
-    return queries[keep], out.astype(np.intp)
+    return queries[rows], out.astype(np.intp)
 
 
 def line_matches(
