@@ -30,7 +30,7 @@ from sonarproc.pipeline.evaluation import SeenAhead, fit_and_measure, map_counts
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["STAGES", "MapBuilder", "Measure", "MethodMap", "evaluate_map", "map_log"]
+__all__ = ["STAGES", "MapBuilder", "Measure", "MethodMap", "OnMapped", "evaluate_map", "map_log"]
 
 #: Stage names reported to a progress callback, in order.
 STAGES = ("read", "align", "select", "grid", "rasterise", "morphology", "fit", "metrics", "quality")
@@ -64,6 +64,8 @@ class MethodMap:
 MapBuilder = Callable[[Beams, Grid, RunParams, "Stage | None"], MethodMap]
 #: A measure of a finished map: ``measure(beams, grid, mmap, result)`` adds to ``result``.
 Measure = Callable[[Beams, Grid, MethodMap, RunResult], None]
+#: Told of a map as it is built, before its fit: ``on_mapped(beams, grid, mmap)``.
+OnMapped = Callable[[Beams, Grid, MethodMap], None]
 
 
 def evaluate_map(
@@ -196,6 +198,7 @@ def map_log(
     cpu_start: float | None = None,
     empty_message: str | None = None,
     measure: Measure | None = None,
+    on_mapped: OnMapped | None = None,
 ) -> tuple[RunResult, MethodMap]:
     """Select the readings, lay the grid, build the map with ``build``, fit and measure.
 
@@ -218,6 +221,10 @@ def map_log(
         map to the record (``sonarproc run``: its truth-free quality,
         :mod:`sonarproc.quality`); its time is ``timings_s["quality"]``, outside
         ``t_cpu_s``.
+    on_mapped : callable, optional
+        Called as ``on_mapped(beams, grid, mmap)`` as soon as the map is built, before
+        its fit: a measure that needs the map but not its fit starts there (``run``'s
+        held-out residual, in a child while the fit runs here).
 
     Returns
     -------
@@ -244,6 +251,8 @@ def map_log(
     stage("grid")
     grid = plan_grid(log_, params, beams)
     mmap = build(beams, grid, params, stage)
+    if on_mapped is not None:
+        on_mapped(beams, grid, mmap)
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,

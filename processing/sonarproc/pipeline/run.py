@@ -30,6 +30,7 @@ from sonarproc.pipeline.selection import Beams
 
 if TYPE_CHECKING:
     from sonarproc.pipeline.alignment import AlignmentRecord
+    from sonarproc.quality.ahead import HeldOutAhead
 
 __all__ = [
     "METHOD",
@@ -155,6 +156,14 @@ def process(
     if aligned is not None:
         log_ = aligned.log
     mapped = log_
+    heldout: HeldOutAhead | None = None
+
+    def start_heldout(beams: Beams, grid: Grid, mmap: MethodMap) -> None:
+        # the held-out residual needs the map, not its fit: a child computes it meanwhile
+        nonlocal heldout
+        from sonarproc.quality.ahead import HeldOutAhead
+
+        heldout = HeldOutAhead.start(build_arc_map, beams, grid, params, mmap.evidence)
 
     def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
         from sonarproc.quality import measure_quality
@@ -165,11 +174,19 @@ def process(
             if aligned is not None:
                 result.alignment = aligned.record
             on_fitted(result)
-        result.quality = measure_quality(mapped, params, build_arc_map, beams, grid, mmap, result)
+        residual = heldout.residual if heldout is not None else None
+        result.quality = measure_quality(
+            mapped, params, build_arc_map, beams, grid, mmap, result, residual=residual
+        )
 
-    result, _ = map_log(
-        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure
-    )
+    try:
+        result, _ = map_log(
+            log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure,
+            on_mapped=start_heldout,
+        )  # fmt: skip
+    finally:  # a failed run, or a result handed on unmeasured: the child is not waited for
+        if heldout is not None:
+            heldout.cancel()
     if aligned is not None:
         result.alignment = aligned.record
         result.timings_s = {"align": aligned.wall_s, **result.timings_s}
