@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -30,7 +30,16 @@ from sonarproc.pipeline.evaluation import SeenAhead, fit_and_measure, map_counts
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["STAGES", "MapBuilder", "Measure", "MethodMap", "OnMapped", "evaluate_map", "map_log"]
+__all__ = [
+    "STAGES",
+    "MapBuilder",
+    "MappedStage",
+    "Measure",
+    "MethodMap",
+    "OnMapped",
+    "evaluate_map",
+    "map_log",
+]
 
 #: Stage names reported to a progress callback, in order.
 STAGES = ("read", "align", "select", "grid", "rasterise", "morphology", "fit", "metrics", "quality")
@@ -64,8 +73,20 @@ class MethodMap:
 MapBuilder = Callable[[Beams, Grid, RunParams, "Stage | None"], MethodMap]
 #: A measure of a finished map: ``measure(beams, grid, mmap, result)`` adds to ``result``.
 Measure = Callable[[Beams, Grid, MethodMap, RunResult], None]
-#: Told of a map as it is built, before its fit: ``on_mapped(beams, grid, mmap)``.
-OnMapped = Callable[[Beams, Grid, MethodMap], None]
+
+
+class MappedStage(NamedTuple):
+    """A map as it is built, before its fit (what :data:`OnMapped` is told)."""
+
+    source: str
+    beams: Beams
+    grid: Grid
+    mmap: MethodMap
+    counts: dict[str, int]
+
+
+#: Told of a map as it is built, before its fit: ``on_mapped(stage)``.
+OnMapped = Callable[[MappedStage], None]
 
 
 def evaluate_map(
@@ -222,9 +243,9 @@ def map_log(
         :mod:`sonarproc.quality`); its time is ``timings_s["quality"]``, outside
         ``t_cpu_s``.
     on_mapped : callable, optional
-        Called as ``on_mapped(beams, grid, mmap)`` as soon as the map is built, before
-        its fit: a measure that needs the map but not its fit starts there (``run``'s
-        held-out residual, in a child while the fit runs here).
+        Called with the :class:`MappedStage` as soon as the map is built, before its
+        fit: work that needs the map but not its fit starts there (``run``'s held-out
+        residual and arc map figure, in children while the fit runs here).
 
     Returns
     -------
@@ -252,7 +273,7 @@ def map_log(
     grid = plan_grid(log_, params, beams)
     mmap = build(beams, grid, params, stage)
     if on_mapped is not None:
-        on_mapped(beams, grid, mmap)
+        on_mapped(MappedStage(str(log_.path), beams, grid, mmap, counts))
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,

@@ -24,7 +24,7 @@ from sonarproc.errors import InputError, ParameterError
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.arcmap import build_arc_map
-from sonarproc.pipeline.mapping import MethodMap, map_log
+from sonarproc.pipeline.mapping import MappedStage, MethodMap, OnMapped, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
@@ -104,6 +104,7 @@ def process(
     aligned: Aligned | None = None,
     quality_of_curves: bool = True,
     on_fitted: Callable[[RunResult], None] | None = None,
+    on_mapped: OnMapped | None = None,
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
@@ -134,6 +135,10 @@ def process(
         Called with the result as its quality starts to be measured: mapped, fitted and
         measured but for its quality and timings (``run`` draws its figures meanwhile).
         Not called where the result is handed on (``quality_of_curves`` false on a curve).
+    on_mapped : callable, optional
+        Called with the map as it is built, before its fit
+        (:class:`~sonarproc.pipeline.mapping.MappedStage`; ``run`` draws its arc map
+        figure meanwhile).
 
     Returns
     -------
@@ -158,12 +163,16 @@ def process(
     mapped = log_
     heldout: HeldOutAhead | None = None
 
-    def start_heldout(beams: Beams, grid: Grid, mmap: MethodMap) -> None:
+    def start_heldout(stage: MappedStage) -> None:
         # the held-out residual needs the map, not its fit: a child computes it meanwhile
         nonlocal heldout
         from sonarproc.quality.ahead import HeldOutAhead
 
-        heldout = HeldOutAhead.start(build_arc_map, beams, grid, params, mmap.evidence)
+        if on_mapped is not None:  # the caller's first (the figures' child forked first)
+            on_mapped(stage)
+        heldout = HeldOutAhead.start(
+            build_arc_map, stage.beams, stage.grid, params, stage.mmap.evidence
+        )
 
     def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
         from sonarproc.quality import measure_quality
