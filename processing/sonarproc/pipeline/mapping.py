@@ -168,14 +168,20 @@ def evaluate_map(
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
     single = truth is None or params.fit == "polar" or not np.isnan(truth).any()
     profile_truth = truth if single else None
+    found = None if auto is None else auto.surfaces
+    unfitted = None
+    if found is not None:
+        n = len(found.surfaces)
+        why = f"{n} surface(s) fitted one by one: see surfaces.csv"
+        unfitted = FitFailure("surfaces", why if n else str(found.reason))
     ev = fit_and_measure(
         fit_params, grid, mmap.processed, mmap.evidence, truth=profile_truth,
         robot_xy=robot_xy, stage=stage, cells=cells,
+        # the surfaces are the fit; a profile's only use would be E1 and E2 on the truth
+        unfitted=unfitted if profile_truth is None else None,
     )  # fmt: skip
-    if auto is not None and auto.surfaces is not None:
-        n = len(auto.surfaces.surfaces)
-        why = f"{n} surface(s) fitted one by one: see surfaces.csv"
-        ev.fit = FitFailure("surfaces", why if n else str(auto.surfaces.reason))
+    if unfitted is not None:
+        ev.fit = unfitted
     t_cpu = time.process_time() - cpu_start - seen_cpu  # the method's, not the measure's
     result = RunResult.of(
         ev,
