@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from sonarlog import SonarLog
     from sonarproc.params import RunParams
     from sonarproc.pipeline import RunResult
+    from sonarproc.pipeline.mapping import MappedStage
 
 __all__ = ["FIT_KNOBS", "RunMode", "resolve_mode", "run_log"]
 
@@ -84,6 +85,7 @@ def run_log(
     read: dict[str, Any] | None = None,
     progress: Any = None,
     on_fitted: Callable[[RunResult], None] | None = None,
+    on_mapped: Callable[[MappedStage], None] | None = None,
 ) -> tuple[RunResult, dict[str, Any] | None]:
     """Run a log in ``mode``: the result, and ``--auto``'s record where a choice was made.
 
@@ -105,6 +107,9 @@ def run_log(
     on_fitted : callable, optional
         Called with the result before its quality is measured, where that result is the
         one returned with no record (see :func:`sonarproc.pipeline.process`).
+    on_mapped : callable, optional
+        Called with the map as it is built, before its fit, outside ``--auto``
+        (see :func:`sonarproc.pipeline.process`).
 
     Returns
     -------
@@ -142,6 +147,7 @@ def run_log(
             aligned=aligned,
             quality_of_curves=mode == "given",
             on_fitted=on_fitted,
+            on_mapped=on_mapped,
         )
         result.timings_s = {"read": read_s, **result.timings_s}
         if mode == "given" or result.surfaces is not None:

@@ -248,6 +248,7 @@ def run_command(
             result, record = run_log(
                 log, params, mode, read=read, progress=progress,
                 on_fitted=ahead.send if ahead is not None else None,
+                on_mapped=ahead.send_map if ahead is not None else None,
             )  # fmt: skip
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)

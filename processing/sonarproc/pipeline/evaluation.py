@@ -214,6 +214,7 @@ def fit_and_measure(
     robot_xy: npt.NDArray[np.float64],
     stage: Stage | None = None,
     cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+    unfitted: FitFailure | None = None,
 ) -> Evaluation:
     """Fit the cells of ``processed`` and compute the metrics against ``truth``.
 
@@ -236,6 +237,9 @@ def fit_and_measure(
         Called with ``"metrics"`` when the fit is done (progress reporting).
     cells : tuple of ndarray, optional
         ``np.nonzero(processed.T)``, when the caller has it already.
+    unfitted : FitFailure, optional
+        No profile is fitted: this is the fit (the map's surfaces were fitted instead,
+        and without ``truth`` no metric reads a profile). Not for a polar fit.
 
     Returns
     -------
@@ -254,7 +258,9 @@ def fit_and_measure(
         )  # fmt: skip
         return Evaluation(px, py, bins, fit, metrics, centre, robot_xy)
     bins = bin_stats(ix, py, grid.centres_x(), presorted=True)
-    if params.fit == "poly" and (params.auto_order or params.robust != "none"):
+    if unfitted is not None:
+        fit = unfitted
+    elif params.fit == "poly" and (params.auto_order or params.robust != "none"):
         # a cell that closing or dilation added has no arc of its own: it still counts once
         weights = np.maximum(evidence[iy, ix], 1).astype(np.float64)
         fit = _fit_points(params, px, py, weights)

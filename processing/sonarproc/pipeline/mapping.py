@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -30,7 +30,16 @@ from sonarproc.pipeline.evaluation import SeenAhead, fit_and_measure, map_counts
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
-__all__ = ["STAGES", "MapBuilder", "Measure", "MethodMap", "evaluate_map", "map_log"]
+__all__ = [
+    "STAGES",
+    "MapBuilder",
+    "MappedStage",
+    "Measure",
+    "MethodMap",
+    "OnMapped",
+    "evaluate_map",
+    "map_log",
+]
 
 #: Stage names reported to a progress callback, in order.
 STAGES = ("read", "align", "select", "grid", "rasterise", "morphology", "fit", "metrics", "quality")
@@ -64,6 +73,20 @@ class MethodMap:
 MapBuilder = Callable[[Beams, Grid, RunParams, "Stage | None"], MethodMap]
 #: A measure of a finished map: ``measure(beams, grid, mmap, result)`` adds to ``result``.
 Measure = Callable[[Beams, Grid, MethodMap, RunResult], None]
+
+
+class MappedStage(NamedTuple):
+    """A map as it is built, before its fit (what :data:`OnMapped` is told)."""
+
+    source: str
+    beams: Beams
+    grid: Grid
+    mmap: MethodMap
+    counts: dict[str, int]
+
+
+#: Told of a map as it is built, before its fit: ``on_mapped(stage)``.
+OnMapped = Callable[[MappedStage], None]
 
 
 def evaluate_map(
@@ -145,14 +168,20 @@ def evaluate_map(
     # (A polar fit compares r(phi) about a centre instead: any closed truth will do.)
     single = truth is None or params.fit == "polar" or not np.isnan(truth).any()
     profile_truth = truth if single else None
+    found = None if auto is None else auto.surfaces
+    unfitted = None
+    if found is not None:
+        n = len(found.surfaces)
+        why = f"{n} surface(s) fitted one by one: see surfaces.csv"
+        unfitted = FitFailure("surfaces", why if n else str(found.reason))
     ev = fit_and_measure(
         fit_params, grid, mmap.processed, mmap.evidence, truth=profile_truth,
         robot_xy=robot_xy, stage=stage, cells=cells,
+        # the surfaces are the fit; a profile's only use would be E1 and E2 on the truth
+        unfitted=unfitted if profile_truth is None else None,
     )  # fmt: skip
-    if auto is not None and auto.surfaces is not None:
-        n = len(auto.surfaces.surfaces)
-        why = f"{n} surface(s) fitted one by one: see surfaces.csv"
-        ev.fit = FitFailure("surfaces", why if n else str(auto.surfaces.reason))
+    if unfitted is not None:
+        ev.fit = unfitted
     t_cpu = time.process_time() - cpu_start - seen_cpu  # the method's, not the measure's
     result = RunResult.of(
         ev,
@@ -196,6 +225,7 @@ def map_log(
     cpu_start: float | None = None,
     empty_message: str | None = None,
     measure: Measure | None = None,
+    on_mapped: OnMapped | None = None,
 ) -> tuple[RunResult, MethodMap]:
     """Select the readings, lay the grid, build the map with ``build``, fit and measure.
 
@@ -218,6 +248,10 @@ def map_log(
         map to the record (``sonarproc run``: its truth-free quality,
         :mod:`sonarproc.quality`); its time is ``timings_s["quality"]``, outside
         ``t_cpu_s``.
+    on_mapped : callable, optional
+        Called with the :class:`MappedStage` as soon as the map is built, before its
+        fit: work that needs the map but not its fit starts there (``run``'s held-out
+        residual and arc map figure, in children while the fit runs here).
 
     Returns
     -------
@@ -244,6 +278,8 @@ def map_log(
     stage("grid")
     grid = plan_grid(log_, params, beams)
     mmap = build(beams, grid, params, stage)
+    if on_mapped is not None:
+        on_mapped(MappedStage(str(log_.path), beams, grid, mmap, counts))
     result = evaluate_map(
         log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
         stage=stage, timings=timings, empty_message=empty_message, beams=beams,

@@ -24,12 +24,13 @@ from sonarproc.errors import InputError, ParameterError
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.arcmap import build_arc_map
-from sonarproc.pipeline.mapping import MethodMap, map_log
+from sonarproc.pipeline.mapping import MappedStage, MethodMap, OnMapped, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
 if TYPE_CHECKING:
     from sonarproc.pipeline.alignment import AlignmentRecord
+    from sonarproc.quality.ahead import HeldOutAhead
 
 __all__ = [
     "METHOD",
@@ -103,6 +104,7 @@ def process(
     aligned: Aligned | None = None,
     quality_of_curves: bool = True,
     on_fitted: Callable[[RunResult], None] | None = None,
+    on_mapped: OnMapped | None = None,
 ) -> RunResult:
     """Run the paper's method on a log in memory.
 
@@ -133,6 +135,10 @@ def process(
         Called with the result as its quality starts to be measured: mapped, fitted and
         measured but for its quality and timings (``run`` draws its figures meanwhile).
         Not called where the result is handed on (``quality_of_curves`` false on a curve).
+    on_mapped : callable, optional
+        Called with the map as it is built, before its fit
+        (:class:`~sonarproc.pipeline.mapping.MappedStage`; ``run`` draws its arc map
+        figure meanwhile).
 
     Returns
     -------
@@ -155,6 +161,18 @@ def process(
     if aligned is not None:
         log_ = aligned.log
     mapped = log_
+    heldout: HeldOutAhead | None = None
+
+    def start_heldout(stage: MappedStage) -> None:
+        # the held-out residual needs the map, not its fit: a child computes it meanwhile
+        nonlocal heldout
+        from sonarproc.quality.ahead import HeldOutAhead
+
+        if on_mapped is not None:  # the caller's first (the figures' child forked first)
+            on_mapped(stage)
+        heldout = HeldOutAhead.start(
+            build_arc_map, stage.beams, stage.grid, params, stage.mmap.evidence
+        )
 
     def measure(beams: Beams, grid: Grid, mmap: MethodMap, result: RunResult) -> None:
         from sonarproc.quality import measure_quality
@@ -165,11 +183,19 @@ def process(
             if aligned is not None:
                 result.alignment = aligned.record
             on_fitted(result)
-        result.quality = measure_quality(mapped, params, build_arc_map, beams, grid, mmap, result)
+        residual = heldout.residual if heldout is not None else None
+        result.quality = measure_quality(
+            mapped, params, build_arc_map, beams, grid, mmap, result, residual=residual
+        )
 
-    result, _ = map_log(
-        log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure
-    )
+    try:
+        result, _ = map_log(
+            log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure,
+            on_mapped=start_heldout,
+        )  # fmt: skip
+    finally:  # a failed run, or a result handed on unmeasured: the child is not waited for
+        if heldout is not None:
+            heldout.cancel()
     if aligned is not None:
         result.alignment = aligned.record
         result.timings_s = {"align": aligned.wall_s, **result.timings_s}

@@ -21,6 +21,7 @@ Two figures, both with the first-echo prediction of ``--auto``
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -43,10 +44,13 @@ __all__ = [
     "MAX_HELDOUT",
     "TOLERANCE",
     "HeldOut",
+    "HeldOutResidual",
     "Quality",
     "explained",
     "held_out",
     "heldout_curves",
+    "heldout_residual",
+    "judged_rows",
     "measure_quality",
     "training_map",
 ]
@@ -258,8 +262,7 @@ def held_out(
     """
     from sonarproc.auto.holdout import firing_folds, subset_beams
 
-    n = int(beams.path.size)
-    judged = _subsample(np.arange(n, dtype=np.intp), MAX_EXPLAINED, SEED)
+    judged = judged_rows(beams)
     held = firing_folds(beams.readings, HELDOUT_FOLDS, seed=SEED) == 0
     if held.all() or not held.any():
         return HeldOut(judged, None, np.zeros(0, dtype=np.intp), None, None)
@@ -300,6 +303,64 @@ def heldout_curves(params: RunParams, grid: Grid, mmap: MethodMap, beams: Beams)
     return curves_of(None, ev.fit, grid.cell)
 
 
+@dataclass(frozen=True)
+class HeldOutResidual:
+    """The held-out range residual of a run's map (:func:`heldout_residual`).
+
+    Attributes
+    ----------
+    readings : int
+        Held-out readings predicted.
+    median_m, p90_m : float or None
+        Median and 90th percentile of their range residuals (m).
+    predicted_fraction : float or None
+        Fraction of them whose beams the held-out map crosses.
+    reasons : tuple of str
+        Why a figure is missing.
+    """
+
+    readings: int
+    median_m: float | None
+    p90_m: float | None
+    predicted_fraction: float | None
+    reasons: tuple[str, ...]
+
+
+def judged_rows(beams: Beams) -> IntArray:
+    """The readings of ``beams`` the explained fraction is judged on (:attr:`HeldOut.judged`)."""
+    return _subsample(np.arange(int(beams.path.size), dtype=np.intp), MAX_EXPLAINED, SEED)
+
+
+def heldout_residual(
+    held: HeldOut, build: MapBuilder, beams: Beams, grid: Grid, params: RunParams
+) -> HeldOutResidual:
+    """The held-out readings of ``held`` predicted from the map ``build`` makes of the
+    others and the run's fit of it (module notes): a figure of the readings, count map
+    and parameters alone, never of the run's own fit (so it may be computed meanwhile,
+    :mod:`sonarproc.quality.ahead`)."""
+    if held.held is None or held.train_beams is None:
+        reason = f"fewer than {HELDOUT_FOLDS} firings: nothing to hold out"
+        return HeldOutResidual(0, None, None, None, (reason,))
+    reasons = []
+    try:
+        train_map = _training_map(build, held.train_beams, held.train_counts, grid, params)
+        train_curves = heldout_curves(params, grid, train_map, held.train_beams)
+    except SonarprocError as err:  # a method that leaves nothing on the held-out map
+        reasons.append(f"the held-out map: {err}")
+        train_curves = MapCurves([], [], single=True)
+    path, _ = predict_paths(train_curves, beams, held.held_rows)
+    residual = 0.5 * np.abs(beams.path[held.held_rows] - path)
+    hit = np.isfinite(residual)
+    median = p90 = None
+    if hit.any():
+        median = float(np.median(residual[hit]))
+        p90 = float(np.percentile(residual[hit], 90.0))
+    else:
+        reasons.append("the held-out map predicts none of the held-out readings")
+    n = int(held.held_rows.size)
+    return HeldOutResidual(n, median, p90, float(hit.mean()), tuple(reasons))
+
+
 def measure_quality(
     log_: SonarLog,
     params: RunParams,
@@ -310,6 +371,7 @@ def measure_quality(
     result: RunResult,
     *,
     held: HeldOut | None = None,
+    residual: HeldOutResidual | Callable[[], HeldOutResidual] | None = None,
 ) -> Quality:
     """The truth-free quality of ``result``, the run of ``build`` on ``beams`` (module notes).
 
@@ -332,34 +394,26 @@ def measure_quality(
     held : HeldOut, optional
         :func:`held_out` of ``beams`` (with ``full.evidence`` for the paper's arc map),
         when the caller keeps it for several runs on the same readings and count map.
+    residual : HeldOutResidual or callable, optional
+        :func:`heldout_residual` of these readings and map, when the caller computes it
+        (meanwhile, in a child: :mod:`sonarproc.quality.ahead`); a callable is called
+        after the explained fraction is measured, to give a child that time too.
     """
     from sonarproc.pipeline.arcmap import build_arc_map
 
-    if held is None:
+    if residual is None and held is None:
         held = held_out(beams, grid, params, full.evidence if build is build_arc_map else None)
+    judged = held.judged if held is not None else judged_rows(beams)
     curves = map_curves(result)
-    fraction, per = explained(curves, beams, held.judged)
+    fraction, per = explained(curves, beams, judged)
     reasons = [] if not curves.empty else ["the map has no fitted surface to predict from"]
-    median = p90 = predicted = None
-    if held.held is None or held.train_beams is None:
-        reasons.append(f"fewer than {HELDOUT_FOLDS} firings: nothing to hold out")
-    else:
-        try:
-            train_map = _training_map(build, held.train_beams, held.train_counts, grid, params)
-            train_curves = heldout_curves(params, grid, train_map, held.train_beams)
-        except SonarprocError as err:  # a method that leaves nothing on the held-out map
-            reasons.append(f"the held-out map: {err}")
-            train_curves = MapCurves([], [], single=True)
-        path, _ = predict_paths(train_curves, beams, held.held_rows)
-        residual = 0.5 * np.abs(beams.path[held.held_rows] - path)
-        hit = np.isfinite(residual)
-        predicted = float(hit.mean())
-        if hit.any():
-            median = float(np.median(residual[hit]))
-            p90 = float(np.percentile(residual[hit], 90.0))
-        else:
-            reasons.append("the held-out map predicts none of the held-out readings")
+    if residual is None:
+        assert held is not None  # made above
+        residual = heldout_residual(held, build, beams, grid, params)
+    elif callable(residual):
+        residual = residual()
+    reasons.extend(residual.reasons)
     return Quality(
-        fraction, int(held.judged.size), median, p90, int(held.held_rows.size), predicted, per,
-        "; ".join(reasons) or None,
+        fraction, int(judged.size), residual.median_m, residual.p90_m, residual.readings,
+        residual.predicted_fraction, per, "; ".join(reasons) or None,
     )  # fmt: skip

@@ -16,16 +16,13 @@ from __future__ import annotations
 
 import io
 import logging
-import os
-import pickle
-import sys
-import threading
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
+from sonarproc.forked import ForkedChild, fork_is_safe
 from sonarproc.report import style
 
 if TYPE_CHECKING:
@@ -92,28 +89,11 @@ def _can_fork(formats: Sequence[str]) -> bool:
     return "svg" in formats and len(formats) >= 2 and fork_is_safe()
 
 
-def fork_is_safe() -> bool:
-    """Whether drawing may go to a forked child: two cores to draw on, not already shared
-    with the sibling workers of a pool (this is no pool's worker), and a fork is safe
-    (Linux, no other thread: a lone thread holds no lock the child could inherit locked)."""
-    import multiprocessing
-
-    if sys.platform != "linux" or not hasattr(os, "fork"):
-        return False
-    if multiprocessing.parent_process() is not None:
-        return False
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
-    return cores >= 2 and threading.active_count() == 1
-
-
 Job = tuple[str, "Figure", str]
 
 
-class DrawingChild:
+class DrawingChild(ForkedChild):
     """A forked child saving figures; :meth:`collect` reads its bytes."""
-
-    def __init__(self, pid: int, fd: int) -> None:
-        self.pid, self.fd = pid, fd
 
     @classmethod
     def start(cls, jobs: Sequence[Job]) -> DrawingChild | None:
@@ -121,53 +101,17 @@ class DrawingChild:
         return cls.start_work(lambda: {name: figure_bytes(fig, fmt) for name, fig, fmt in jobs})
 
     @classmethod
-    def start_work(cls, work: Callable[[], dict[str, bytes]]) -> DrawingChild | None:
+    def start_work(cls, work: Callable[[], Any]) -> DrawingChild | None:
         """Fork a child that sends back what ``work()`` returns (None: no child)."""
-        read_fd, write_fd = os.pipe()
-        try:
-            pid = os.fork()
-        except OSError as err:  # no memory or process left: draw them here
-            log.debug("figures: no child to draw in (%s)", err)
-            os.close(read_fd)
-            os.close(write_fd)
-            return None
-        if pid == 0:  # the child: draw, send, and leave without running any exit handler
-            _child_main(work, read_fd, write_fd)
-        os.close(write_fd)
-        return cls(pid, read_fd)
+        child = ForkedChild.start_work(work)
+        return None if child is None else cls(child.pid, child.fd)
 
     def collect(self) -> dict[str, bytes] | None:
         """The child's files, or None if it failed."""
-        with os.fdopen(self.fd, "rb") as pipe:
-            payload = pipe.read()
-        _, status = os.waitpid(self.pid, 0)
-        if status != 0 or not payload:
-            log.debug("figures: the drawing child failed (status %d)", status)
+        files = self.collect_any()
+        if files is None:
             return None
-        files = pickle.loads(payload)  # our own child's {name: bytes}
         return {str(k): bytes(v) for k, v in files.items()}
-
-    def cancel(self) -> None:
-        """Stop the child (its files are no longer wanted) and reap it."""
-        import signal
-        from contextlib import suppress
-
-        with suppress(ProcessLookupError):  # it has exited: it is reaped below all the same
-            os.kill(self.pid, signal.SIGKILL)
-        os.close(self.fd)
-        os.waitpid(self.pid, 0)
-
-
-def _child_main(work: Callable[[], dict[str, bytes]], read_fd: int, write_fd: int) -> None:
-    code = 1
-    try:
-        os.close(read_fd)
-        payload = pickle.dumps(work())
-        with os.fdopen(write_fd, "wb") as pipe:
-            pipe.write(payload)
-        code = 0
-    finally:
-        os._exit(code)
 
 
 def _agg_pixels(fig: Figure) -> npt.NDArray[np.uint8]:

@@ -11,7 +11,8 @@ figure never imports it. Every line drawn is first cut to the view
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -40,6 +41,7 @@ __all__ = [
     "FIGURES",
     "FIGURE_FORMATS",
     "MAX_DISPLAY",
+    "ArcMapView",
     "alignment_figure",
     "arcmap_figure",
     "block_max",
@@ -167,19 +169,64 @@ def _point(
     )[0]  # fmt: skip
 
 
-def arcmap_figure(result: RunResult) -> Figure:
+@dataclass(frozen=True, eq=False)
+class ArcMapView:
+    """What the arc map figure shows: all known as soon as the map is built, before its
+    fit (so a child may draw it meanwhile, :mod:`sonarproc.report.ahead`).
+
+    Attributes
+    ----------
+    source : str
+        The log (its name titles the figure).
+    counts_map : ndarray of unsigned int
+        Arcs through each cell.
+    robot_xy : ndarray (N, 2) or None
+        The robot's positions.
+    extent : tuple of float
+        The grid's extent (m).
+    arcs : int
+        Readings drawn as arcs.
+    """
+
+    source: str
+    counts_map: npt.NDArray[np.unsignedinteger[Any]]
+    robot_xy: npt.NDArray[np.float64] | None
+    extent: tuple[float, float, float, float]
+    arcs: int
+
+    @classmethod
+    def of(cls, result: RunResult) -> ArcMapView:
+        """The arc map figure's content in ``result``."""
+        extent = tuple(float(v) for v in result.grid.extent)
+        return cls(result.source, result.counts_map, result.robot_xy, extent,  # type: ignore[arg-type]
+                   int(result.counts.get("readings_used", 0)))  # fmt: skip
+
+    def same_as(self, other: ArcMapView) -> bool:
+        """Whether ``other`` draws the same figure (equal content, array by array)."""
+        a, b = self.robot_xy, other.robot_xy
+        paths = (a is None) == (b is None) and (a is None or b is None or np.array_equal(a, b))
+        return (
+            self.source == other.source and self.extent == other.extent
+            and self.arcs == other.arcs and paths
+            and (self.counts_map is other.counts_map
+                 or np.array_equal(self.counts_map, other.counts_map))
+        )  # fmt: skip
+
+
+def arcmap_figure(result: RunResult | ArcMapView) -> Figure:
     """The arc map: how many arcs cross each cell, with its colour bar and the robot path."""
-    img = np.asarray(block_max(result.counts_map))
+    view = result if isinstance(result, ArcMapView) else ArcMapView.of(result)
+    img = np.asarray(block_max(view.counts_map))
     pos = img[img > 0]
     vmax = float(np.ceil(max(float(np.percentile(pos, 99)) if pos.size else 1.0, 1.0)))
     clipped = pos.size > 0 and float(pos.max()) > vmax  # the top 1 % share the darkest grey
-    extent = result.grid.extent
+    extent = view.extent
     path = np.zeros((0, 2))
-    if result.robot_xy is not None and result.robot_xy.size:
-        xy = result.robot_xy[:: max(result.robot_xy.shape[0] // 5000, 1)]
+    if view.robot_xy is not None and view.robot_xy.size:
+        xy = view.robot_xy[:: max(view.robot_xy.shape[0] // 5000, 1)]
         path = clip_polyline(xy, view_box(extent))
     with style.drawing():
-        title = _title(result, f"arc map, {result.counts.get('readings_used', 0)} arcs")
+        title = f"{Path(view.source).name or view.source}: arc map, {view.arcs} arcs"
         entries = 1 if path.size else 0  # no legend entry for a path outside the map
         fig, ax, cax = style.map_figure(extent, title, colour_bar=vmax, legend_entries=entries)
         ax.imshow(style.count_rgba(img, vmax), extent=extent, interpolation="none")
@@ -298,9 +345,11 @@ def render_figures(
     formats: Sequence[str] = FIGURE_FORMATS,
     *,
     auto: Mapping[str, Any] | None = None,
+    skip: Collection[str] = (),
 ) -> dict[str, bytes]:
     """Every figure of :data:`FIGURES` in ``formats``: ``{"arcmap.png": ..., ...}``; and
     ``alignment`` (:func:`alignment_figure`) when the run's poses were corrected for drift.
+    The figures named in ``skip`` (``"arcmap"``: drawn already) are left out.
 
     No format: no figure, and matplotlib is not imported. The drawing is spread over two
     cores where it can be (:func:`~sonarproc.report.drawing.figures_bytes`); the bytes
@@ -309,8 +358,8 @@ def render_figures(
     if not formats:
         return {}
     cells = _shown(result, None)
-    figures = [
-        ("arcmap", arcmap_figure(result)),
+    figures = [] if "arcmap" in skip else [("arcmap", arcmap_figure(result))]
+    figures += [
         ("processed", processed_figure(result, cells, auto=auto)),
         ("fit", fit_figure(result, cells)),
     ]

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from sonarproc import forked
 from sonarproc.report import drawing, style
 
 needs_fork = pytest.mark.skipif(
@@ -59,7 +60,7 @@ def test_files_from_the_child_are_those_drawn_here(monkeypatch: pytest.MonkeyPat
 
 @needs_fork
 def test_a_failed_child_leaves_its_share_to_this_process(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(drawing, "_child_main", lambda *args: os._exit(3))
+    monkeypatch.setattr(forked, "_child_main", lambda *args: os._exit(3))
     drawn = drawing.figures_bytes(figures(), ("png", "svg"))
     assert sorted(drawn) == ["f0.png", "f0.svg", "f1.png", "f1.svg", "f2.png", "f2.svg"]
     for name in ("f0.svg", "f2.svg"):

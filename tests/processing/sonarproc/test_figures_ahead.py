@@ -119,7 +119,9 @@ def test_figures_drawn_ahead_are_those_drawn_after_the_run(
 def test_a_failed_child_leaves_the_figures_to_the_report(room: Path, tmp_path: Path) -> None:
     crash = CHILD.replace(
         "from sonarproc.cli import main",
-        "drawing._child_main = lambda *a: os._exit(3)\nfrom sonarproc.cli import main",
+        # every forked child fails (the held-out residual's too: computed here instead)
+        "import sonarproc.forked\n"
+        "sonarproc.forked._child_main = lambda *a: os._exit(3)\nfrom sonarproc.cli import main",
     )
     args = ["run", str(room), "--cell", "0.02", "--json", "--figures", "png"]
     proc = subprocess.run(
