@@ -150,7 +150,7 @@ def confirm_points(
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces):
             continue
-        if _anchored(new, walls, boxes):
+        if _anchored(new, walls, boxes) or heard_as_corner(new, echoes, walls):
             out.append((k, new))
     return out
 
@@ -277,7 +277,11 @@ def _anchored(
     (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`), not inside it (there it
     is the plane's own echo). A point no plane leads to is not reported: the arcs of
     several surfaces cross by chance at points, a few times each, and what is seen of a
-    real reflector without any wall (a thin post) is fitted as a curve by the map.
+    real reflector without any wall (a thin post) is fitted as a curve by the map. A
+    retro-reflecting corner whose walls were not fitted (seen only from far along its
+    bisector, at the end of a corridor) is kept by :func:`confirm_points` when its echoes
+    say so (:func:`heard_as_corner`: heard from beyond an edge's reach, inside one right
+    angle, by many poses; no chance crossing of arcs is).
     """
     if not walls or boxes.inside(f.xy):
         return False

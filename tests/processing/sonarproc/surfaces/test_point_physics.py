@@ -86,3 +86,36 @@ def test_points_on_a_fitted_arc_s_circle_are_the_cylinder_s() -> None:
                      {"centre": [1.0, 1.0], "radius": 0.25})  # fmt: skip
     assert on_circles([1.0 - 0.25, 1.0], [arc])
     assert not on_circles([1.0, 1.6], [arc])
+
+
+def test_a_corner_seen_from_a_narrow_span_is_no_cylinder() -> None:
+    # ranges of a circle of radius 8 cm seen over 60 degrees: its sag there, 1.1 cm, is
+    # within the time walk, so the point is kept (a corner's beam-edge echoes read long)
+    from sonarproc.surfaces.reflectors.rcd import TIME_WALK_M, _radius_says_cylinder
+
+    c, radius = np.zeros(2), 0.08
+    a = np.linspace(math.radians(15), math.radians(75), 40)
+    dist = np.linspace(1.5, 4.5, 40)
+    s = c + np.column_stack((dist * np.cos(a), dist * np.sin(a)))
+    rng = dist - radius
+    assert radius * (1 - math.cos(math.radians(30))) <= TIME_WALK_M
+    assert not _radius_says_cylinder(s, rng, c + radius * np.array([0.707, 0.707]))
+    # a 15 cm pillar seen over 150 degrees is one
+    a = np.linspace(math.radians(-30), math.radians(120), 40)
+    s = c + np.column_stack((dist * np.cos(a), dist * np.sin(a)))
+    assert _radius_says_cylinder(s, dist - 0.15, c + 0.15 * np.array([0.5, 0.866]))
+
+
+def test_a_corner_no_fitted_wall_leads_to_is_kept_when_heard_as_one() -> None:
+    # the far corner of a corridor whose end wall was never fitted: no plane at all, heard
+    # from 1.5 to 4 m inside its right angle
+    from sonarproc.surfaces.reflectors.classify import confirm_points
+    from sonarproc.surfaces.reflectors.rcd import point_feature
+
+    p = np.array([5.0, 5.0])
+    s = _arc_sensors(p, np.linspace(1.5, 4.0, 30), math.radians(200), math.radians(250))
+    e = _heard(s, p)
+    f = point_feature(e, np.arange(30), p + 0.01)
+    assert f is not None
+    kept = confirm_points([f], e, [])
+    assert len(kept) == 1 and np.hypot(*(kept[0][1].xy - p)) < 0.01
