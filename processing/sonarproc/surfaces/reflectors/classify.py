@@ -148,7 +148,7 @@ def confirm_points(
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
-        if new is None or on_circles(new.xy, surfaces):
+        if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
         if _anchored(new, walls, boxes) or heard_as_corner(new, echoes, walls):
             out.append((k, new))
@@ -176,19 +176,35 @@ class _WallBoxes:
         return bool(near.size) and bool(inside_walls(xy, [self.walls[i] for i in near])[0])
 
 
-def on_circles(xy: npt.ArrayLike, surfaces: list[SurfaceFit]) -> bool:
+def on_circles(
+    xy: npt.ArrayLike,
+    surfaces: list[SurfaceFit],
+    heard: tuple[FloatArray, FloatArray] | None = None,
+) -> bool:
     """Whether a point lies on the circle of a fitted arc (within :data:`RANGE_TOL_M`).
 
     A cylinder answers from the point of it facing the sensor, so seen from a narrow
     sector it looks like a point reflector; on its fitted arc's circle, past the arc's
-    ends, such a point is more of the cylinder, not a corner or an edge.
+    ends, such a point is more of the cylinder, not a corner or an edge. With ``heard``
+    (the point's sensor positions (N, 2) and ranges (N,)), only when that circle explains
+    the ranges: more than half of them within :data:`RANGE_TOL_M` of the distance to the
+    circle (``| |s - c| - r |``). The point's position alone does not say it: a wall
+    fitted as an arc of a large radius runs through its own corners, whose echoes come
+    from the corner, not from the circle's facing point.
     """
     p = np.asarray(xy, dtype=np.float64).reshape(2)
     for s in surfaces:
         if s.model != "arc" or "centre" not in s.params or "radius" not in s.params:
             continue
         c = np.asarray(s.params["centre"], dtype=np.float64).reshape(2)
-        if abs(math.dist(p, c) - float(s.params["radius"])) <= RANGE_TOL_M:
+        radius = float(s.params["radius"])
+        if abs(math.dist(p, c) - radius) > RANGE_TOL_M:
+            continue
+        if heard is None:
+            return True
+        sensors, rng = heard
+        to_circle = np.abs(np.hypot(*(sensors - c).T) - radius)
+        if np.count_nonzero(np.abs(to_circle - rng) <= RANGE_TOL_M) * 2 > rng.size:
             return True
     return False
 
@@ -258,6 +274,11 @@ def _before_wall(
         if END_REACH_M < along < length - END_REACH_M and LINE_REACH_M < side * off <= CHAIN_GAP_M:
             return True
     return False
+
+
+def _heard(point: PointFeature, echoes: EchoGeometry) -> tuple[FloatArray, FloatArray]:
+    """The point's sensor positions and ranges."""
+    return echoes.xy[point.readings], echoes.range_m[point.readings]
 
 
 def _far_poses(point: PointFeature, echoes: EchoGeometry) -> int:

@@ -86,6 +86,24 @@ def test_points_on_a_fitted_arc_s_circle_are_the_cylinder_s() -> None:
                      {"centre": [1.0, 1.0], "radius": 0.25})  # fmt: skip
     assert on_circles([1.0 - 0.25, 1.0], [arc])
     assert not on_circles([1.0, 1.6], [arc])
+    # heard as the cylinder's facing point: ranges to the circle
+    s = np.array([[-1.0, 1.0], [-1.0, 1.2], [-1.0, 0.8]])
+    to_circle = np.hypot(*(s - 1.0).T) - 0.25
+    assert on_circles([0.75, 1.0], [arc], (s, to_circle))
+
+
+def test_a_wall_fitted_as_a_wide_arc_does_not_take_its_corner() -> None:
+    # a recess's back wall y ~ 2.6 fitted as an arc of radius 6.9 m runs through its corner
+    # (2.4, 2.6); the corner's readings range the corner, not the circle (sensors inside it)
+    c, radius = np.array([3.0, 2.6 - 6.9]), 6.9
+    arc = SurfaceFit("arc", np.array([[3.45, 2.585], [2.55, 2.585]]), 0.9, 0.0, 11, 11, False,
+                     {"centre": c.tolist(), "radius": radius})  # fmt: skip
+    tilt = math.asin(0.6 / radius)  # the corner 0.6 m west of the circle's top
+    corner = c + radius * np.array([-math.sin(tilt), math.cos(tilt)])
+    assert abs(np.hypot(*(corner - c)) - radius) < 0.03
+    s = corner + np.column_stack((np.linspace(-1.0, 1.0, 9), np.linspace(-2.5, -1.5, 9)))
+    assert on_circles(corner, [arc])
+    assert not on_circles(corner, [arc], (s, np.hypot(*(s - corner).T)))
 
 
 def test_a_corner_seen_from_a_narrow_span_is_no_cylinder() -> None:
