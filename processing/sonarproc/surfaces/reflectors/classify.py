@@ -69,6 +69,7 @@ from sonarproc.surfaces.reflectors.walls import (
 )
 
 __all__ = [
+    "answers_its_beams",
     "confirm_points",
     "echo_kind",
     "heard_as_corner",
@@ -150,7 +151,9 @@ def confirm_points(
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if _anchored(new, walls, boxes) or heard_as_corner(new, echoes, walls):
+        if _anchored(new, walls, boxes) or (
+            heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
+        ):
             out.append((k, new))
     return out
 
@@ -276,6 +279,39 @@ def _before_wall(
     return False
 
 
+#: Share of the beams holding a point near their axis that a retro-reflecting corner
+#: answers: all of them, less dropouts and the range step's rounding; more than half.
+ANSWER_SHARE = 0.5
+
+
+def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
+    """Whether the point answered most of the beams that held it near their axis.
+
+    A retro-reflecting corner returns as much as a plane from anywhere inside its
+    opening, so every reading from inside its sensors' sector (the complement of their
+    largest gap of bearings), no farther than its farthest reading, with the point within
+    :data:`AXIS_SHARE` of the half beam of its axis, ranges it, within :data:`RANGE_TOL_M`.
+    Where several surfaces' arcs cross by chance, the beams aimed at the crossing range
+    the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
+    no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
+    """
+    p = point.xy
+    rel = echoes.xy - p
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    own = np.sort(bearing[point.readings])
+    if own.size < 2:
+        return False
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    start = own[(int(np.argmax(gaps)) + 1) % own.size]
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - echoes.heading))))
+    aimed = inside & (off <= AXIS_SHARE * echoes.half_beam)
+    aimed &= dist <= float(dist[point.readings].max()) + RANGE_TOL_M
+    answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
+    return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
+
+
 def _heard(point: PointFeature, echoes: EchoGeometry) -> tuple[FloatArray, FloatArray]:
     """The point's sensor positions and ranges."""
     return echoes.xy[point.readings], echoes.range_m[point.readings]
@@ -302,7 +338,8 @@ def _anchored(
     retro-reflecting corner whose walls were not fitted (seen only from far along its
     bisector, at the end of a corridor) is kept by :func:`confirm_points` when its echoes
     say so (:func:`heard_as_corner`: heard from beyond an edge's reach, inside one right
-    angle, by many poses; no chance crossing of arcs is).
+    angle) and it answered most beams that held it near their axis
+    (:func:`answers_its_beams`; a chance crossing of arcs answers few of them).
     """
     if not walls or boxes.inside(f.xy):
         return False

@@ -137,3 +137,18 @@ def test_a_corner_no_fitted_wall_leads_to_is_kept_when_heard_as_one() -> None:
     assert f is not None
     kept = confirm_points([f], e, [])
     assert len(kept) == 1 and np.hypot(*(kept[0][1].xy - p)) < 0.01
+
+
+def test_a_chance_crossing_behind_a_wall_does_not_answer_its_beams() -> None:
+    from sonarproc.surfaces.reflectors.classify import answers_its_beams
+
+    p = np.zeros(2)
+    s = _arc_sensors(p, np.linspace(1.5, 4.0, 20), 0.2, 1.3)
+    f = _point(p, s, 20)
+    assert answers_its_beams(f, _heard(s, p))  # every beam aimed at it ranged it
+    # 30 more beams aimed at it ranged a wall 0.2 m in front of it: the point is a
+    # crossing of arcs behind that wall, which no sound reached
+    more = _arc_sensors(p, np.linspace(1.6, 3.9, 30), 0.25, 1.25)
+    short = np.hypot(*more.T) - 0.2
+    e = _heard(s, p, np.column_stack((more, np.arctan2(-more[:, 1], -more[:, 0]), short)))
+    assert not answers_its_beams(f, e)
