@@ -67,6 +67,8 @@ def test_perfect_map_scores_full(scene: tuple[World, SonarLog]) -> None:
     assert s.far_share == 0.0
     assert s.doors_seen == 1 and s.doors_open == 1
     assert s.corners_in_view >= 1 and s.corners_reported == s.corners_in_view
+    # the scene's other right-angled sectors (walls' solid sides) no sensor was in
+    assert s.corners_out_of_view == len(corner_sectors(world)) - s.corners_in_view
 
 
 def test_bridged_doorway_phantom_and_edge_instead_of_corner(scene: tuple[World, SonarLog]) -> None:
@@ -84,11 +86,17 @@ def test_reflector_section_rows() -> None:
     seen = SurfaceRow("office-door", "s", 1, 2, 3, "auto", 0.005, 0.9, 1.0,
                       ReflectorScore(0.01, 4, 4, 1, 1))  # fmt: skip
     held = SurfaceRow("heldout-x", "s", 1, 2, 3, "auto", 0.005, 0.8, 1.0,
-                      ReflectorScore(0.05, 2, 3, 0, 1), held_out=True)  # fmt: skip
+                      ReflectorScore(0.05, 2, 3, 0, 1, ((1.0, 2.5),), 2),
+                      held_out=True)  # fmt: skip
     plain = SurfaceRow("corridor-l", "s", 1, 2, 3, "auto", 0.005, 0.9, 1.0)
     text = "\n".join(reflector_section([held, plain, seen]))
-    assert "| `office-door` | seen | 0.50 | 0.900 | 1.0 | 4 of 4 | 1 of 1 | yes |" in text
-    assert "| `heldout-x` | held out | 0.50 | 0.800 | 5.0 | 2 of 3 | 0 of 1 | no |" in text
+    assert (
+        "| `office-door` | seen | 0.50 | 0.900 | 1.0 | 4 of 4 (0 not in view) | 1 of 1 | yes |"
+        in text
+    )
+    assert ("| `heldout-x` | held out | 0.50 | 0.800 | 5.0 | 2 of 3 (2 not in view) | 0 of 1 | no |"
+            in text)  # fmt: skip
+    assert "- `heldout-x`: (1, 2.5)" in text
     assert text.index("office-door") < text.index("heldout-x") and "corridor-l" not in text
     assert reflector_section([plain]) == []
 

@@ -82,6 +82,10 @@ class ReflectorScore:
     doors_seen: int
     #: the true corners in view that no ``corner`` matched (m)
     missed_corners: tuple[tuple[float, float], ...] = ()
+    #: right-angled sectors of world vertices that no sensor saw (not in view: never
+    #: inside the sector with the vertex in its beam, in range and in sight from
+    #: :data:`MIN_VIEW_POSES` poses; a wall's solid side counts here too)
+    corners_out_of_view: int = 0
 
 
 def _sectors(arms: FloatArray) -> list[tuple[float, float]]:
@@ -253,9 +257,10 @@ def score_reflectors(world: World, log: SonarLog, fits: Sequence[SurfaceFit]) ->
     rays = sensor_rays(log)
     found = np.array([np.asarray(f.polyline)[0] for f in fits
                       if f.model == "corner"]).reshape(-1, 2)  # fmt: skip
-    in_view, reported, missed = 0, 0, []
+    in_view, reported, missed, out_of_view = 0, 0, [], 0
     for v, start, width in corner_sectors(world):
         if not _corner_in_view(world, rays, v, start, width):
+            out_of_view += 1
             continue
         in_view += 1
         if found.shape[0] and float(np.hypot(*(found - v).T).min()) <= CORNER_MATCH_M:
@@ -270,4 +275,4 @@ def score_reflectors(world: World, log: SonarLog, fits: Sequence[SurfaceFit]) ->
         seen += 1
         if not _bridged(lines, a, b):
             open_ += 1
-    return ReflectorScore(far, reported, in_view, open_, seen, tuple(missed))
+    return ReflectorScore(far, reported, in_view, open_, seen, tuple(missed), out_of_view)

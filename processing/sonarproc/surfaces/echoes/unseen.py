@@ -34,7 +34,7 @@ from sonarproc.surfaces.fitting.merge import MERGE_GAP_M
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.freespace import FREE_BEAM_FRACTION, MIN_FREE_POSES, FreeCones
 
-__all__ = ["SIGHT_STEP_M", "cut_unseen", "facing_views"]
+__all__ = ["SIGHT_STEP_M", "cut_unseen", "facing_views", "hidden_runs"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -89,7 +89,7 @@ def facing_views(
     return reached, short
 
 
-def _hidden_runs(
+def hidden_runs(
     s0: float, s1: float, a: FloatArray, t: FloatArray, normal: FloatArray, cones: FreeCones,
     margin: float,
 ) -> list[tuple[float, float]]:  # fmt: skip
@@ -146,7 +146,7 @@ def cut_unseen(
         cuts = [
             run
             for k in wide.tolist()
-            for run in _hidden_runs(bounds[k], bounds[k + 1], a, t, normal, cones, margin)
+            for run in hidden_runs(bounds[k], bounds[k + 1], a, t, normal, cones, margin)
         ]
         if not cuts:
             out_f.append(f)

@@ -69,6 +69,7 @@ from sonarproc.surfaces.reflectors.walls import (
 )
 
 __all__ = [
+    "answers_its_beams",
     "confirm_points",
     "echo_kind",
     "heard_as_corner",
@@ -148,9 +149,11 @@ def confirm_points(
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
-        if new is None or on_circles(new.xy, surfaces):
+        if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if _anchored(new, walls, boxes):
+        if _anchored(new, walls, boxes) or (
+            heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
+        ):
             out.append((k, new))
     return out
 
@@ -176,19 +179,35 @@ class _WallBoxes:
         return bool(near.size) and bool(inside_walls(xy, [self.walls[i] for i in near])[0])
 
 
-def on_circles(xy: npt.ArrayLike, surfaces: list[SurfaceFit]) -> bool:
+def on_circles(
+    xy: npt.ArrayLike,
+    surfaces: list[SurfaceFit],
+    heard: tuple[FloatArray, FloatArray] | None = None,
+) -> bool:
     """Whether a point lies on the circle of a fitted arc (within :data:`RANGE_TOL_M`).
 
     A cylinder answers from the point of it facing the sensor, so seen from a narrow
     sector it looks like a point reflector; on its fitted arc's circle, past the arc's
-    ends, such a point is more of the cylinder, not a corner or an edge.
+    ends, such a point is more of the cylinder, not a corner or an edge. With ``heard``
+    (the point's sensor positions (N, 2) and ranges (N,)), only when that circle explains
+    the ranges: more than half of them within :data:`RANGE_TOL_M` of the distance to the
+    circle (``| |s - c| - r |``). The point's position alone does not say it: a wall
+    fitted as an arc of a large radius runs through its own corners, whose echoes come
+    from the corner, not from the circle's facing point.
     """
     p = np.asarray(xy, dtype=np.float64).reshape(2)
     for s in surfaces:
         if s.model != "arc" or "centre" not in s.params or "radius" not in s.params:
             continue
         c = np.asarray(s.params["centre"], dtype=np.float64).reshape(2)
-        if abs(math.dist(p, c) - float(s.params["radius"])) <= RANGE_TOL_M:
+        radius = float(s.params["radius"])
+        if abs(math.dist(p, c) - radius) > RANGE_TOL_M:
+            continue
+        if heard is None:
+            return True
+        sensors, rng = heard
+        to_circle = np.abs(np.hypot(*(sensors - c).T) - radius)
+        if np.count_nonzero(np.abs(to_circle - rng) <= RANGE_TOL_M) * 2 > rng.size:
             return True
     return False
 
@@ -260,6 +279,44 @@ def _before_wall(
     return False
 
 
+#: Share of the beams holding a point near their axis that a retro-reflecting corner
+#: answers: all of them, less dropouts and the range step's rounding; more than half.
+ANSWER_SHARE = 0.5
+
+
+def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
+    """Whether the point answered most of the beams that held it near their axis.
+
+    A retro-reflecting corner returns as much as a plane from anywhere inside its
+    opening, so every reading from inside its sensors' sector (the complement of their
+    largest gap of bearings), no farther than its farthest reading, with the point within
+    :data:`AXIS_SHARE` of the half beam of its axis, ranges it, within :data:`RANGE_TOL_M`.
+    Where several surfaces' arcs cross by chance, the beams aimed at the crossing range
+    the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
+    no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
+    """
+    p = point.xy
+    rel = echoes.xy - p
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    own = np.sort(bearing[point.readings])
+    if own.size < 2:
+        return False
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    start = own[(int(np.argmax(gaps)) + 1) % own.size]
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - echoes.heading))))
+    aimed = inside & (off <= AXIS_SHARE * echoes.half_beam)
+    aimed &= dist <= float(dist[point.readings].max()) + RANGE_TOL_M
+    answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
+    return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
+
+
+def _heard(point: PointFeature, echoes: EchoGeometry) -> tuple[FloatArray, FloatArray]:
+    """The point's sensor positions and ranges."""
+    return echoes.xy[point.readings], echoes.range_m[point.readings]
+
+
 def _far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
     """Distinct poses that heard the point from beyond :data:`EDGE_REACH_M`."""
     own = point.readings
@@ -277,7 +334,12 @@ def _anchored(
     (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`), not inside it (there it
     is the plane's own echo). A point no plane leads to is not reported: the arcs of
     several surfaces cross by chance at points, a few times each, and what is seen of a
-    real reflector without any wall (a thin post) is fitted as a curve by the map.
+    real reflector without any wall (a thin post) is fitted as a curve by the map. A
+    retro-reflecting corner whose walls were not fitted (seen only from far along its
+    bisector, at the end of a corridor) is kept by :func:`confirm_points` when its echoes
+    say so (:func:`heard_as_corner`: heard from beyond an edge's reach, inside one right
+    angle) and it answered most beams that held it near their axis
+    (:func:`answers_its_beams`; a chance crossing of arcs answers few of them).
     """
     if not walls or boxes.inside(f.xy):
         return False

@@ -15,7 +15,10 @@ the nearest such corner at each end. The stretch is not made where readings from
 :data:`~sonarproc.surfaces.freespace.MIN_FREE_POSES` distinct viewpoints saw through it
 (:func:`~sonarproc.surfaces.freespace.free_feet`: an opening between the wall's end and
 the corner stays open), nor where it would cross another fitted surface (the corner is
-another room's).
+another room's), nor through a stretch that stood hidden behind something else
+(:func:`~sonarproc.surfaces.echoes.unseen.hidden_runs`, from either side: the readings
+facing it squarely came back short of it, so its corner is another wall's on the same
+line, such as the back corner of the next door recess behind a corridor wall).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.occlusion import segment_crossings
 from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.echoes.unseen import hidden_runs
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
@@ -63,6 +67,15 @@ def _crosses(p: FloatArray, q: FloatArray, others: list[FloatArray]) -> bool:
     d = (s1 - s0) / np.maximum(np.hypot(*(s1 - s0).T), 1e-300)[:, None]
     rows, _, _ = segment_crossings(a, b, s0 - _OVERLAP_M * d, s1 + _OVERLAP_M * d)
     return bool(rows.size)
+
+
+def _hidden(p: FloatArray, q: FloatArray, cones: FreeCones) -> bool:
+    """Whether the stretch ``p q`` holds a hidden run, seen from either side of it."""
+    length = float(np.hypot(*(q - p)))
+    t = (q - p) / max(length, 1e-300)
+    normal = np.array([-t[1], t[0]])
+    return any(hidden_runs(0.0, length, p, t, side * normal, cones, RANGE_TOL_M)
+               for side in (1.0, -1.0))  # fmt: skip
 
 
 def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[SurfaceFit]:
@@ -119,7 +132,7 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
             if float(np.hypot(*(q - p))) < MIN_STRETCH_M or _crosses(p, q, others):
                 continue
             _, read, _ = free_feet(p[None, :], q[None, :], cones, margin=RANGE_TOL_M)
-            if np.unique(cones.viewpoint[read]).size >= MIN_FREE_POSES:
+            if np.unique(cones.viewpoint[read]).size >= MIN_FREE_POSES or _hidden(p, q, cones):
                 continue
             lo, hi = (target, hi) if end_before else (lo, target)
         if lo == 0.0 and hi == length:

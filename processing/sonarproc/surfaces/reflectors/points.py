@@ -202,6 +202,6 @@ def _still_a_point(
     without its readings loses that plane (a door recess's back wall, seen head on from
     a few poses only).
     """
-    if on_circles(p.xy, fits):
+    if on_circles(p.xy, fits, (echoes.xy[p.readings], echoes.range_m[p.readings])):
         return False
     return bool(walls and on_wall_lines(p.xy, walls)[0]) or heard_as_corner(p, echoes, walls)

@@ -36,8 +36,9 @@ their beams, while no plane explains the same ranges.
      reflector is heard off the axis too, anywhere in the beam, where those distances
      differ from its range);
    * a circle through them (range = distance to a centre minus a radius) has a radius
-     under :data:`MAX_POINT_RADIUS_M` or within two standard errors of zero: a larger
-     one is a cylinder, left to the arc fits.
+     under :data:`MAX_POINT_RADIUS_M`, within two standard errors of zero, or whose sag
+     over the sensors' span is within the time walk (:data:`TIME_WALK_M`): a larger one
+     is a cylinder, left to the arc fits.
 
    The readings of an accepted point are claimed by it (a reading has one first echo),
    so weaker candidates nearby are tested on the rest.
@@ -102,6 +103,11 @@ PLANE_POINT_RATIO = 1.5
 #: A circle through the readings with a larger radius (m) than this, and more than two
 #: standard errors from zero, is a cylinder: a pillar, not a point.
 MAX_POINT_RADIUS_M = 0.05
+#: The largest range bias (m) that varies across a beam: a weak echo off the beam's axis
+#: crosses the receiver threshold late by up to about 1.5 cm (Kleeman & Kuc 1995). A
+#: circle's radius ``R`` shows in the ranges only as the sag ``R (1 - cos(span / 2))``
+#: across the sensors' span; a sag under this bias is no evidence of a radius.
+TIME_WALK_M = 0.015
 #: Local maxima of the counts closer than this (m) are one candidate: the arcs through a
 #: point spread their votes over the range tolerance round it.
 CANDIDATE_SPACING_M = 2 * RANGE_TOL_M
@@ -349,6 +355,10 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
     q = _levenberg_marquardt(res, jac, np.r_[p, 0.0])
     radius = float(q[2])
     if radius <= MAX_POINT_RADIUS_M:
+        return False
+    # seen from a narrow span a point and a small circle differ by less than the time walk
+    # (a retro-reflecting corner seen from inside its right angle is no cylinder)
+    if radius * (1.0 - math.cos(0.5 * _span(xy, q[:2]))) <= TIME_WALK_M:
         return False
     j = jac(q)
     jtj = j.T @ j

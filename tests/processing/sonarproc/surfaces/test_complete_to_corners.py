@@ -56,3 +56,18 @@ def test_a_corner_beyond_another_wall_is_not_reached() -> None:
     partition = _wall((0.4, -1.0), (0.4, 1.0))
     out = complete_to_corners([wall, partition, _point("corner", (-1.0, 0.0))], NONE)
     assert out[0] is wall
+
+
+def test_a_stretch_hidden_behind_another_wall_is_not_completed() -> None:
+    # two door recesses' back walls on y = -0.25 behind a corridor wall y = 0: the first
+    # recess's back wall ends at x = 0.9, the second's corner is at (4.0, -0.25); sensors in
+    # the corridor facing the stretch squarely all ranged the corridor wall (0.75 m short)
+    wall = _wall((0.0, -0.25), (0.9, -0.25))
+    x = np.repeat(np.arange(1.0, 3.95, 0.05), 2)
+    hidden = EchoGeometry(np.c_[x, np.full(x.size, 1.0)], np.full(x.size, -np.pi / 2),
+                          np.full(x.size, 0.2), np.full(x.size, 1.0))  # fmt: skip
+    assert complete_to_corners([wall, _point("corner", (4.0, -0.25))], hidden)[0] is wall
+    # with the corridor wall gone (ranges reach the line) the wall is completed
+    reached = EchoGeometry(hidden.xy, hidden.heading, hidden.half_beam, np.full(x.size, 1.25))
+    out = complete_to_corners([wall, _point("corner", (4.0, -0.25))], reached)
+    np.testing.assert_allclose(out[0].polyline[-1], [4.0, -0.25], atol=1e-9)

@@ -86,3 +86,69 @@ def test_points_on_a_fitted_arc_s_circle_are_the_cylinder_s() -> None:
                      {"centre": [1.0, 1.0], "radius": 0.25})  # fmt: skip
     assert on_circles([1.0 - 0.25, 1.0], [arc])
     assert not on_circles([1.0, 1.6], [arc])
+    # heard as the cylinder's facing point: ranges to the circle
+    s = np.array([[-1.0, 1.0], [-1.0, 1.2], [-1.0, 0.8]])
+    to_circle = np.hypot(*(s - 1.0).T) - 0.25
+    assert on_circles([0.75, 1.0], [arc], (s, to_circle))
+
+
+def test_a_wall_fitted_as_a_wide_arc_does_not_take_its_corner() -> None:
+    # a recess's back wall y ~ 2.6 fitted as an arc of radius 6.9 m runs through its corner
+    # (2.4, 2.6); the corner's readings range the corner, not the circle (sensors inside it)
+    c, radius = np.array([3.0, 2.6 - 6.9]), 6.9
+    arc = SurfaceFit("arc", np.array([[3.45, 2.585], [2.55, 2.585]]), 0.9, 0.0, 11, 11, False,
+                     {"centre": c.tolist(), "radius": radius})  # fmt: skip
+    tilt = math.asin(0.6 / radius)  # the corner 0.6 m west of the circle's top
+    corner = c + radius * np.array([-math.sin(tilt), math.cos(tilt)])
+    assert abs(np.hypot(*(corner - c)) - radius) < 0.03
+    s = corner + np.column_stack((np.linspace(-1.0, 1.0, 9), np.linspace(-2.5, -1.5, 9)))
+    assert on_circles(corner, [arc])
+    assert not on_circles(corner, [arc], (s, np.hypot(*(s - corner).T)))
+
+
+def test_a_corner_seen_from_a_narrow_span_is_no_cylinder() -> None:
+    # ranges of a circle of radius 8 cm seen over 60 degrees: its sag there, 1.1 cm, is
+    # within the time walk, so the point is kept (a corner's beam-edge echoes read long)
+    from sonarproc.surfaces.reflectors.rcd import TIME_WALK_M, _radius_says_cylinder
+
+    c, radius = np.zeros(2), 0.08
+    a = np.linspace(math.radians(15), math.radians(75), 40)
+    dist = np.linspace(1.5, 4.5, 40)
+    s = c + np.column_stack((dist * np.cos(a), dist * np.sin(a)))
+    rng = dist - radius
+    assert radius * (1 - math.cos(math.radians(30))) <= TIME_WALK_M
+    assert not _radius_says_cylinder(s, rng, c + radius * np.array([0.707, 0.707]))
+    # a 15 cm pillar seen over 150 degrees is one
+    a = np.linspace(math.radians(-30), math.radians(120), 40)
+    s = c + np.column_stack((dist * np.cos(a), dist * np.sin(a)))
+    assert _radius_says_cylinder(s, dist - 0.15, c + 0.15 * np.array([0.5, 0.866]))
+
+
+def test_a_corner_no_fitted_wall_leads_to_is_kept_when_heard_as_one() -> None:
+    # the far corner of a corridor whose end wall was never fitted: no plane at all, heard
+    # from 1.5 to 4 m inside its right angle
+    from sonarproc.surfaces.reflectors.classify import confirm_points
+    from sonarproc.surfaces.reflectors.rcd import point_feature
+
+    p = np.array([5.0, 5.0])
+    s = _arc_sensors(p, np.linspace(1.5, 4.0, 30), math.radians(200), math.radians(250))
+    e = _heard(s, p)
+    f = point_feature(e, np.arange(30), p + 0.01)
+    assert f is not None
+    kept = confirm_points([f], e, [])
+    assert len(kept) == 1 and np.hypot(*(kept[0][1].xy - p)) < 0.01
+
+
+def test_a_chance_crossing_behind_a_wall_does_not_answer_its_beams() -> None:
+    from sonarproc.surfaces.reflectors.classify import answers_its_beams
+
+    p = np.zeros(2)
+    s = _arc_sensors(p, np.linspace(1.5, 4.0, 20), 0.2, 1.3)
+    f = _point(p, s, 20)
+    assert answers_its_beams(f, _heard(s, p))  # every beam aimed at it ranged it
+    # 30 more beams aimed at it ranged a wall 0.2 m in front of it: the point is a
+    # crossing of arcs behind that wall, which no sound reached
+    more = _arc_sensors(p, np.linspace(1.6, 3.9, 30), 0.25, 1.25)
+    short = np.hypot(*more.T) - 0.2
+    e = _heard(s, p, np.column_stack((more, np.arctan2(-more[:, 1], -more[:, 0]), short)))
+    assert not answers_its_beams(f, e)
