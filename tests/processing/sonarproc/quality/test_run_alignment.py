@@ -74,7 +74,16 @@ def test_run_removes_the_drift_and_restores_the_surfaces(name: str, seed: int, t
     assert p_on <= max(2.0 * p_free, 0.01), (p_on, p_free)
     assert on.quality is not None and off.quality is not None
     assert on.quality.explained_fraction is not None and off.quality.explained_fraction is not None
-    assert on.quality.explained_fraction > off.quality.explained_fraction + 0.1
+    assert on.quality.explained_fraction > off.quality.explained_fraction
+    # The truth-free verdict is the held-out residual: in sample, a drifted map's extra
+    # pieces and points explain some of its own smeared readings (hall-pillar: explained
+    # 0.689 aligned against 0.667 not), but they do not predict readings left out of the
+    # fit (held-out p90 measured: hall-pillar 1.7 cm aligned against 5.4 cm not).
+    assert on.quality.heldout_p90_m is not None and off.quality.heldout_p90_m is not None
+    assert on.quality.heldout_p90_m < 0.5 * off.quality.heldout_p90_m, (
+        on.quality.heldout_p90_m,
+        off.quality.heldout_p90_m,
+    )
 
 
 @pytest.mark.parametrize("name", ["fig12", "room-box", "corridor-l"])
