@@ -104,7 +104,6 @@ def align_log(log_: SonarLog) -> tuple[SonarLog, AlignmentRecord]:
     from scipy.special import chdtri  # chi-square quantiles (scipy.stats is slow to load)
 
     from sonarproc.align import align_poses, corrected_readings
-    from sonarproc.align.refine import refine_alignment
 
     a = align_poses(log_.readings, log_.sensors, speed_of_sound=log_.speed_of_sound)
     summary = a.summary()
@@ -130,6 +129,8 @@ def align_log(log_: SonarLog) -> tuple[SonarLog, AlignmentRecord]:
                                  unknowns, drop, threshold)  # fmt: skip
         return log_, record
     # only an applied correction is refined: a declined log costs nothing more
+    from sonarproc.align.refine import refine_alignment
+
     refined = refine_alignment(log_.readings, log_.sensors, a, speed_of_sound=log_.speed_of_sound)
     a = refined.alignment
     summary = {**a.summary(), **{f"refinement_{k}": v for k, v in refined.summary().items()}}
