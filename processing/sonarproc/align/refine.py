@@ -161,7 +161,8 @@ def _empty_matches() -> LineMatches:
 
 
 class _WallProblem:
-    """Residuals and Jacobian of the bundle adjustment: odometry, calibration, echoes."""
+    """Residuals of the bundle adjustment (odometry, calibration, echoes) and which
+    unknowns each depends on (for sparse finite differences)."""
 
     def __init__(self, nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
                  walls: _Walls) -> None:  # fmt: skip
@@ -362,6 +363,8 @@ def refine_alignment(
     node_spacing, turn_radius, drift_fraction, heading_drift : float
         As given to :func:`~sonarproc.align.align_poses` (the same nodes and the same
         odometry ties).
+    position_floor, heading_floor : float
+        The least standard deviation (m, rad) of an odometry tie, as the pose graph's.
     max_evaluations : int
         Most residual evaluations per solve.
 
