@@ -8,6 +8,7 @@ per metre added to the heading. The signs come from a seeded generator.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -62,15 +63,30 @@ def pose_error_rms(readings: np.ndarray, x: FloatArray, y: FloatArray) -> float:
     return float(np.sqrt(np.mean((readings["x"] - x) ** 2 + (readings["y"] - y) ** 2)))
 
 
-def looped_scenario(name: str, loops: int, *, seed: int | None = None) -> SimResult:
-    """Simulate a shipped scenario whose route (a closed loop) is driven ``loops`` times."""
-    from sonarsim import scenario_from_dict, simulate
-    from sonarsim.shipped import resolve_shipped
+def scenario_path(name: str) -> Path:
+    """A shipped scenario's file, or a test scenario's (``tests/data/scenarios/NAME.yaml``)."""
+    from sonarsim.shipped import resolve_shipped, shipped_names
 
-    path = resolve_shipped(name, kind="scenarios")
+    if name in shipped_names("scenarios"):
+        return Path(resolve_shipped(name, kind="scenarios"))
+    path = Path(__file__).resolve().parents[1] / "data" / "scenarios" / f"{name}.yaml"
+    if not path.is_file():
+        raise ValueError(f"{name}: neither a shipped scenario nor one in tests/data/scenarios")
+    return path
+
+
+def looped_scenario(name: str, loops: int, *, seed: int | None = None) -> SimResult:
+    """Simulate a scenario whose route is driven ``loops`` times.
+
+    A closed route is driven round again; an open one (a corridor driven through) is
+    driven there and back, which makes it a closed loop.
+    """
+    from sonarsim import scenario_from_dict, simulate
+
+    path = scenario_path(name)
     data = yaml.safe_load(path.read_text(encoding="utf-8"))
     way = data["path"]["locations"]["waypoints"]
     if way[0] != way[-1]:
-        raise ValueError(f"{name}: its route is not a closed loop")
+        way = way + way[-2::-1]
     data["path"]["locations"]["waypoints"] = way + way[1:] * (loops - 1)
     return simulate(scenario_from_dict(data, base_dir=path.parent, source=str(path), seed=seed))

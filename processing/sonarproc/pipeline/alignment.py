@@ -128,6 +128,12 @@ def align_log(log_: SonarLog) -> tuple[SonarLog, AlignmentRecord]:
         record = AlignmentRecord(False, why, path, path.copy(), 0.0, 0.0, 0.0, summary,
                                  unknowns, drop, threshold)  # fmt: skip
         return log_, record
+    # only an applied correction is refined: a declined log costs nothing more
+    from sonarproc.align.refine import refine_alignment
+
+    refined = refine_alignment(log_.readings, log_.sensors, a, speed_of_sound=log_.speed_of_sound)
+    a = refined.alignment
+    summary = {**a.summary(), **{f"refinement_{k}": v for k, v in refined.summary().items()}}
     record = AlignmentRecord(
         True, why, np.asarray(a.raw_path), np.asarray(a.corrected_path),
         a.path_difference_max_m, a.path_difference_mean_m, a.heading_difference_max_rad,
