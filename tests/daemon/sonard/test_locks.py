@@ -77,7 +77,9 @@ def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path
             assert f"PID {first.pid}" in log_line and "same.h5" in log_line
             assert f"PID {first.pid}" in port_line and pty in port_line
             assert not (tmp_path / "other.h5").exists()
-            time.sleep(1.0)  # some readings for the check below
+            # some readings for the check below: waited for in the log itself, since how
+            # many a second of wall time brings depends on the machine's load
+            _wait_for(lambda: len(read_log(out).readings) > 50, timeout=60.0)
             first.send_signal(signal.SIGTERM)
             _, err = first.communicate(timeout=60)
         finally:
