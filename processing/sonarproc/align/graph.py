@@ -52,6 +52,7 @@ __all__ = [
     "CALIBRATION_PRIOR",
     "GraphSolution",
     "OdometryTies",
+    "PoseGraphProblem",
     "correction_costs",
     "odometry_ties",
     "solve_graph",
@@ -134,7 +135,7 @@ def _bent(t: OdometryTies, heading_rate: float) -> FloatArray:
     return _rotate(t.step_xy, np.cos(a), np.sin(a))
 
 
-class _Problem:
+class PoseGraphProblem:
     """Residuals and Jacobian of one round's matches (kept between calls)."""
 
     def __init__(self, nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
@@ -253,7 +254,7 @@ def correction_costs(
     echo residuals), evaluated without solving: a correction found on one set of matches
     can be judged on another.
     """
-    prob = _Problem(nodes, ties, rays, track, matches, echo_sigma)
+    prob = PoseGraphProblem(nodes, ties, rays, track, matches, echo_sigma)
     x = np.concatenate((np.asarray(offsets[1:], dtype=np.float64).ravel(), calibration))
     return robust_cost(prob.residuals(np.zeros_like(x))), robust_cost(prob.residuals(x))
 
@@ -284,7 +285,7 @@ def solve_graph(
     max_evaluations : int
         Residual evaluations allowed.
     """
-    prob = _Problem(nodes, ties, rays, track, matches, echo_sigma)
+    prob = PoseGraphProblem(nodes, ties, rays, track, matches, echo_sigma)
     x0 = np.concatenate((np.asarray(start[1:], dtype=np.float64).ravel(), calibration))
     before = robust_cost(prob.residuals(np.zeros_like(x0)))
     res = least_squares(

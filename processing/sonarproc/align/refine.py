@@ -48,7 +48,7 @@ from scipy.sparse import csr_matrix
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import EchoRays, echo_rays
 from sonarproc.align.graph import NCAL, ROBUST_SCALE, OdometryTies, odometry_ties
-from sonarproc.align.graph import _Problem as _OdometryProblem
+from sonarproc.align.graph import PoseGraphProblem as _OdometryProblem
 from sonarproc.align.matching import LineMatches
 from sonarproc.align.poses import Alignment
 from sonarproc.align.track import Nodes, place_nodes, travel

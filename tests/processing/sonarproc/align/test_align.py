@@ -19,7 +19,7 @@ from scipy.optimize import approx_fprime
 from sonarlog import READING_DTYPE, SENSOR_DTYPE
 from sonarproc.align import align_poses, align_readings, corrected_readings
 from sonarproc.align.echoes import echo_rays
-from sonarproc.align.graph import _Problem, odometry_ties
+from sonarproc.align.graph import PoseGraphProblem, odometry_ties
 from sonarproc.align.matching import RayFrame, line_matches, match_lines
 from sonarproc.align.track import place_nodes, travel
 
@@ -154,7 +154,7 @@ def test_closed_form_jacobian_matches_finite_differences() -> None:
     ties = odometry_ties(track[nodes.at], driven, np.zeros(nodes.count - 1),
                          drift_fraction=0.005, heading_drift=1e-3, turn_radius=0.25,
                          position_floor=0.005, heading_floor=1e-3)  # fmt: skip
-    prob = _Problem(nodes, ties, rays, track, m, 0.03)
+    prob = PoseGraphProblem(nodes, ties, rays, track, m, 0.03)
     x = np.random.default_rng(4).normal(0.0, 0.05, 3 * (nodes.count - 1) + 2)
     jac = prob.jacobian(x).toarray()
     rows = np.random.default_rng(5).choice(jac.shape[0], 40, replace=False)
