@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from sonarproc.auto.candidates import ORDERS, SMOOTHING_LENGTHS
-from sonarproc.auto.echo_refit import MAX_PAIRS, MIN_ECHO_POINTS, SPLINE_TIE_SE, TIE_SE
+from sonarproc.auto.echo_refit import MAX_PAIRS, MIN_ECHO_POINTS
 from sonarproc.auto.holdout import MAX_SAMPLES
 from sonarproc.auto.hull import HULL_READINGS, HULL_WINDOW_CELLS, SIDE_SHARE
 from sonarproc.auto.refit_rounds import (
@@ -26,6 +26,7 @@ from sonarproc.auto.refit_rounds import (
     NOISE_WIDTHS,
     ROUNDS_M,
 )
+from sonarproc.auto.refit_ties import SPLINE_TIE_SE, TIE_SE
 from sonarproc.auto.score import CAP_CELLS, COVERAGE_MIN, HULL_CELLS, SURFACES_MAX_CELLS, TRIM
 from sonarproc.auto.scoring import FIT_COLUMNS
 from sonarproc.auto.separation import SPLIT_GAP_M, STEP_M
@@ -101,9 +102,9 @@ CONSTANTS: tuple[NamedConstant, ...] = (
        "fewer say the profile is not the surface the readings see"),
     _c("MAX_PAIRS", "echo_refit", MAX_PAIRS, "(reading, sample) pairs",
        "a long log's readings are subsampled so the refit costs a few runs"),
-    _c("TIE_SE", "echo_refit", TIE_SE, "paired standard errors (readings)",
+    _c("TIE_SE", "refit_ties", TIE_SE, "paired standard errors (readings)",
        "refits this close to the best, or to the chosen candidate, cannot be told apart"),
-    _c("SPLINE_TIE_SE", "echo_refit", SPLINE_TIE_SE, "paired standard errors (firings)",
+    _c("SPLINE_TIE_SE", "refit_ties", SPLINE_TIE_SE, "paired standard errors (firings)",
        "the one-standard-error rule between smoothing lengths, clustered by firing"),
     _c("MIN_PATH_GAIN", "sonarproc.methods.echo_model", MIN_PATH_GAIN,
        "m of path per m along the normal",
