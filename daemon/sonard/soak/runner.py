@@ -42,10 +42,18 @@ from typing import Any
 
 import numpy as np
 
-from sonard.soak.accounting import account_firings, clock_offset, load_firings, slope_per_hour
+from sonard.soak.accounting import (
+    account_firings,
+    classify_firings,
+    clock_offset,
+    load_firings,
+    slope_per_hour,
+)
+from sonard.soak.diagnosis import explain_unaccounted
 from sonard.soak.emulator import EPISODE_S
 from sonard.soak.processes import (
     INTERVAL,
+    SONARS,
     Sample,
     SoakProcesses,
     sample_process,
@@ -86,6 +94,8 @@ class SoakResult:
     faults: int = 0
     figures: dict[str, Any] = field(default_factory=dict)
     failures: list[str] = field(default_factory=list)
+    #: what explains a failure (unaccounted firings and their surroundings)
+    diagnosis: list[str] = field(default_factory=list)
 
 
 def _progress(tty: bool, duration: float) -> Any:
@@ -192,8 +202,10 @@ def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
         log_state=log.log_state,
     )
     if acc.unaccounted:
-        result.failures.append(
-            f"{acc.unaccounted} firings neither logged nor in an outage (e.g. {acc.examples})"
+        result.failures.append(f"{acc.unaccounted} firings neither logged nor in an outage")
+        classes = classify_firings(fire_t, fire_sonar, log, interval=INTERVAL)
+        result.diagnosis += explain_unaccounted(
+            classes, log, cycle=len(SONARS) * INTERVAL, trace=procs.trace, faults=procs.faults
         )
     if acc.extra_readings:
         result.failures.append(f"{acc.extra_readings} readings match no firing")
@@ -232,10 +244,10 @@ def _kill_trials(
                 result.failures.append(f"{out.name}: sonard did not poll for long enough")
             else:
                 killed.append((out, *polled))
-    worst = 0.0
+    losses: list[float] = []
     for path, first_poll, last_poll in killed:
         if not path.exists():  # nothing written: the next start removed the empty log
-            worst = max(worst, last_poll - first_poll)
+            losses.append(last_poll - first_poll)
             continue
         try:
             with h5py.File(path, "r") as f:
@@ -249,10 +261,15 @@ def _kill_trials(
         # lost: what it had polled (its last poll, robot clock in UNIX time) and not written
         if len(log.readings):
             last_t = float(log.readings["t"].max())
-            worst = max(worst, last_poll + clock_offset(log) - last_t)
+            losses.append(last_poll + clock_offset(log) - last_t)
         else:
-            worst = max(worst, last_poll - first_poll)
-    result.figures.update(kill_trials=len(killed), worst_loss_s=round(worst, 3))
+            losses.append(last_poll - first_poll)
+    worst = max(losses, default=0.0)
+    result.figures.update(
+        kill_trials=len(killed),
+        worst_loss_s=round(worst, 3),
+        kill_losses_s=" ".join(f"{x:.3f}" for x in losses[:10]),
+    )
     if worst > max_loss_s:
         result.failures.append(f"a kill lost {worst:.2f} s of readings (limit {max_loss_s:g} s)")
 
@@ -340,7 +357,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  {key}: {value}")
     for failure in result.failures:
         print(f"FAIL: {failure}")
-    print("soak: PASS" if not result.failures else "soak: FAIL")
+    for line in result.diagnosis:
+        print(f"  {line}")
+    if result.failures:
+        print(f"soak: FAIL (logs, trace and faults kept in {work})")
+    else:
+        print("soak: PASS")
     if not result.failures and not args.keep and args.dir is None:
         shutil.rmtree(work, ignore_errors=True)
     return 1 if result.failures else 0
