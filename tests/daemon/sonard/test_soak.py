@@ -13,7 +13,7 @@ import pytest
 from sonard.soak.accounting import account_firings, classify_firings, slope_per_hour
 from sonard.soak.diagnosis import explain_unaccounted
 from sonard.soak.processes import Sample
-from sonard.soak.runner import SoakResult, _resources, main, parse_duration
+from sonard.soak.runner import Kill, SoakResult, _last_poll, _resources, main, parse_duration
 from sonarlog import SENSOR_DTYPE, SonarLog, empty_readings
 from sonarlog.schema import EVENT_DTYPE
 
@@ -129,3 +129,10 @@ def test_unaccounted_firings_are_explained_with_their_surroundings(tmp_path: Pat
     assert lines[8] == "  fault stall: +1.900 .. +2.100 (emulator wall clock)"
     assert len(lines) == 9
     assert explain_unaccounted(classes._replace(in_outage=~classes.logged), log, cycle=0.2) == []
+
+
+def test_a_kills_last_poll_is_the_last_one_the_robot_heard_before_it() -> None:
+    polls = np.array([10.0, 10.5, 11.0, 11.5, 12.0, 30.0])  # 30.0: the next sonard's
+    kill = Kill(Path("kill-000.h5"), first_poll=10.0, killed_at=1000.0 + 11.7)
+    assert _last_poll(polls, kill, offset=1000.0) == 11.5
+    assert _last_poll(polls[:1], kill, offset=1000.0) == 10.0
