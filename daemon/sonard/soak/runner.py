@@ -236,15 +236,18 @@ def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) ->
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
             start = procs.trace.stat().st_size if procs.trace.exists() else 0
             proc = procs.sonard(out, err)
-            if i == n:  # the last start only finalises the last killed log
-                wait_running(procs.work / "lock", proc)
-                proc.send_signal(signal.SIGTERM)
-                proc.wait(30)
-                break
-            polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
-            killed_at = time.time()
-            proc.kill()
-            proc.wait(10)
+            try:
+                if i == n:  # the last start only finalises the last killed log
+                    wait_running(procs.work / "lock", proc)
+                    proc.send_signal(signal.SIGTERM)
+                    proc.wait(30)
+                    break
+                polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
+                killed_at = time.time()
+            finally:  # also when the soak itself is interrupted: no sonard outlives it
+                if proc.poll() is None:
+                    proc.kill()
+                proc.wait(10)
             if polled is None:
                 result.failures.append(f"{out.name}: sonard did not poll for long enough")
             else:
