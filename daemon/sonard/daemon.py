@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sonard.acquisition import Acquisition, FaultAbort, Stopped
+from sonard.acquisition import Acquisition, FaultAbort, Resume, Stopped
 from sonard.crashed_logs import finalise_crashed_logs
 from sonard.log_lock import LogLock
 from sonard.motion import MotionError
@@ -302,9 +302,20 @@ def _run_locked(
 
 
 def _start(acq: Acquisition, stop: threading.Event) -> None:
-    """Open and configure the robot; a failure here ends the run (systemd restarts it)."""
+    """Open and configure the robot, then poll it once; a failure here ends the run.
+
+    A link fault in that first poll that sonard recovered from (``Resume``: the robot was
+    stopped and configured again) is no failure, and there is no step to resume yet: it
+    polls again. A fault it does not recover from raises ``FaultAbort`` (systemd restarts
+    the service).
+    """
     acq.start()
-    acq.poll()
+    while True:
+        try:
+            acq.poll()
+            return
+        except Resume:
+            log.info("link fault before the plan began; the robot is configured again")
 
 
 class _PortFailure(RuntimeError):

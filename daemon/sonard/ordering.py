@@ -10,12 +10,15 @@ to that watermark (with one more interval of margin) are released, sorted stably
 default 40 ms): well inside the one second a crash may lose.
 
 A reading older than one already released (a clock glitch the plausibility check let
-through) cannot be placed any more; it is dropped and counted in :attr:`TimeOrder.late`.
+through) cannot be placed any more; it is dropped, counted in :attr:`TimeOrder.late` and
+handed to ``on_late`` (the recorder logs the span as a ``gap``: the log must say which
+firings it is missing).
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 
@@ -33,6 +36,8 @@ class TimeOrder:
     ----------
     hold : float
         How far behind the newest reply's time readings are held (s).
+    on_late : callable, optional
+        Called with the ``t`` of the readings each push drops as late.
 
     Examples
     --------
@@ -46,8 +51,9 @@ class TimeOrder:
     [1.0, 1.02]
     """
 
-    def __init__(self, hold: float) -> None:
+    def __init__(self, hold: float, *, on_late: Callable[[np.ndarray], None] | None = None) -> None:
         self.hold = float(hold)
+        self._on_late = on_late
         self._held = np.zeros(0, READING_DTYPE)
         self._last_t = -np.inf
         #: readings dropped because they came after later ones were already released
@@ -74,6 +80,8 @@ class TimeOrder:
                 n = int(late.sum())
                 self.late += n
                 log.warning("%d reading(s) older than readings already logged dropped", n)
+                if self._on_late is not None:
+                    self._on_late(np.asarray(rows["t"][late]))
                 rows = rows[~late]
             self._held = np.concatenate([self._held, rows.astype(READING_DTYPE, copy=False)])
         if not len(self._held):

@@ -12,6 +12,7 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -19,7 +20,9 @@ from sonarlog import SonarLog
 
 __all__ = [
     "Accounting",
+    "FiringClasses",
     "account_firings",
+    "classify_firings",
     "clock_offset",
     "load_firings",
     "outage_windows",
@@ -119,6 +122,74 @@ def _matched(keys: np.ndarray, sorted_keys: np.ndarray, tol: float) -> np.ndarra
     return (np.abs(keys - lo) <= tol) | (np.abs(keys - hi) <= tol)
 
 
+class FiringClasses(NamedTuple):
+    """The firings inside a log's span, each classified (arrays of one length, time order).
+
+    Attributes
+    ----------
+    t : ndarray
+        Firing time, UNIX seconds (robot clock + the log's clock offset).
+    sonar : ndarray
+        Sonar id.
+    logged : ndarray of bool
+        A reading of the same sonar within :data:`MATCH_TOL_S`.
+    in_outage : ndarray of bool
+        Not logged, inside a logged ``gap``.
+    extra_readings : int
+        Readings of the log with no firing.
+    """
+
+    t: np.ndarray
+    sonar: np.ndarray
+    logged: np.ndarray
+    in_outage: np.ndarray
+    extra_readings: int
+
+    @property
+    def lost(self) -> np.ndarray:
+        """Neither logged nor inside a logged outage."""
+        return ~self.logged & ~self.in_outage
+
+
+def classify_firings(
+    fire_t: np.ndarray,
+    fire_sonar: np.ndarray,
+    log: SonarLog,
+    *,
+    interval: float,
+) -> FiringClasses:
+    """Match the emulator's firings (robot clock) against a log's readings and gaps.
+
+    Parameters
+    ----------
+    fire_t, fire_sonar : ndarray
+        From :func:`load_firings`.
+    log : SonarLog
+        The log sonard wrote while the trace was taken (with at least one reading).
+    interval : float
+        The plan's firing interval (s).
+
+    Returns
+    -------
+    FiringClasses
+    """
+    r = log.readings
+    offset = clock_offset(log)
+    order = np.argsort(fire_t, kind="stable")
+    t = offset + fire_t[order]
+    span = (t >= r["t"].min() - MATCH_TOL_S) & (t <= r["t"].max() + MATCH_TOL_S)
+    t, sonar = t[span], fire_sonar[order][span]
+    # one sorted axis for (sonar, time): sonars 0..15 far apart, times relative to the run
+    base = float(r["t"].min())
+    stride = 1e7
+    read_keys = np.sort(r["rx"].astype(np.float64) * stride + (r["t"] - base))
+    fire_keys = sonar.astype(np.float64) * stride + (t - base)
+    logged = _matched(fire_keys, read_keys, MATCH_TOL_S)
+    outage = ~logged & _inside(t, outage_windows(log, interval))
+    extra = ~_matched(read_keys, np.sort(fire_keys), MATCH_TOL_S)
+    return FiringClasses(t, sonar, logged, outage, int(extra.sum()))
+
+
 def account_firings(
     fire_t: np.ndarray,
     fire_sonar: np.ndarray,
@@ -126,7 +197,7 @@ def account_firings(
     *,
     interval: float,
 ) -> Accounting:
-    """Match the emulator's firings (robot clock) against a log's readings.
+    """Count the emulator's firings (robot clock) logged, in an outage, or lost.
 
     Parameters
     ----------
@@ -141,29 +212,17 @@ def account_firings(
     -------
     Accounting
     """
-    r = log.readings
-    if not len(r):
+    if not len(log.readings):
         return Accounting(0, 0, 0, 0, 0)
-    offset = clock_offset(log)
-    t = offset + fire_t
-    span = (t >= r["t"].min() - MATCH_TOL_S) & (t <= r["t"].max() + MATCH_TOL_S)
-    t, sonar = t[span], fire_sonar[span]
-    # one sorted axis for (sonar, time): sonars 0..15 far apart, times relative to the run
-    base = float(r["t"].min())
-    stride = 1e7
-    read_keys = np.sort(r["rx"].astype(np.float64) * stride + (r["t"] - base))
-    fire_keys = sonar.astype(np.float64) * stride + (t - base)
-    logged = _matched(fire_keys, read_keys, MATCH_TOL_S)
-    outage = ~logged & _inside(t, outage_windows(log, interval))
-    lost = ~logged & ~outage
-    extra = ~_matched(read_keys, np.sort(fire_keys), MATCH_TOL_S)
-    examples = [(int(s), float(x)) for s, x in zip(sonar[lost][:5], t[lost][:5], strict=True)]
+    c = classify_firings(fire_t, fire_sonar, log, interval=interval)
+    lost = c.lost
+    examples = [(int(s), float(x)) for s, x in zip(c.sonar[lost][:5], c.t[lost][:5], strict=True)]
     return Accounting(
-        firings=len(t),
-        logged=int(logged.sum()),
-        in_outage=int(outage.sum()),
+        firings=len(c.t),
+        logged=int(c.logged.sum()),
+        in_outage=int(c.in_outage.sum()),
         unaccounted=int(lost.sum()),
-        extra_readings=int(extra.sum()),
+        extra_readings=c.extra_readings,
         examples=examples,
     )
 

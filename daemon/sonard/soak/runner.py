@@ -20,7 +20,11 @@ Checks (exit 1 when one fails, 2 on bad arguments):
   30 minutes or more) its RSS grows less than 1 MiB per hour;
 * every killed log opens with plain ``h5py.File(path, "r")`` after the next start, reads as
   ``crashed``, and lost at most 1 s of readings before its last poll (each is killed once
-  it has polled for a random 0.5-3 s of robot time).
+  it has polled for a random 0.5-3 s of robot time; its last poll is the last GS the
+  emulator heard before the kill, read from the trace once the emulator has exited).
+
+A failure keeps the work directory and prints, for unaccounted firings, what surrounds
+them (:mod:`sonard.soak.diagnosis`).
 
 A rich progress display is shown when stdout is a terminal; otherwise only the summary.
 The processes themselves are started and sampled by :mod:`sonard.soak.processes`.
@@ -29,6 +33,7 @@ The processes themselves are started and sampled by :mod:`sonard.soak.processes`
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import shutil
 import signal
@@ -42,10 +47,18 @@ from typing import Any
 
 import numpy as np
 
-from sonard.soak.accounting import account_firings, clock_offset, load_firings, slope_per_hour
+from sonard.soak.accounting import (
+    account_firings,
+    classify_firings,
+    clock_offset,
+    load_firings,
+    slope_per_hour,
+)
+from sonard.soak.diagnosis import explain_unaccounted
 from sonard.soak.emulator import EPISODE_S
 from sonard.soak.processes import (
     INTERVAL,
+    SONARS,
     Sample,
     SoakProcesses,
     sample_process,
@@ -86,6 +99,8 @@ class SoakResult:
     faults: int = 0
     figures: dict[str, Any] = field(default_factory=dict)
     failures: list[str] = field(default_factory=list)
+    #: what explains a failure (unaccounted firings and their surroundings)
+    diagnosis: list[str] = field(default_factory=list)
 
 
 def _progress(tty: bool, duration: float) -> Any:
@@ -166,14 +181,15 @@ def _resources(samples: list[Sample], duration: float, result: SoakResult) -> No
         result.failures.append(f"RSS grows {rss_slope:.2f} MiB/h (limit {RSS_LIMIT_MIB_PER_H})")
 
 
-def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
+def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> float:
+    """Account the long run's log; return its clock offset (NaN when it has none)."""
     from sonarlog import SonarLogError, read_log
 
     try:
         log = read_log(out)
     except (OSError, SonarLogError) as exc:
         result.failures.append(f"the soak log cannot be read: {exc}")
-        return
+        return float("nan")
     fire_t, fire_sonar = load_firings(procs.trace)
     acc = account_firings(fire_t, fire_sonar, log, interval=INTERVAL)
     kinds = [bytes(k).decode() for k in log.events["kind"]] if log.events is not None else []
@@ -192,8 +208,10 @@ def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
         log_state=log.log_state,
     )
     if acc.unaccounted:
-        result.failures.append(
-            f"{acc.unaccounted} firings neither logged nor in an outage (e.g. {acc.examples})"
+        result.failures.append(f"{acc.unaccounted} firings neither logged nor in an outage")
+        classes = classify_firings(fire_t, fire_sonar, log, interval=INTERVAL)
+        result.diagnosis += explain_unaccounted(
+            classes, log, cycle=len(SONARS) * INTERVAL, trace=procs.trace, faults=procs.faults
         )
     if acc.extra_readings:
         result.failures.append(f"{acc.extra_readings} readings match no firing")
@@ -203,58 +221,104 @@ def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> None:
         result.failures.append(f"log state {log.log_state} after SIGTERM")
     if acc.firings == 0:
         result.failures.append("no firings in the run")
+    try:
+        return clock_offset(log)
+    except ValueError:
+        return float("nan")
 
 
-def _kill_trials(
-    procs: SoakProcesses, n: int, seed: int, result: SoakResult, max_loss_s: float = MAX_LOSS_S
-) -> None:
+def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) -> list[Kill]:
     """Start sonard, SIGKILL it at a random moment, repeat; the next start finalises."""
-    import h5py
-
-    from sonarlog import read_log
-
     rng = np.random.default_rng(seed)
-    killed: list[tuple[Path, float, float]] = []
+    killed: list[Kill] = []
     with open(procs.work / "kills.err", "w", encoding="utf-8") as err:
         for i in range(n + 1):
             out = procs.work / "logs" / f"kill-{i:03d}.h5"
             start = procs.trace.stat().st_size if procs.trace.exists() else 0
             proc = procs.sonard(out, err)
-            if i == n:  # the last start only finalises the last killed log
-                wait_running(procs.work / "lock", proc)
-                proc.send_signal(signal.SIGTERM)
-                proc.wait(30)
-                break
-            polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
-            proc.kill()
-            proc.wait(10)
+            try:
+                if i == n:  # the last start only finalises the last killed log
+                    wait_running(procs.work / "lock", proc)
+                    proc.send_signal(signal.SIGTERM)
+                    proc.wait(30)
+                    break
+                polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
+                killed_at = time.time()
+            finally:  # also when the soak itself is interrupted: no sonard outlives it
+                if proc.poll() is None:
+                    proc.kill()
+                proc.wait(10)
             if polled is None:
                 result.failures.append(f"{out.name}: sonard did not poll for long enough")
             else:
-                killed.append((out, *polled))
-    worst = 0.0
-    for path, first_poll, last_poll in killed:
-        if not path.exists():  # nothing written: the next start removed the empty log
-            worst = max(worst, last_poll - first_poll)
+                killed.append(Kill(out, polled[0], killed_at))
+    return killed
+
+
+@dataclass(frozen=True)
+class Kill:
+    """One kill trial: its log, its first poll (robot clock, s) and the kill (UNIX s)."""
+
+    log: Path
+    first_poll: float
+    killed_at: float
+
+
+def _kill_losses(
+    trace: Path, killed: list[Kill], result: SoakResult, max_loss_s: float, offset: float
+) -> None:
+    """Check every killed log, and how much of what its sonard polled it lost.
+
+    Read once the emulator has exited: its trace is buffered, so only then does it hold
+    every poll. A sonard's last poll is the last GS the robot heard before the kill (robot
+    clock, through the log's ``clock`` event, or ``offset`` for a log that is gone); the
+    loss is from there back to the log's last reading (the time order's hold, the writer's
+    flush interval and the host's delays), or to its first poll when it logged nothing.
+    """
+    import h5py
+
+    from sonarlog import read_log
+
+    polls = np.array(
+        [float(json.loads(line)["t"]) for line in _lines(trace) if b'"GS"' in line], dtype=float
+    )
+    losses: list[float] = []
+    for k in killed:
+        if not k.log.exists():  # nothing written: the next start removed the empty log
+            losses.append(_last_poll(polls, k, offset) - k.first_poll)
             continue
         try:
-            with h5py.File(path, "r") as f:
+            with h5py.File(k.log, "r") as f:
                 n_rows = f["readings"].shape[0]
         except OSError as exc:
-            result.failures.append(f"{path.name}: plain h5py cannot open it ({exc})")
+            result.failures.append(f"{k.log.name}: plain h5py cannot open it ({exc})")
             continue
-        log = read_log(path)
+        log = read_log(k.log)
         if log.log_state != "crashed" or n_rows != len(log.readings):
-            result.failures.append(f"{path.name}: state {log.log_state}, {n_rows} rows")
-        # lost: what it had polled (its last poll, robot clock in UNIX time) and not written
+            result.failures.append(f"{k.log.name}: state {log.log_state}, {n_rows} rows")
         if len(log.readings):
-            last_t = float(log.readings["t"].max())
-            worst = max(worst, last_poll + clock_offset(log) - last_t)
+            own = clock_offset(log)
+            losses.append(_last_poll(polls, k, own) - (float(log.readings["t"].max()) - own))
         else:
-            worst = max(worst, last_poll - first_poll)
-    result.figures.update(kill_trials=len(killed), worst_loss_s=round(worst, 3))
+            losses.append(_last_poll(polls, k, offset) - k.first_poll)
+    worst = max(losses, default=0.0)
+    result.figures.update(
+        kill_trials=len(killed),
+        worst_loss_s=round(worst, 3),
+        kill_losses_s=" ".join(f"{x:.3f}" for x in losses[:10]),
+    )
     if worst > max_loss_s:
         result.failures.append(f"a kill lost {worst:.2f} s of readings (limit {max_loss_s:g} s)")
+
+
+def _last_poll(polls: np.ndarray, kill: Kill, offset: float) -> float:
+    """Robot time of the last poll from ``kill``'s sonard (robot clock 0 at UNIX ``offset``)."""
+    mine = polls[(polls >= kill.first_poll) & (polls <= kill.killed_at - offset)]
+    return float(mine.max(initial=kill.first_poll))
+
+
+def _lines(path: Path) -> list[bytes]:
+    return path.read_bytes().split(b"\n") if path.exists() else []
 
 
 def soak(
@@ -275,15 +339,18 @@ def soak(
     result = SoakResult(duration)
     write_plan(work / "plan.yaml", duration)
     procs = SoakProcesses(work, fault_every)
+    killed: list[Kill] = []
     try:
         out = _long_run(procs, duration, result, tty)
         if kill_trials:
             procs.emulator.send_signal(signal.SIGUSR1)  # no more faults ...
             time.sleep(EPISODE_S + 1.0)  # ... once the one under way is over
-            _kill_trials(procs, kill_trials, seed, result, max_loss_s)
+            killed = _kill_trials(procs, kill_trials, seed, result)
     finally:
         procs.close()
-    _check_log(procs, out, result)
+    offset = _check_log(procs, out, result)
+    if kill_trials:
+        _kill_losses(procs.trace, killed, result, max_loss_s, offset)
     return result
 
 
@@ -340,7 +407,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"  {key}: {value}")
     for failure in result.failures:
         print(f"FAIL: {failure}")
-    print("soak: PASS" if not result.failures else "soak: FAIL")
+    for line in result.diagnosis:
+        print(f"  {line}")
+    if result.failures:
+        print(f"soak: FAIL (logs, trace and faults kept in {work})")
+    else:
+        print("soak: PASS")
     if not result.failures and not args.keep and args.dir is None:
         shutil.rmtree(work, ignore_errors=True)
     return 1 if result.failures else 0

@@ -6,7 +6,6 @@ import contextlib
 import datetime as dt
 import socket
 import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -62,9 +61,15 @@ def test_run_in_process_with_notify(tmp_path: Path, monkeypatch: pytest.MonkeyPa
         argv = ["--port", _url("cli-a"), "--plan", str(plan), "--out", str(out)]
         assert main([*argv, "--truth", str(WORLD)]) == 0
     finally:
-        time.sleep(0.3)  # the last datagrams
         done.set()
         reader.join()
+        # the datagrams sent before main returned are all queued on the socket (a unix
+        # datagram send completes into the receiver's queue): read what the reader, which
+        # a loaded machine may have kept off the CPU, left there, rather than wait for it
+        sock.setblocking(False)
+        with contextlib.suppress(BlockingIOError):
+            while True:
+                msgs.append(sock.recv(4096).decode())
         sock.close()
     assert msgs[0].startswith("READY=1")
     assert "WATCHDOG=1" in msgs

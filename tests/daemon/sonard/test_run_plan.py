@@ -141,3 +141,26 @@ def test_non_idempotent_commands_are_resent_only_after_a_refusal(
     acq = Acquisition(client, _plan([{"dwell": {"seconds": 1}}]), sink, stop=threading.Event())  # type: ignore[arg-type]
     acq.move_relative(0.1, 0.0, 0.0)
     assert client.sent == sent
+
+
+def test_a_link_fault_recovered_in_the_first_poll_does_not_end_the_run() -> None:
+    # a loaded host can miss replies for a second in its very first poll: the fault is
+    # recovered from (Resume) before any step runs, and the start polls again
+    import threading
+
+    from sonard.daemon import _start
+
+    calls: list[str] = []
+
+    class FirstPollFails:
+        def start(self) -> None:
+            calls.append("start")
+
+        def poll(self) -> Any:
+            calls.append("poll")
+            if calls.count("poll") == 1:
+                raise Resume
+            return SimpleNamespace(clock=0.04)
+
+    _start(FirstPollFails(), threading.Event())  # type: ignore[arg-type]
+    assert calls == ["start", "poll", "poll"]

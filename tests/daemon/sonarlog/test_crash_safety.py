@@ -186,7 +186,10 @@ def test_background_flush_makes_readings_visible_to_a_live_reader(
     readings = random_readings(np.random.default_rng(3), 100)
     with LogWriter(path, ring_sensors(), flush_interval=interval) as w:
         w.append(readings)
-        deadline = time.monotonic() + 5
+        # the push thread flushes every `interval`; a loaded machine can keep it off the
+        # CPU for seconds, so wait on the condition with a generous bound (it ends at once
+        # when the readings show)
+        deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
             if len(read_log(path).readings) == 100:
                 break
