@@ -36,10 +36,10 @@ their beams, while no plane explains the same ranges.
    * no diffusely scattering wall through the point explains them either: such a wall
      answers each reading from where its beam's axis meets it, so every point of it is
      seen from many poses at its own distance, like a point reflector; the best line
-     through ``p`` whose distances along the readings' axes match their ranges must leave
-     an RMS residual above :data:`PLANE_POINT_RATIO` times the point's (a point
-     reflector is heard off the axis too, anywhere in the beam, where those distances
-     differ from its range);
+     through ``p`` whose distances along the readings' axes match their ranges
+     (:func:`diffuse_residuals`) must explain them significantly worse than the point, by
+     the same test as the plane (a point reflector is heard off the axis too, anywhere
+     in the beam, where those distances differ from its range);
    * a circle through them (range = distance to a centre minus a radius) has a radius
      under :data:`MAX_POINT_RADIUS_M`, within two standard errors of zero, or whose sag
      over the sensors' span is within the time walk (:data:`TIME_WALK_M`): a larger one
@@ -76,6 +76,7 @@ __all__ = [
     "RANGE_STEP_NOISE_M",
     "RANGE_TOL_M",
     "PointFeature",
+    "diffuse_residuals",
     "find_point_features",
     "plane_residuals",
     "point_beats_plane",
@@ -113,9 +114,6 @@ RANGE_STEP_NOISE_M = 0.0254 / math.sqrt(12.0)
 #: prefer a point (one-sided, Vuong's statistic is standard normal when both models fit
 #: equally well).
 POINT_FALSE_ALARM = 0.01
-#: A diffusely scattering line must leave residuals this many times the point's own
-#: (a wall seen along its beams' axes fits both about equally).
-PLANE_POINT_RATIO = 1.5
 #: A circle through the readings with a larger radius (m) than this, and more than two
 #: standard errors from zero, is a cylinder: a pillar, not a point.
 MAX_POINT_RADIUS_M = 0.05
@@ -389,13 +387,38 @@ def point_beats_plane(point_res: FloatArray, plane_res: FloatArray) -> bool:
     return math.sqrt(ll.size) * mean / sd >= _POINT_Z
 
 
-def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
-    """RMS residual (m) of the best diffusely scattering line through ``p``.
+def diffuse_residuals(
+    xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike
+) -> FloatArray:
+    """Range residuals (m) of the best diffusely scattering line through ``p``.
 
     For a line through ``p`` with unit normal ``n`` (every half degree), a reading's
     predicted range is the distance along its beam's axis to the line,
     ``n . (p - s) / n . h``; axes within 3 degrees of the line's direction, or meeting
-    it behind the sensor, count as a 1 m miss (so do larger misses).
+    it behind the sensor, count as a 1 m miss (so do larger misses). The best line has
+    the least RMS residual.
+
+    Examples
+    --------
+    >>> s = np.c_[np.linspace(-1.0, 1.0, 9), np.zeros(9)]
+    >>> h = np.full(9, np.pi / 2)                         # looking straight at y = 2
+    >>> float(np.abs(diffuse_residuals(s, h, np.full(9, 2.0), [0.0, 2.0])).max()) < 1e-12
+    True
+    """
+    q = np.asarray(p, dtype=np.float64)
+    num = (q - xy) @ _DIFFUSE_N.T
+    den = np.column_stack((np.cos(heading), np.sin(heading))) @ _DIFFUSE_N.T
+    ok = np.abs(den) > _GRAZING
+    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
+    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
+    k = int(np.argmin(np.mean(miss * miss, axis=0)))
+    return np.asarray(miss[:, k], dtype=np.float64)
+
+
+def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
+    """RMS residual (m) of the best diffusely scattering line through ``p``.
+
+    The line of :func:`diffuse_residuals`.
 
     Examples
     --------
@@ -404,13 +427,8 @@ def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.Arr
     >>> round(diffuse_rms(s, h, np.full(9, 2.0), [0.0, 2.0]), 6)
     0.0
     """
-    q = np.asarray(p, dtype=np.float64)
-    num = (q - xy) @ _DIFFUSE_N.T
-    den = np.column_stack((np.cos(heading), np.sin(heading))) @ _DIFFUSE_N.T
-    ok = np.abs(den) > _GRAZING
-    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
-    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
-    return float(np.sqrt(np.mean(miss * miss, axis=0)).min())
+    r = diffuse_residuals(xy, heading, rng, p)
+    return float(np.sqrt(np.mean(r * r)))
 
 
 def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
@@ -697,7 +715,7 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     point_res = np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - rng
     if not point_beats_plane(point_res, plane_residuals(xy, rng)):
         return None
-    if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
+    if not point_beats_plane(point_res, diffuse_residuals(xy, echoes.heading[idx], rng, p)):
         return None
     if _radius_says_cylinder(xy, rng, p):
         return None

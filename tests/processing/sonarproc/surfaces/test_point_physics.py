@@ -133,6 +133,10 @@ def test_a_corner_no_fitted_wall_leads_to_is_kept_when_heard_as_one() -> None:
     p = np.array([5.0, 5.0])
     s = _arc_sensors(p, np.linspace(1.5, 4.0, 30), math.radians(200), math.radians(250))
     e = _heard(s, p)
+    # anywhere in the beams, not all on their axes: a beam aimed exactly at the point
+    # reads the distance to any diffusely scattering line through it as well
+    aim = np.random.default_rng(5).uniform(-0.18, 0.18, 30)
+    e = EchoGeometry(e.xy, e.heading + aim, e.half_beam, e.range_m)
     f = point_feature(e, np.arange(30), p + 0.01)
     assert f is not None
     kept = confirm_points([f], e, [])
