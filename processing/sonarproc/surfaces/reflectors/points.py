@@ -11,7 +11,9 @@ The surface stage runs in two steps round the walls' echo refits:
 2. :func:`refine_with_points` refits the surfaces without those readings, checks each
    point against the fitted surfaces, drops those in a
    row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples of a diffusely
-   scattering surface), gives each its kind
+   scattering surface), ends each wall fitted past a point at that point
+   (:func:`~sonarproc.surfaces.reflectors.complete.trim_to_points`: the points are
+   checked against the walls so ended), gives each its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
