@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -105,3 +106,15 @@ def test_score_without_fits(scene: tuple[World, SonarLog], tmp_path: Path) -> No
     world, log = scene
     s = score_reflectors(world, log, [])
     assert s.far_share == 0.0 and s.corners_reported == 0 and s.doors_open == s.doors_seen
+
+
+def test_corner_no_reading_heard_is_not_in_view(scene: tuple[World, SonarLog]) -> None:
+    world, log = scene
+    full = score_reflectors(world, log, WALLS)
+    assert full.corners_in_view >= 1
+    # the same poses, each echo 10 cm long: every corner was in the beams, none was heard
+    readings = log.readings.copy()
+    readings["tof"] += 2 * 0.10 / float(log.attrs.get("speed_of_sound", 343.0))
+    deaf = score_reflectors(world, dataclasses.replace(log, readings=readings), WALLS)
+    assert deaf.corners_in_view == 0 and deaf.missed_corners == ()
+    assert deaf.corners_out_of_view == len(corner_sectors(world))

@@ -10,8 +10,11 @@ geometric:
   within :data:`CORNER_TOL_DEG` of 90 degrees (the retro-reflecting corners of
   :mod:`sonarsim.reflectors`). It is *in view* when at least :data:`MIN_VIEW_POSES`
   distinct poses had a sensor inside that sector, the vertex within its nominal beam
-  half-width and maximum range, and a clear line of sight to it. It is *reported* when a
-  ``corner`` of the map lies within :data:`CORNER_MATCH_M` of it.
+  half-width and maximum range, and a clear line of sight to it, and heard it: their
+  range within :data:`HEARD_M` of the distance (the ranging board reports the first echo
+  above its threshold only, so a corner far off the beam's axis, or behind a nearer
+  echo in the beam, leaves no trace in the log). It is *reported* when a ``corner`` of
+  the map lies within :data:`CORNER_MATCH_M` of it.
 * **doorways**: a gap between two convex vertices (a free-space sector wider than 180
   degrees: a jamb or a wall's free end) from :data:`DOOR_WIDTH_M` apart, each with a wall
   arm pointing straight away from the other (within :data:`ARM_TOL_DEG`: the wall runs on
@@ -59,6 +62,9 @@ CORNER_MATCH_M = 0.05
 #: Distinct poses needed to call a corner in view or a doorway seen through: a point is
 #: located from three ranges at least.
 MIN_VIEW_POSES = 3
+#: A reading heard a corner when its range is within this (m) of the distance to it:
+#: 1-inch range steps, a few mm of noise and the time walk of a weak echo.
+HEARD_M = 0.03
 #: Doorway widths (m): from a robot's width to a corridor's.
 DOOR_WIDTH_M = (0.5, 3.0)
 #: A jamb's wall arm points away from the other jamb within this (deg).
@@ -186,7 +192,9 @@ def _corner_in_view(world: World, rays: SensorRays, v: FloatArray, start: float,
         return False
     clear = ~blocked(world.segments, rays.xy[idx], np.repeat(v[None, :], idx.size, axis=0),
                      tol=1e-3)  # fmt: skip
-    return _poses(rays.xy[idx[clear]]) >= MIN_VIEW_POSES
+    idx = idx[clear]
+    heard = np.abs(rays.range_m[idx] - dist[idx]) <= HEARD_M  # NaN (no echo): not heard
+    return _poses(rays.xy[idx[heard]]) >= MIN_VIEW_POSES
 
 
 def _seen_through(rays: SensorRays, a: FloatArray, b: FloatArray) -> bool:

@@ -1,4 +1,4 @@
-"""Walls completed to the corners they run into.
+"""Walls completed to the corners they run into, and ended at the points they run past.
 
 A wall refitted through its echo points stops where the last perpendicular from a sensor
 met it (:mod:`sonarproc.surfaces.reflectors.walls`): a robot driving round a room keeps
@@ -19,6 +19,16 @@ another room's), nor through a stretch that stood hidden behind something else
 (:func:`~sonarproc.surfaces.echoes.unseen.hidden_runs`, from either side: the readings
 facing it squarely came back short of it, so its corner is another wall's on the same
 line, such as the back corner of the next door recess behind a corridor wall).
+
+:func:`trim_to_points` does the converse: a straight surface fitted past a point
+reflector that lies on its line, within :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M`
+of its end, ends at that point. A corner or an edge is where a wall ends, and the stretch
+beyond it is the point's own echoes: a sensor nearly square to the wall at the vertex
+reads the vertex's range within the ranges' tolerance ``tol`` from feet up to
+``sqrt(2 r tol)`` past it (about 0.28 m at 1.3 m), and the point's arcs, all through the
+vertex, make a ridge along the wall's line on both sides of it. Left on, that stretch
+takes the point's readings as the wall's echoes (the point then fails its tests) and
+bridges a doorway past its jamb.
 """
 
 from __future__ import annotations
@@ -35,9 +45,9 @@ from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
 from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M
-from sonarproc.surfaces.reflectors.walls import on_wall_lines
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, LINE_REACH_M, on_wall_lines
 
-__all__ = ["complete_to_corners"]
+__all__ = ["complete_to_corners", "trim_to_points"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -136,6 +146,65 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
                 continue
             lo, hi = (target, hi) if end_before else (lo, target)
         if lo == 0.0 and hi == length:
+            continue
+        step = length / (len(f.polyline) - 1)  # the polyline keeps its step
+        poly = resample(np.stack((a + t * lo, a + t * hi)), step)
+        out[i] = replace(f, polyline=poly, length_m=float(hi - lo))
+    return out
+
+
+def trim_to_points(fits: list[SurfaceFit], points: npt.ArrayLike) -> list[SurfaceFit]:
+    """The fits with each straight surface ended at the point reflectors it runs past.
+
+    A point within :data:`~sonarproc.surfaces.reflectors.walls.LINE_REACH_M` of a line's
+    segment and within :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` of one of
+    its ends (inside it) becomes that end (module notes); a line shorter than twice that
+    reach keeps its length (its ends are all near the point).
+
+    Parameters
+    ----------
+    fits : list of SurfaceFit
+        The surfaces.
+    points : array_like, shape (P, 2)
+        The point reflectors' positions (m).
+
+    Returns
+    -------
+    list of SurfaceFit
+        The same surfaces in the same order; trimmed ones replaced.
+
+    Examples
+    --------
+    A wall y = 0 fitted from x = 0 to 3.1 past an edge at (3, 0):
+
+    >>> from sonarproc.surfaces.fitting.models import SurfaceFit
+    >>> wall = SurfaceFit("line", resample([[0.0, 0.0], [3.1, 0.0]], 0.01), 3.1, 0.0, 50,
+    ...                   50, False, {"point": [1.5, 0.0], "direction": [1.0, 0.0]})
+    >>> out = trim_to_points([wall], [[3.0, 0.01]])
+    >>> out[0].polyline[[0, -1]].round(6).tolist(), round(out[0].length_m, 2)
+    ([[0.0, 0.0], [3.0, 0.0]], 3.0)
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if pts.shape[0] == 0:
+        return list(fits)
+    out = list(fits)
+    for i, f in enumerate(fits):
+        if f.model != "line" or f.closed or len(f.polyline) < 2:
+            continue
+        a, b = np.asarray(f.polyline[0], dtype=np.float64), np.asarray(f.polyline[-1])
+        length = float(np.hypot(*(b - a)))
+        if length <= 2 * END_REACH_M:
+            continue
+        t = (b - a) / length
+        d = pts - a
+        along = d @ t
+        across = np.abs(d[:, 0] * t[1] - d[:, 1] * t[0])
+        on = across <= LINE_REACH_M
+        near_a = along[on & (along > 0.0) & (along <= END_REACH_M)]
+        near_b = along[on & (along < length) & (along >= length - END_REACH_M)]
+        lo = float(near_a.max()) if near_a.size else 0.0
+        hi = float(near_b.min()) if near_b.size else length
+        if lo < MIN_STRETCH_M and length - hi < MIN_STRETCH_M:
             continue
         step = length / (len(f.polyline) - 1)  # the polyline keeps its step
         poly = resample(np.stack((a + t * lo, a + t * hi)), step)

@@ -11,7 +11,9 @@ The surface stage runs in two steps round the walls' echo refits:
 2. :func:`refine_with_points` refits the surfaces without those readings, checks each
    point against the fitted surfaces, drops those in a
    row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples of a diffusely
-   scattering surface), gives each its kind
+   scattering surface), ends each wall fitted past a point at that point
+   (:func:`~sonarproc.surfaces.reflectors.complete.trim_to_points`: the points are
+   checked against the walls so ended), gives each its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
@@ -38,7 +40,7 @@ from sonarproc.surfaces.reflectors.classify import (
     on_circles,
     point_kind,
 )
-from sonarproc.surfaces.reflectors.complete import complete_to_corners
+from sonarproc.surfaces.reflectors.complete import complete_to_corners, trim_to_points
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -168,7 +170,8 @@ def refine_with_points(
     """
     exclude = exclude and bool(found.points)
     fits, cells = refine(echoes.subset(~found.claimed) if exclude else echoes)
-    kept = confirm_points(found.points, echoes, fits)
+    # a wall fitted past a point ends there (its stretch beyond is the point's echoes)
+    kept = confirm_points(found.points, echoes, trim_to_points(fits, _positions(found.points)))
     if kept:
         rows = in_rows(np.array([p.xy for _, p in kept]))
         kept = [kp for kp, r in zip(kept, rows.tolist(), strict=True) if not r]
@@ -180,6 +183,7 @@ def refine_with_points(
         # a point is where a plane ends: one of the first fits may have gone
         walls = line_ends(fits)
         kept = [(k, p) for k, p in kept if _still_a_point(p, echoes, fits, walls)]
+    fits = trim_to_points(fits, _positions([p for _, p in kept]))
     out, out_cells = list(fits), list(cells)
     for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))
@@ -187,6 +191,11 @@ def refine_with_points(
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))
     # a wall found short of the corner it runs into ends there
     return complete_to_corners(out, echoes), out_cells
+
+
+def _positions(points: list[PointFeature]) -> FloatArray:
+    """The points' positions, (P, 2)."""
+    return np.array([p.xy for p in points], dtype=np.float64).reshape(-1, 2)
 
 
 def _still_a_point(

@@ -24,17 +24,22 @@ their beams, while no plane explains the same ranges.
      sensor positions (positions in one :data:`RANGE_TOL_M` cell give the same range to
      any point, so they add no geometry);
    * the best plane through the same readings (range = the distance to a line, for any
-     line) leaves an RMS residual above :data:`PLANE_NOISE_FACTOR` times the range noise
-     and above :data:`PLANE_POINT_RATIO` times the point's: a plane would explain them as
-     well, so they are a plane's (a wall seen from near its normal also reads its
-     distance to the foot);
+     line) explains them significantly worse than the point (a wall seen from near its
+     normal also reads its distance to the foot): its RMS residual is above the range
+     steps' own error :data:`RANGE_STEP_NOISE_M` (a plane that explains the ranges to
+     within the ranging board's resolution leaves no evidence for anything else), and
+     Vuong's (1989) likelihood-ratio test of the two non-nested models on the same
+     readings (:func:`point_beats_plane`) prefers the point at the false-alarm rate
+     :data:`POINT_FALSE_ALARM`. The test's threshold falls as the readings grow in
+     number, so a corner seen from poses on one straight track, where point and plane
+     differ by less than a centimetre, is told from a plane when enough readings agree;
    * no diffusely scattering wall through the point explains them either: such a wall
      answers each reading from where its beam's axis meets it, so every point of it is
      seen from many poses at its own distance, like a point reflector; the best line
-     through ``p`` whose distances along the readings' axes match their ranges must leave
-     an RMS residual above :data:`PLANE_POINT_RATIO` times the point's (a point
-     reflector is heard off the axis too, anywhere in the beam, where those distances
-     differ from its range);
+     through ``p`` whose distances along the readings' axes match their ranges
+     (:func:`diffuse_residuals`) must explain them significantly worse than the point, by
+     the same test as the plane (a point reflector is heard off the axis too, anywhere
+     in the beam, where those distances differ from its range);
    * a circle through them (range = distance to a centre minus a radius) has a radius
      under :data:`MAX_POINT_RADIUS_M`, within two standard errors of zero, or whose sag
      over the sensors' span is within the time walk (:data:`TIME_WALK_M`): a larger one
@@ -56,7 +61,7 @@ from itertools import chain
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
+from scipy import ndimage, special
 from scipy.optimize import leastsq
 from scipy.spatial import cKDTree
 
@@ -67,9 +72,14 @@ __all__ = [
     "BEAM_SLACK",
     "MIN_POSES",
     "MIN_READINGS",
+    "POINT_FALSE_ALARM",
+    "RANGE_STEP_NOISE_M",
     "RANGE_TOL_M",
     "PointFeature",
+    "diffuse_residuals",
     "find_point_features",
+    "plane_residuals",
+    "point_beats_plane",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -95,11 +105,15 @@ MIN_READINGS = 8
 #: tangent line; five positions leave three ranges to tell them apart and outvote one
 #: stray echo.
 MIN_POSES = 5
-#: The best plane must leave residuals this many times the range noise...
-PLANE_NOISE_FACTOR = 1.5
-#: ... and this many times the point's own residual (a wall seen from near its normal
-#: fits both about equally).
-PLANE_POINT_RATIO = 1.5
+#: The error (m) of the ranging board's 1-inch range steps alone (uniform over a step:
+#: 2.54 cm / sqrt(12)). Residuals below it are no evidence: a plane that explains the
+#: ranges to within it is not rejected, and a model's residual is floored at it in
+#: :func:`point_beats_plane`.
+RANGE_STEP_NOISE_M = 0.0254 / math.sqrt(12.0)
+#: The point-versus-plane test's false-alarm rate: the chance that a plane's readings
+#: prefer a point (one-sided, Vuong's statistic is standard normal when both models fit
+#: equally well).
+POINT_FALSE_ALARM = 0.01
 #: A circle through the readings with a larger radius (m) than this, and more than two
 #: standard errors from zero, is a cylinder: a pillar, not a point.
 MAX_POINT_RADIUS_M = 0.05
@@ -126,6 +140,8 @@ _PLANE_CC, _PLANE_CS2, _PLANE_SS = _PLANE_CA * _PLANE_CA, 2 * _PLANE_CA * _PLANE
 _DIFFUSE_A = np.linspace(0.0, np.pi, 360, endpoint=False)
 _DIFFUSE_N = np.column_stack((np.cos(_DIFFUSE_A), np.sin(_DIFFUSE_A)))
 _GRAZING = math.sin(math.radians(3.0))
+# the one-sided standard normal quantile of POINT_FALSE_ALARM
+_POINT_Z = float(special.ndtri(1.0 - POINT_FALSE_ALARM))
 #: A batched screening value within this (m) of its threshold is recomputed by the
 #: candidate's own test: the batched sums round differently (by about 1e-15 m).
 _SCREEN_MARGIN_M = 1e-9
@@ -317,13 +333,92 @@ def plane_rms(xy: FloatArray, rng: FloatArray) -> float:
     return float(math.sqrt(max(float(var.min()), 0.0)))
 
 
-def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
-    """RMS residual (m) of the best diffusely scattering line through ``p``.
+def plane_residuals(xy: FloatArray, rng: FloatArray) -> FloatArray:
+    """Range residuals (m) of the best plane of :func:`plane_rms` (its direction, its offset).
+
+    Examples
+    --------
+    >>> xy = np.c_[np.linspace(-1, 1, 9), np.zeros(9)]
+    >>> bool(np.allclose(plane_residuals(xy, np.full(9, 2.0)), 0.0))
+    True
+    >>> r = plane_residuals(xy, np.hypot(xy[:, 0], 2.0))
+    >>> round(float(np.sqrt(np.mean(r**2))), 3) == round(plane_rms(xy, np.hypot(xy[:, 0], 2.0)), 3)
+    True
+    """
+    m = np.column_stack((xy, rng))
+    m = m - m.mean(axis=0)
+    c = (m.T @ m) / m.shape[0]
+    var = (c[2, 2] + 2 * (_PLANE_CA * c[0, 2] + _PLANE_SA * c[1, 2])
+           + _PLANE_CC * c[0, 0] + _PLANE_CS2 * c[0, 1] + _PLANE_SS * c[1, 1])  # fmt: skip
+    k = int(np.argmin(var))
+    return np.asarray(m[:, 2] + _PLANE_CA[k] * m[:, 0] + _PLANE_SA[k] * m[:, 1], dtype=np.float64)
+
+
+def point_beats_plane(point_res: FloatArray, plane_res: FloatArray) -> bool:
+    """Whether a point explains the same ranges significantly better than a plane.
+
+    Vuong's (1989) test of two non-nested models (two unknowns each): per reading, the
+    log-likelihood ratio ``l_i`` of Gaussian residuals with each model's own variance
+    (floored at :data:`RANGE_STEP_NOISE_M` squared: below the range steps' error a
+    residual says nothing); ``z = sqrt(N) mean(l) / std(l)`` is standard normal when both
+    fit equally well, and the point wins when ``z`` exceeds its one-sided
+    :data:`POINT_FALSE_ALARM` quantile. Unlike a fixed ratio of RMS residuals, its
+    threshold falls as readings accumulate: a point and a plane a few millimetres apart
+    are told apart by many readings, not by a few.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> noise = rng.normal(0.0, 0.008, 40)
+    >>> point_beats_plane(noise, noise + rng.normal(0.0, 0.012, 40))
+    True
+    >>> point_beats_plane(noise, rng.normal(0.0, 0.008, 40))
+    False
+    """
+    floor = RANGE_STEP_NOISE_M**2
+    v_pt = max(float(np.mean(point_res**2)), floor)
+    v_pl = max(float(np.mean(plane_res**2)), floor)
+    ll = 0.5 * math.log(v_pl / v_pt) + plane_res**2 / (2 * v_pl) - point_res**2 / (2 * v_pt)
+    mean, sd = float(ll.mean()), float(ll.std())
+    if mean <= 0.0:
+        return False
+    if sd == 0.0:
+        return True
+    return math.sqrt(ll.size) * mean / sd >= _POINT_Z
+
+
+def diffuse_residuals(
+    xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike
+) -> FloatArray:
+    """Range residuals (m) of the best diffusely scattering line through ``p``.
 
     For a line through ``p`` with unit normal ``n`` (every half degree), a reading's
     predicted range is the distance along its beam's axis to the line,
     ``n . (p - s) / n . h``; axes within 3 degrees of the line's direction, or meeting
-    it behind the sensor, count as a 1 m miss (so do larger misses).
+    it behind the sensor, count as a 1 m miss (so do larger misses). The best line has
+    the least RMS residual.
+
+    Examples
+    --------
+    >>> s = np.c_[np.linspace(-1.0, 1.0, 9), np.zeros(9)]
+    >>> h = np.full(9, np.pi / 2)                         # looking straight at y = 2
+    >>> float(np.abs(diffuse_residuals(s, h, np.full(9, 2.0), [0.0, 2.0])).max()) < 1e-12
+    True
+    """
+    q = np.asarray(p, dtype=np.float64)
+    num = (q - xy) @ _DIFFUSE_N.T
+    den = np.column_stack((np.cos(heading), np.sin(heading))) @ _DIFFUSE_N.T
+    ok = np.abs(den) > _GRAZING
+    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
+    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
+    k = int(np.argmin(np.mean(miss * miss, axis=0)))
+    return np.asarray(miss[:, k], dtype=np.float64)
+
+
+def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.ArrayLike) -> float:
+    """RMS residual (m) of the best diffusely scattering line through ``p``.
+
+    The line of :func:`diffuse_residuals`.
 
     Examples
     --------
@@ -332,13 +427,8 @@ def diffuse_rms(xy: FloatArray, heading: FloatArray, rng: FloatArray, p: npt.Arr
     >>> round(diffuse_rms(s, h, np.full(9, 2.0), [0.0, 2.0]), 6)
     0.0
     """
-    q = np.asarray(p, dtype=np.float64)
-    num = (q - xy) @ _DIFFUSE_N.T
-    den = np.column_stack((np.cos(heading), np.sin(heading))) @ _DIFFUSE_N.T
-    ok = np.abs(den) > _GRAZING
-    t = np.where(ok, num / np.where(ok, den, 1.0), -1.0)
-    miss = np.where(t > 0, np.clip(t - rng[:, None], -1.0, 1.0), 1.0)
-    return float(np.sqrt(np.mean(miss * miss, axis=0)).min())
+    r = diffuse_residuals(xy, heading, rng, p)
+    return float(np.sqrt(np.mean(r * r)))
 
 
 def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
@@ -524,7 +614,7 @@ def _near_found(c: FloatArray, found_xy: FloatArray, found: list[PointFeature]) 
 
 
 def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
-    """The cheap tests: readings, distinct poses, and no plane within the range noise."""
+    """The cheap tests: readings, distinct poses, and no plane within the range steps' error."""
     return _cheap_tests(echoes, idx) is not None
 
 
@@ -536,7 +626,7 @@ def _cheap_tests(echoes: EchoGeometry, idx: IntArray) -> tuple[int, float] | Non
     if poses < MIN_POSES:
         return None
     prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
-    return (poses, prms) if prms >= PLANE_NOISE_FACTOR * RANGE_NOISE_M else None
+    return (poses, prms) if prms >= RANGE_STEP_NOISE_M else None
 
 
 def _enough_all(echoes: EchoGeometry, gathers: list[IntArray]) -> npt.NDArray[np.int8]:
@@ -572,7 +662,7 @@ def _enough_all(echoes: EchoGeometry, gathers: list[IntArray]) -> npt.NDArray[np
     var = (cov(2, 2) + 2 * (_PLANE_CA * cov(0, 2) + _PLANE_SA * cov(1, 2))
            + _PLANE_CC * cov(0, 0) + _PLANE_CS2 * cov(0, 1) + _PLANE_SS * cov(1, 1))  # fmt: skip
     rms = np.sqrt(np.maximum(var.min(axis=1), 0.0))
-    threshold = PLANE_NOISE_FACTOR * RANGE_NOISE_M
+    threshold = RANGE_STEP_NOISE_M
     verdict[test] = np.where(np.abs(rms - threshold) <= _SCREEN_MARGIN_M, -1, rms >= threshold)
     return verdict
 
@@ -622,9 +712,10 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     poses, prms = cheap
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     p, rms = _fit_point(xy, rng, np.asarray(start, dtype=np.float64))
-    if prms < PLANE_POINT_RATIO * rms:
+    point_res = np.hypot(xy[:, 0] - p[0], xy[:, 1] - p[1]) - rng
+    if not point_beats_plane(point_res, plane_residuals(xy, rng)):
         return None
-    if diffuse_rms(xy, echoes.heading[idx], rng, p) < PLANE_POINT_RATIO * rms:
+    if not point_beats_plane(point_res, diffuse_residuals(xy, echoes.heading[idx], rng, p)):
         return None
     if _radius_says_cylinder(xy, rng, p):
         return None

@@ -71,3 +71,30 @@ def test_a_stretch_hidden_behind_another_wall_is_not_completed() -> None:
     reached = EchoGeometry(hidden.xy, hidden.heading, hidden.half_beam, np.full(x.size, 1.25))
     out = complete_to_corners([wall, _point("corner", (4.0, -0.25))], reached)
     np.testing.assert_allclose(out[0].polyline[-1], [4.0, -0.25], atol=1e-9)
+
+
+def test_a_wall_fitted_past_a_point_on_its_line_ends_there() -> None:
+    from sonarproc.surfaces.fitting.models import SurfaceFit as Fit
+    from sonarproc.surfaces.planar.polylines import resample
+    from sonarproc.surfaces.reflectors.complete import trim_to_points
+
+    def wall(a: list[float], b: list[float]) -> Fit:
+        poly = resample(np.array([a, b]), 0.01)
+        return Fit("line", poly, float(np.hypot(*np.subtract(b, a))), 0.0, 50, 50, False,
+                   {"point": a, "direction": [1.0, 0.0]})  # fmt: skip
+
+    w = wall([0.0, 0.0], [3.13, 0.0])
+    # a jamb 13 cm inside the end, 2 cm off the line: the wall ends there
+    (t,) = trim_to_points([w], [[3.0, 0.02]])
+    assert np.allclose(t.polyline[[0, -1]], [[0.0, 0.0], [3.0, 0.0]]) and t.length_m == 3.0
+    # at both ends at once
+    (t,) = trim_to_points([w], [[0.1, 0.0], [3.0, 0.0]])
+    assert np.allclose(t.polyline[[0, -1]], [[0.1, 0.0], [3.0, 0.0]])
+    # inside the wall beyond the end reach, off its line, or past its end: no change
+    for q in ([1.5, 0.0], [3.0, 0.2], [3.3, 0.0]):
+        (t,) = trim_to_points([w], [q])
+        assert t is w
+    # a point reflector and a short wall are left alone
+    c = Fit("corner", np.array([[3.0, 0.0]]), 0.0, 0.0, 9, 9)
+    short = wall([2.7, 0.0], [3.1, 0.0])
+    assert trim_to_points([c, short], [[3.0, 0.0]]) == [c, short]
