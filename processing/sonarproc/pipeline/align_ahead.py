@@ -1,4 +1,5 @@
-"""The align stage on the second core, while the run maps the log as it was read.
+"""The align stage of a run (:func:`align_stage`), on the second core while the run maps
+the log as it was read (:class:`AlignAhead`).
 
 The align stage (:func:`sonarproc.pipeline.alignment.align_log`) decides whether a log's
 poses are corrected for odometry drift. Most logs keep their poses: a log whose echoes
@@ -17,16 +18,53 @@ one thread, no pool) or the child fails, the stage runs here, first, as before.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from sonarlog import SonarLog
 from sonarproc.forked import ForkedChild, fork_is_safe
-from sonarproc.pipeline.run import Aligned, Progress, align_stage
 
 if TYPE_CHECKING:
     from sonarproc.pipeline.alignment import AlignmentRecord
 
-__all__ = ["AlignAhead"]
+__all__ = ["AlignAhead", "Aligned", "align_stage"]
+
+Progress = Callable[[str], None]
+
+
+class Aligned(NamedTuple):
+    """A log after the align stage: its poses, what the stage decided, and what it cost."""
+
+    log: SonarLog
+    record: AlignmentRecord
+    wall_s: float
+    cpu_s: float
+
+
+def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
+    """The align stage of a run (:func:`sonarproc.pipeline.alignment.align_log`), timed.
+
+    Parameters
+    ----------
+    log_ : sonarlog.SonarLog
+        The readings as logged.
+    progress : callable, optional
+        Called with ``"align"`` as the stage starts.
+
+    Returns
+    -------
+    Aligned
+        The log with its poses aligned where that helps, the record of why, and the
+        stage's wall and CPU seconds.
+    """
+    from sonarproc.pipeline.alignment import align_log
+
+    if progress is not None:
+        progress("align")
+    t0, c0 = time.perf_counter(), time.process_time()
+    aligned, record = align_log(log_)
+    return Aligned(aligned, record, time.perf_counter() - t0, time.process_time() - c0)
 
 
 class AlignAhead:

@@ -17,20 +17,19 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 from sonarlog import SonarLog, read_log
 from sonarproc.errors import InputError, ParameterError
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
+from sonarproc.pipeline.align_ahead import AlignAhead, Aligned, Progress, align_stage
 from sonarproc.pipeline.arcmap import build_arc_map
 from sonarproc.pipeline.mapping import MappedStage, MethodMap, OnMapped, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
 if TYPE_CHECKING:
-    from sonarproc.pipeline.align_ahead import AlignAhead
-    from sonarproc.pipeline.alignment import AlignmentRecord
     from sonarproc.quality.ahead import HeldOutAhead
 
 __all__ = [
@@ -44,17 +43,6 @@ __all__ = [
 ]
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
-
-Progress = Callable[[str], None]
-
-
-class Aligned(NamedTuple):
-    """A log after the align stage: its poses, what the stage decided, and what it cost."""
-
-    log: SonarLog
-    record: AlignmentRecord
-    wall_s: float
-    cpu_s: float
 
 
 class _Realigned(Exception):
@@ -77,31 +65,6 @@ def import_stage_modules(params: RunParams) -> None:
         import sonarproc.pipeline.surfacefit
     if params.align:
         import sonarproc.pipeline.alignment  # noqa: F401
-
-
-def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
-    """The align stage of a run (:func:`sonarproc.pipeline.alignment.align_log`), timed.
-
-    Parameters
-    ----------
-    log_ : sonarlog.SonarLog
-        The readings as logged.
-    progress : callable, optional
-        Called with ``"align"`` as the stage starts.
-
-    Returns
-    -------
-    Aligned
-        The log with its poses aligned where that helps, the record of why, and the
-        stage's wall and CPU seconds.
-    """
-    from sonarproc.pipeline.alignment import align_log
-
-    if progress is not None:
-        progress("align")
-    t0, c0 = time.perf_counter(), time.process_time()
-    aligned, record = align_log(log_)
-    return Aligned(aligned, record, time.perf_counter() - t0, time.process_time() - c0)
 
 
 def process(
@@ -165,8 +128,6 @@ def process(
     ParameterError
         Parameters that cannot apply to this log (a map over ``max_cells``).
     """
-    from sonarproc.pipeline.align_ahead import AlignAhead
-
     cpu0 = time.process_time() if cpu_start is None else cpu_start
     if aligned is None and params.align:
         aligned = AlignAhead.start(log_, progress)

@@ -128,12 +128,11 @@ class AheadFigures:
         self._sent = (result, auto)
         # the arc map figure drawn ahead is this result's, or the child draws it again
         # (a default run's one-curve map handed on to --auto: its map is another)
-        arc: ArcMapView | None = ArcMapView.of(result)
-        if self._map_sent is not None and arc is not None and self._map_sent.same_as(arc):
-            arc = None
+        arc = ArcMapView.of(result)
+        drawn = self._map_sent is not None and self._map_sent.same_as(arc)
         try:
             with os.fdopen(os.dup(self._payload_fd), "wb") as fh:  # no copy in memory
-                payload = (arc, ResultView.of(result, auto=auto))
+                payload = (None if drawn else arc, ResultView.of(result, auto=auto))
                 pickle.dump(payload, fh, protocol=5)
             os.write(self._go_fd, b"r")
         except (OSError, pickle.PicklingError, TypeError, AttributeError) as err:
@@ -205,14 +204,15 @@ def _draw_when_sent(
 
 
 def warm_up(formats: Sequence[str]) -> None:
-    """Draw and save a small map figure with every kind of artist the run's figures have
-    (image, colour bar, line, legend, wrapped title), and throw it away.
+    """Draw and save, in ``formats``, a small map figure with every kind of artist the
+    run's figures have (image, colour bar, line, legend, title), and throw it away.
 
-    A process's first figure costs about twice a later one: matplotlib loads the modules
-    of its colour bar, legend and image encoder, the font's faces and glyph tables on
-    first use. Paid here, while the child waits for the map, the run's figures are drawn
-    at the later cost. What is drawn later is not changed by it (the caches hold fonts
-    and modules, not pixels; the tests compare the bytes with figures drawn without it).
+    A process's first figure costs about twice a later one: matplotlib imports its
+    figure, axes and projection modules (most of it), those of the colour bar, the legend
+    and the image encoder, and loads the font, on first use. Paid here, while the child
+    waits for the map, the run's figures are drawn at the later cost. What is drawn later
+    is not changed by it (the caches hold modules and fonts, not pixels; the tests compare
+    the bytes with figures drawn in a process that drew nothing before).
     """
     from matplotlib.patches import Patch
 
@@ -227,7 +227,5 @@ def warm_up(formats: Sequence[str]) -> None:
         style.count_colour_bar(fig, cax, 64.0, "b", clipped=True)
         line = ax.plot([0.0, 1.0], [0.2, 0.8], ls="--", lw=style.FIT_WIDTH, label="c")[0]
         style.legend_below(fig, [Patch(color="black", label="d"), line])
-    figures = [("warm-up", fig)]
-    for _, drawn in figures:  # here: no encoder thread, no child for the SVGs
-        for fmt in formats:
-            figure_bytes(drawn, fmt)
+    for fmt in formats:  # here: no encoder thread, no child for the SVGs
+        figure_bytes(fig, fmt)

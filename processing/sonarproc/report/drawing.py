@@ -5,11 +5,12 @@ formats and spends the time of the slowest drawing, not of all of them, where it
 
 - a PNG's pixels are drawn on the figure's Agg canvas and compressed on a worker thread
   (Pillow's deflate runs without Python's lock), while the next figure is drawn;
-- the SVGs are drawn in a child process forked for them, while this process draws the
-  PNGs. A fork inherits the figures as they are (nothing is pickled but the bytes that
-  come back), and only from a parent that runs no other thread (a lone thread holds no
-  lock the child could inherit locked), on Linux, with two cores to use. Where it
-  cannot fork, or the child fails, everything is drawn here: the bytes are the same.
+- the SVGs (or, in one format, every other figure) are drawn in a child process forked
+  for them, while this process draws the others. A fork inherits the figures as they
+  are (nothing is pickled but the bytes that come back), and only from a parent that
+  runs no other thread (a lone thread holds no lock the child could inherit locked), on
+  Linux, with two cores to use. Where it cannot fork, or the child fails, everything is
+  drawn here: the bytes are the same.
 """
 
 from __future__ import annotations
