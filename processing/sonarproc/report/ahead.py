@@ -37,7 +37,7 @@ import numpy as np
 
 from sonarproc.pipeline.mapping import MappedStage
 from sonarproc.pipeline.result import RunResult
-from sonarproc.report.drawing import DrawingChild, figure_bytes, figures_bytes, fork_is_safe
+from sonarproc.report.drawing import DrawingChild, figures_bytes, fork_is_safe
 from sonarproc.report.plots import ArcMapView, ResultView
 
 __all__ = ["AheadFigures"]
@@ -204,28 +204,35 @@ def _draw_when_sent(
 
 
 def warm_up(formats: Sequence[str]) -> None:
-    """Draw and save, in ``formats``, a small map figure with every kind of artist the
-    run's figures have (image, colour bar, line, legend, title), and throw it away.
+    """Build a small map figure with every kind of artist the run's figures have (image,
+    colour bar, line, legend, title) and throw it away, after importing what saving it in
+    ``formats`` needs.
 
     A process's first figure costs about twice a later one: matplotlib imports its
     figure, axes and projection modules (most of it), those of the colour bar, the legend
     and the image encoder, and loads the font, on first use. Paid here, while the child
-    waits for the map, the run's figures are drawn at the later cost. What is drawn later
-    is not changed by it (the caches hold modules and fonts, not pixels; the tests compare
-    the bytes with figures drawn in a process that drew nothing before).
+    waits for the map, the run's figures are drawn at the later cost. (Drawing the figure
+    too would spare the first drawing less than it costs.) What is drawn later is not
+    changed by it (the caches hold modules and fonts, not pixels; the tests compare the
+    bytes with figures drawn in a process that drew nothing before).
     """
+    from matplotlib import font_manager
+    from matplotlib.backends import backend_agg  # noqa: F401  (imported ahead: the point)
     from matplotlib.patches import Patch
 
     from sonarproc.report import style
 
+    if "png" in formats:
+        from PIL import PngImagePlugin  # noqa: F401  (the PNG encoder, imported ahead)
+    if "svg" in formats:
+        from matplotlib.backends import backend_svg  # noqa: F401
     counts = np.arange(64, dtype=np.uint16).reshape(8, 8)
     extent = (0.0, 1.0, 0.0, 1.0)
     with style.drawing():
+        font_manager.findfont(style.RC["font.family"])
         fig, ax, cax = style.map_figure(extent, "a", colour_bar=64.0, legend_entries=2)
         ax.imshow(style.count_rgba(counts, 64.0), extent=extent, interpolation="none")
         assert cax is not None
         style.count_colour_bar(fig, cax, 64.0, "b", clipped=True)
         line = ax.plot([0.0, 1.0], [0.2, 0.8], ls="--", lw=style.FIT_WIDTH, label="c")[0]
         style.legend_below(fig, [Patch(color="black", label="d"), line])
-    for fmt in formats:  # here: no encoder thread, no child for the SVGs
-        figure_bytes(fig, fmt)
