@@ -121,7 +121,8 @@ def run_log(
     import time
 
     from sonarproc.pipeline import load_log, process
-    from sonarproc.pipeline.run import align_stage, import_stage_modules
+    from sonarproc.pipeline.align_ahead import AlignAhead
+    from sonarproc.pipeline.run import import_stage_modules
 
     import_stage_modules(params)  # start-up, not the run's CPU time
     cpu0 = time.process_time()
@@ -135,9 +136,9 @@ def run_log(
     read_s = time.perf_counter() - wall0
     aligned = None
     if mode == "default" and params.align:
-        # aligned once: a one-curve map is handed on to --auto with these same poses
-        aligned = align_stage(log_, progress)
-        cpu0 += aligned.cpu_s  # t_cpu_s is the paper's method's, as in process()
+        # aligned once (in a child while the log is mapped, where it may): a one-curve
+        # map is handed on to --auto with these same poses
+        aligned = AlignAhead.start(log_, progress)
     if mode != "auto":
         result = process(
             log_,
@@ -154,7 +155,9 @@ def run_log(
             return result, None
     from sonarproc.quality.of_auto import run_auto_measured
 
-    chosen_run, chosen, choice = run_auto_measured(log_, params, aligned)
+    chosen_run, chosen, choice = run_auto_measured(
+        log_, params, aligned.result() if aligned is not None else None
+    )
     record = choice.to_json(chosen)
     record["mode"] = mode
     return chosen_run.run, record

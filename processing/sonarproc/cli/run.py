@@ -217,7 +217,6 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
-    from sonarproc.pipeline.run import import_stage_modules
     from sonarproc.report import default_out_dir, write_report
     from sonarproc.report.ahead import AheadFigures
     from sonarproc.report.plots import parse_figure_formats
@@ -233,11 +232,9 @@ def run_command(
         endpoint = foxglove_endpoint(foxglove) if foxglove is not None else None
         out_dir = out if out is not None else default_out_dir(log)
         check_output_dir(out_dir)
-        # A child imports matplotlib meanwhile and draws as the quality stage starts;
-        # forked after the modules the run loads anyway (the child unpickles the result's
-        # surfaces with them) and before the progress bar's thread (no fork beside one).
-        if formats:
-            import_stage_modules(params)
+        # A child imports matplotlib meanwhile, on the second core, and draws as the map
+        # and the result come; forked first (it needs none of the modules the run loads
+        # next) and before the progress bar's thread (no fork beside one).
         ahead = AheadFigures.start(formats)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
         try:

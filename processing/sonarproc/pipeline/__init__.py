@@ -5,8 +5,9 @@
 
 Modules: ``selection`` (readings, their arcs, the grid), ``arcmap`` (the paper's builder),
 ``mapping`` (the seam), ``evaluation`` (fit and metrics of a map), ``result`` (the run
-record), ``run`` (reading a log and running the paper's method), ``live`` (incremental
-build for a growing log) and ``watch`` (following a log a writer is still writing).
+record), ``run`` (reading a log and running the paper's method), ``align_ahead`` (its
+align stage on the second core while the log is mapped), ``live`` (incremental build for
+a growing log) and ``watch`` (following a log a writer is still writing).
 """
 
 from sonarproc.pipeline.arcmap import build_arc_map, count_map

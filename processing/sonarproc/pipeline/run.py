@@ -17,19 +17,19 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
 
 from sonarlog import SonarLog, read_log
 from sonarproc.errors import InputError, ParameterError
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
+from sonarproc.pipeline.align_ahead import AlignAhead, Aligned, Progress, align_stage
 from sonarproc.pipeline.arcmap import build_arc_map
 from sonarproc.pipeline.mapping import MappedStage, MethodMap, OnMapped, map_log
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
 if TYPE_CHECKING:
-    from sonarproc.pipeline.alignment import AlignmentRecord
     from sonarproc.quality.ahead import HeldOutAhead
 
 __all__ = [
@@ -44,16 +44,13 @@ __all__ = [
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
 
-Progress = Callable[[str], None]
 
+class _Realigned(Exception):
+    """The log was mapped as read while it was aligned, and its poses were corrected."""
 
-class Aligned(NamedTuple):
-    """A log after the align stage: its poses, what the stage decided, and what it cost."""
-
-    log: SonarLog
-    record: AlignmentRecord
-    wall_s: float
-    cpu_s: float
+    def __init__(self, aligned: Aligned) -> None:
+        super().__init__("the log's poses were corrected: mapped again")
+        self.aligned = aligned
 
 
 def import_stage_modules(params: RunParams) -> None:
@@ -70,38 +67,13 @@ def import_stage_modules(params: RunParams) -> None:
         import sonarproc.pipeline.alignment  # noqa: F401
 
 
-def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
-    """The align stage of a run (:func:`sonarproc.pipeline.alignment.align_log`), timed.
-
-    Parameters
-    ----------
-    log_ : sonarlog.SonarLog
-        The readings as logged.
-    progress : callable, optional
-        Called with ``"align"`` as the stage starts.
-
-    Returns
-    -------
-    Aligned
-        The log with its poses aligned where that helps, the record of why, and the
-        stage's wall and CPU seconds.
-    """
-    from sonarproc.pipeline.alignment import align_log
-
-    if progress is not None:
-        progress("align")
-    t0, c0 = time.perf_counter(), time.process_time()
-    aligned, record = align_log(log_)
-    return Aligned(aligned, record, time.perf_counter() - t0, time.process_time() - c0)
-
-
 def process(
     log_: SonarLog,
     params: RunParams,
     *,
     progress: Progress | None = None,
     cpu_start: float | None = None,
-    aligned: Aligned | None = None,
+    aligned: Aligned | AlignAhead | None = None,
     quality_of_curves: bool = True,
     on_fitted: Callable[[RunResult], None] | None = None,
     on_mapped: OnMapped | None = None,
@@ -123,10 +95,12 @@ def process(
         Called with each stage name of :data:`sonarproc.pipeline.STAGES` as it starts.
     cpu_start : float, optional
         ``time.process_time()`` when the run began (default: now).
-    aligned : Aligned, optional
-        The align stage already run on ``log_`` by the caller (:func:`align_stage`), used
-        in place of running it again (``run``'s default mode may hand the log on to
-        ``--auto``, which then needs the same aligned poses).
+    aligned : Aligned or AlignAhead, optional
+        The align stage already run on ``log_`` by the caller (:func:`align_stage`), or
+        started by it (:class:`~sonarproc.pipeline.align_ahead.AlignAhead`), used in place
+        of running it again (``run``'s default mode may hand the log on to ``--auto``,
+        which then needs the same aligned poses). While a child aligns, the log is mapped
+        as read; a log whose poses the stage corrects is then mapped again.
     quality_of_curves : bool, optional
         Measure the quality of a map that is one curve (no surfaces). ``False`` where the
         caller replaces such a result (``run``'s default mode hands it to ``--auto``, which
@@ -156,18 +130,34 @@ def process(
     """
     cpu0 = time.process_time() if cpu_start is None else cpu_start
     if aligned is None and params.align:
-        aligned = align_stage(log_, progress)
-        cpu0 += aligned.cpu_s  # t_cpu_s is the paper's method's: not the alignment's
-    if aligned is not None:
+        aligned = AlignAhead.start(log_, progress)
+    pending = aligned if isinstance(aligned, AlignAhead) and aligned.forked else None
+    if isinstance(aligned, AlignAhead) and pending is None:  # aligned here, first
+        ahead, aligned = aligned, aligned.result()
+        if ahead.here:
+            cpu0 += aligned.cpu_s  # t_cpu_s is the paper's method's: not the alignment's
+    if isinstance(aligned, Aligned):
         log_ = aligned.log
     mapped = log_
     heldout: HeldOutAhead | None = None
+
+    def resolve_alignment() -> Aligned:
+        # the align stage's answer, waited for as the log as read is mapped
+        nonlocal pending, aligned
+        assert pending is not None
+        got, pending = pending.result(), None
+        aligned = got
+        return got
 
     def start_heldout(stage: MappedStage) -> None:
         # the held-out residual needs the map, not its fit: a child computes it meanwhile
         nonlocal heldout
         from sonarproc.quality.ahead import HeldOutAhead
 
+        if pending is not None:
+            got = resolve_alignment()
+            if got.log is not log_:  # this map is of the poses as read: not the run's
+                raise _Realigned(got)
         if on_mapped is not None:  # the caller's first (the figures' child forked first)
             on_mapped(stage)
         heldout = HeldOutAhead.start(
@@ -180,7 +170,7 @@ def process(
         if result.surfaces is None and not quality_of_curves:
             return
         if on_fitted is not None:
-            if aligned is not None:
+            if isinstance(aligned, Aligned):
                 result.alignment = aligned.record
             on_fitted(result)
         residual = heldout.residual if heldout is not None else None
@@ -188,15 +178,33 @@ def process(
             mapped, params, build_arc_map, beams, grid, mmap, result, residual=residual
         )
 
+    cpu_mapped = time.process_time()
     try:
-        result, _ = map_log(
-            log_, params, build_arc_map, progress=progress, cpu_start=cpu0, measure=measure,
-            on_mapped=start_heldout,
-        )  # fmt: skip
-    finally:  # a failed run, or a result handed on unmeasured: the child is not waited for
+        try:
+            result, _ = map_log(
+                log_, params, build_arc_map, progress=progress, cpu_start=cpu0,
+                measure=measure, on_mapped=start_heldout,
+            )  # fmt: skip
+        except Exception as err:
+            # mapped as read while the log was aligned: an error of that map (none of
+            # its cells, say) is the run's only where the log keeps its poses
+            if not isinstance(err, _Realigned) and pending is None:
+                raise
+            got = err.aligned if isinstance(err, _Realigned) else resolve_alignment()
+            if got.log is log_:
+                raise
+            cpu0 += time.process_time() - cpu_mapped  # the dropped map is not the method's
+            log_ = mapped = got.log
+            result, _ = map_log(
+                log_, params, build_arc_map, progress=progress, cpu_start=cpu0,
+                measure=measure, on_mapped=start_heldout,
+            )  # fmt: skip
+    finally:  # a failed run, or a result handed on unmeasured: no child is waited for
         if heldout is not None:
             heldout.cancel()
-    if aligned is not None:
+        if pending is not None:
+            pending.cancel()
+    if isinstance(aligned, Aligned):
         result.alignment = aligned.record
         result.timings_s = {"align": aligned.wall_s, **result.timings_s}
     return result

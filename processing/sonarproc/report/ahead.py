@@ -1,19 +1,21 @@
 """A run's figures drawn ahead, in a forked child, while the run finishes.
 
 Drawing a run's figures (:func:`sonarproc.report.plots.render_figures`) first costs
-importing matplotlib and loading its font, then the drawing itself. Neither needs the
-run's truth-free quality, which is measured last and is one of the run's longest stages.
-So ``sonarproc run`` forks a child as it starts (:meth:`AheadFigures.start`), which
-imports matplotlib on the second core while the run computes, then waits. As the quality
-stage starts, the run hands the child its result (:meth:`AheadFigures.send`: the result
-pickled into an in-memory file, no pipe to block on, less the fields no figure reads),
-and the child draws while this process measures. Earlier still, as the arc map is built
-and before its fit, the run hands the child the map (:meth:`AheadFigures.send_map`), and
-the child draws the arc map figure while this process fits; the result sent later says
-whether that map is the result's (a default run's one-curve map is handed on to
-``--auto``, whose map is another: the child then draws it again). The report collects the bytes
-(:meth:`AheadFigures.collect`); a result not sent by then is sent there, which still
-spares the run the import. The bytes are those
+importing matplotlib, loading its font and the first figure's other first-use costs,
+then the drawing itself. None of it needs the run's fit or quality. So ``sonarproc run``
+forks a child as it starts (:meth:`AheadFigures.start`), before it loads the modules of
+its stages: the child pays matplotlib's start-up on the second core (:func:`warm_up`)
+while the run loads, reads and maps, then waits. As the arc map is built, before its fit,
+the run hands the child the map (:meth:`AheadFigures.send_map`) and the child draws the
+arc map figure while this process fits. As the quality stage starts, the run hands the
+child what its other figures show (:meth:`AheadFigures.send`: a
+:class:`~sonarproc.report.plots.ResultView`, text and arrays pickled into an in-memory
+file, no pipe to block on), and the child draws them while this process measures. The
+child never loads the modules that fitted the result: a view holds no fit or surface
+object. The result sent says whether the map sent first is the result's (a default run's
+one-curve map is handed on to ``--auto``, whose map is another: the child then draws it
+again). The report collects the bytes (:meth:`AheadFigures.collect`); a result not sent
+by then is sent there, which still spares the run the import. The bytes are those
 :func:`~sonarproc.report.plots.render_figures` gives on the finished result: nothing a
 figure shows changes after the result is sent (tested).
 
@@ -29,15 +31,14 @@ import logging
 import os
 import pickle
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from sonarproc.pipeline.mapping import MappedStage
 from sonarproc.pipeline.result import RunResult
-from sonarproc.report.drawing import DrawingChild, fork_is_safe
-from sonarproc.report.plots import ArcMapView
+from sonarproc.report.drawing import DrawingChild, figures_bytes, fork_is_safe
+from sonarproc.report.plots import ArcMapView, ResultView
 
 __all__ = ["AheadFigures"]
 
@@ -127,10 +128,11 @@ class AheadFigures:
         self._sent = (result, auto)
         # the arc map figure drawn ahead is this result's, or the child draws it again
         # (a default run's one-curve map handed on to --auto: its map is another)
-        redraw = self._map_sent is None or not self._map_sent.same_as(ArcMapView.of(result))
+        arc = ArcMapView.of(result)
+        drawn = self._map_sent is not None and self._map_sent.same_as(arc)
         try:
             with os.fdopen(os.dup(self._payload_fd), "wb") as fh:  # no copy in memory
-                payload = (_for_figures(result), self.formats, auto, redraw)
+                payload = (None if drawn else arc, ResultView.of(result, auto=auto))
                 pickle.dump(payload, fh, protocol=5)
             os.write(self._go_fd, b"r")
         except (OSError, pickle.PicklingError, TypeError, AttributeError) as err:
@@ -174,25 +176,14 @@ class AheadFigures:
         self._go_fd = self._payload_fd = self._map_fd = -1
 
 
-def _for_figures(result: RunResult) -> RunResult:
-    """``result`` less the arrays no figure reads (the map's echo points), to pickle."""
-    empty = np.zeros(0)
-    return replace(result, points_x=empty, points_y=empty, quality=None)
-
-
 def _draw_when_sent(
     go_fd: int, payload_fd: int, map_fd: int, formats: tuple[str, ...]
 ) -> dict[str, bytes]:
     """In the child: import what drawing needs, wait for the arc map or the result; draw
     the arc map's figure as soon as the map comes, the others when the result does."""
-    from matplotlib import font_manager
-    from matplotlib.backends import backend_agg  # noqa: F401  (imported ahead: the point)
+    from sonarproc.report import plots
 
-    from sonarproc.report import plots, style
-    from sonarproc.report.drawing import figures_bytes
-
-    with style.drawing():
-        font_manager.findfont(style.RC["font.family"])
+    warm_up(formats)
     tag = os.read(go_fd, 1)
     early: dict[str, bytes] = {}
     if tag == b"m":  # the arc map, before the fit: its figure is drawn meanwhile
@@ -205,9 +196,43 @@ def _draw_when_sent(
         os._exit(0)
     with os.fdopen(os.dup(payload_fd), "rb") as fh:
         fh.seek(0)
-        result, formats, auto, redraw = pickle.load(fh)  # our own parent's result
-    if redraw:
+        arc, view = pickle.load(fh)  # our own parent's views of its result
+    if arc is not None:  # the map sent first is not the result's: drawn again
         early = {}
-    skip = () if redraw else ("arcmap",)
     # in render_figures' order: the arc map's files first
-    return {**early, **plots.render_figures(result, formats, auto=auto, skip=skip)}
+    return {**early, **plots.render_views(arc, view, formats)}
+
+
+def warm_up(formats: Sequence[str]) -> None:
+    """Build a small map figure with every kind of artist the run's figures have (image,
+    colour bar, line, legend, title) and throw it away, after importing what saving it in
+    ``formats`` needs.
+
+    A process's first figure costs about twice a later one: matplotlib imports its
+    figure, axes and projection modules (most of it), those of the colour bar, the legend
+    and the image encoder, and loads the font, on first use. Paid here, while the child
+    waits for the map, the run's figures are drawn at the later cost. (Drawing the figure
+    too would spare the first drawing less than it costs.) What is drawn later is not
+    changed by it (the caches hold modules and fonts, not pixels; the tests compare the
+    bytes with figures drawn in a process that drew nothing before).
+    """
+    from matplotlib import font_manager
+    from matplotlib.backends import backend_agg  # noqa: F401  (imported ahead: the point)
+    from matplotlib.patches import Patch
+
+    from sonarproc.report import style
+
+    if "png" in formats:
+        from PIL import PngImagePlugin  # noqa: F401  (the PNG encoder, imported ahead)
+    if "svg" in formats:
+        from matplotlib.backends import backend_svg  # noqa: F401
+    counts = np.arange(64, dtype=np.uint16).reshape(8, 8)
+    extent = (0.0, 1.0, 0.0, 1.0)
+    with style.drawing():
+        font_manager.findfont(style.RC["font.family"])
+        fig, ax, cax = style.map_figure(extent, "a", colour_bar=64.0, legend_entries=2)
+        ax.imshow(style.count_rgba(counts, 64.0), extent=extent, interpolation="none")
+        assert cax is not None
+        style.count_colour_bar(fig, cax, 64.0, "b", clipped=True)
+        line = ax.plot([0.0, 1.0], [0.2, 0.8], ls="--", lw=style.FIT_WIDTH, label="c")[0]
+        style.legend_below(fig, [Patch(color="black", label="d"), line])

@@ -5,11 +5,12 @@ formats and spends the time of the slowest drawing, not of all of them, where it
 
 - a PNG's pixels are drawn on the figure's Agg canvas and compressed on a worker thread
   (Pillow's deflate runs without Python's lock), while the next figure is drawn;
-- the SVGs are drawn in a child process forked for them, while this process draws the
-  PNGs. A fork inherits the figures as they are (nothing is pickled but the bytes that
-  come back), and only from a parent that runs no other thread (a lone thread holds no
-  lock the child could inherit locked), on Linux, with two cores to use. Where it
-  cannot fork, or the child fails, everything is drawn here: the bytes are the same.
+- the SVGs (or, in one format, every other figure) are drawn in a child process forked
+  for them, while this process draws the others. A fork inherits the figures as they
+  are (nothing is pickled but the bytes that come back), and only from a parent that
+  runs no other thread (a lone thread holds no lock the child could inherit locked), on
+  Linux, with two cores to use. Where it cannot fork, or the child fails, everything is
+  drawn here: the bytes are the same.
 """
 
 from __future__ import annotations
@@ -55,10 +56,7 @@ def figures_bytes(
     from concurrent.futures import Future, ThreadPoolExecutor
 
     jobs = [(f"{stem}.{fmt}", fig, fmt) for stem, fig in figures for fmt in formats]
-    # A child draws the SVGs; this process the PNGs, whose compression runs on its
-    # encoder thread. (Measured on the 90 000-reading room run: the two take about as
-    # long; a PNG more for the child makes it the slower of the two.)
-    share = [job for job in jobs if job[2] == "svg"] if _can_fork(formats) else []
+    share = _childs_share(jobs, [stem for stem, _ in figures], formats)
     child = DrawingChild.start(share) if share else None
     theirs_names = {name for name, _, _ in share} if child is not None else set()
     mine = [job for job in jobs if job[0] not in theirs_names]
@@ -83,10 +81,24 @@ def _result(value: Any) -> bytes:
     return value if isinstance(value, bytes) else bytes(value.result())
 
 
-def _can_fork(formats: Sequence[str]) -> bool:
-    """Whether the SVGs may go to a forked child: there are other formats to draw
-    meanwhile, and :func:`fork_is_safe`."""
-    return "svg" in formats and len(formats) >= 2 and fork_is_safe()
+def _childs_share(jobs: list[Job], stems: Sequence[str], formats: Sequence[str]) -> list[Job]:
+    """The jobs a forked child draws while this process draws the others (none: no child).
+
+    With SVGs and another format, the SVGs: this process draws the PNGs, whose
+    compression runs on its encoder thread. (Measured on the 90 000-reading room run:
+    the two take about as long; a PNG more for the child makes it the slower of the two.)
+    With one format and several figures, every other figure counted from the last but
+    one: the last (a fit over its map, the costliest) stays here, so that the two halves
+    take about as long. None where no child may be forked (:func:`fork_is_safe`).
+    """
+    if "svg" in formats and len(formats) >= 2:
+        share = [job for job in jobs if job[2] == "svg"]
+    elif len(stems) >= 2:
+        theirs = set(list(reversed(stems))[1::2])
+        share = [job for job in jobs if job[0].rsplit(".", 1)[0] in theirs]
+    else:
+        return []
+    return share if fork_is_safe() else []
 
 
 Job = tuple[str, "Figure", str]

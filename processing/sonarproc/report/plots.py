@@ -42,6 +42,7 @@ __all__ = [
     "FIGURE_FORMATS",
     "MAX_DISPLAY",
     "ArcMapView",
+    "ResultView",
     "alignment_figure",
     "arcmap_figure",
     "block_max",
@@ -54,6 +55,7 @@ __all__ = [
     "parse_figure_formats",
     "processed_figure",
     "render_figures",
+    "render_views",
 ]
 
 #: The figure files of a run report, by stem: ``NAME.png`` and/or ``NAME.svg``.
@@ -241,8 +243,107 @@ def arcmap_figure(result: RunResult | ArcMapView) -> Figure:
     return fig
 
 
+@dataclass(frozen=True, eq=False)
+class ResultView:
+    """What the processed, fit and alignment figures show of a result: text, numbers and
+    arrays only, no fit or surface object. A child that draws it (:mod:`sonarproc.report.
+    ahead`) needs matplotlib and this module, not the modules that fitted the result.
+
+    Attributes
+    ----------
+    extent : tuple of float
+        The grid's extent (m).
+    cells : ndarray of bool
+        The processed map, reduced by :func:`block_max`.
+    cell_label : str
+        The cell size, as the processed map's legend says it.
+    processed_title, fit_title, alignment_title : str
+        The figures' titles.
+    truth : ndarray (N, 2) or None
+        The true surface, broken at its jumps (:func:`broken_at_jumps`).
+    surfaces : tuple of (str, ndarray)
+        Each surface's model and polyline, numbered as in surfaces.csv.
+    fit_curve : ndarray (N, 2) or None
+        The single fit over the truth's span (:func:`fit_curve`); None: no such fit (the
+        result's surfaces, or a failed fit).
+    fit_label : str
+        The single fit's legend entry.
+    fit_entries : int
+        The fit figure's legend entries.
+    paths : tuple of ndarray or None
+        The raw and corrected paths of the drift correction (None: no alignment ran).
+    drift_corrected : bool
+        The drift correction was applied (its figure is then drawn).
+    """
+
+    extent: tuple[float, float, float, float]
+    cells: npt.NDArray[np.bool_]
+    cell_label: str
+    processed_title: str
+    fit_title: str
+    alignment_title: str
+    truth: npt.NDArray[np.float64] | None
+    surfaces: tuple[tuple[str, npt.NDArray[np.float64]], ...]
+    fit_curve: npt.NDArray[np.float64] | None
+    fit_label: str
+    fit_entries: int
+    paths: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None
+    drift_corrected: bool
+
+    @classmethod
+    def of(
+        cls,
+        result: RunResult,
+        cells: npt.NDArray[np.bool_] | None = None,
+        *,
+        auto: Mapping[str, Any] | None = None,
+    ) -> ResultView:
+        """What ``result``'s figures show (``cells``: its processed map reduced by
+        :func:`block_max`, if at hand; ``auto``: ``--auto``'s record, when it chose the map)."""
+        m = result.metrics
+        extra = f", e = {number(m.e)}" if m.e is not None else ""
+        built = map_label(str(result.params.ops), auto)
+        found = result.surfaces
+        lines = tuple((str(s.model), s.polyline) for s in found.surfaces) if found else ()
+        curve, label = None, ""
+        if not lines and not isinstance(result.fit, FitFailure):
+            curve = fit_curve(result.fit, result.truth, result.grid.cell)
+            label = f"{result.fit.kind} fit"
+        truth = None
+        if result.truth is not None and result.truth.size:
+            truth = broken_at_jumps(result.truth)
+        record = result.alignment
+        paths = None
+        if record is not None:
+            paths = (np.asarray(record.raw_path), np.asarray(record.corrected_path))
+        shift = 0.0 if record is None else record.max_shift_m
+        return cls(
+            extent=tuple(float(v) for v in result.grid.extent),  # type: ignore[arg-type]
+            cells=_shown(result, cells),
+            cell_label=length_cm(result.grid.cell),
+            processed_title=_title(result, f"after {built}: f_c = {number(m.f_c)}{extra}"),
+            fit_title=_title(result, fit_title(result)),
+            alignment_title=_title(result, f"drift correction, up to {length_cm(shift)}"),
+            truth=truth,
+            surfaces=lines,
+            fit_curve=curve,
+            fit_label=label,
+            fit_entries=1 + (result.truth is not None) + (len(lines) or 1),
+            paths=paths,
+            drift_corrected=record is not None and bool(record.applied),
+        )
+
+
+def _view(
+    result: RunResult | ResultView,
+    cells: npt.NDArray[np.bool_] | None = None,
+    auto: Mapping[str, Any] | None = None,
+) -> ResultView:
+    return result if isinstance(result, ResultView) else ResultView.of(result, cells, auto=auto)
+
+
 def processed_figure(
-    result: RunResult,
+    result: RunResult | ResultView,
     cells: npt.NDArray[np.bool_] | None = None,
     *,
     auto: Mapping[str, Any] | None = None,
@@ -254,20 +355,19 @@ def processed_figure(
     """
     from matplotlib.patches import Patch
 
-    m = result.metrics
-    extra = f", e = {number(m.e)}" if m.e is not None else ""
-    built = map_label(str(result.params.ops), auto)
+    view = _view(result, cells, auto)
     with style.drawing():
-        title = _title(result, f"after {built}: f_c = {number(m.f_c)}{extra}")
-        fig, ax, _ = style.map_figure(result.grid.extent, title, legend_entries=1)
-        shown = style.cells_rgba(_shown(result, cells), "black")
-        ax.imshow(shown, extent=result.grid.extent, interpolation="none")
-        kept = Patch(color="black", label=f"kept cell ({length_cm(result.grid.cell)})")
+        fig, ax, _ = style.map_figure(view.extent, view.processed_title, legend_entries=1)
+        shown = style.cells_rgba(view.cells, "black")
+        ax.imshow(shown, extent=view.extent, interpolation="none")
+        kept = Patch(color="black", label=f"kept cell ({view.cell_label})")
         style.legend_below(fig, [kept])
     return fig
 
 
-def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) -> Figure:
+def fit_figure(
+    result: RunResult | ResultView, cells: npt.NDArray[np.bool_] | None = None
+) -> Figure:
     """The processed cells (grey), the true surface (dashed) and the fit or surfaces.
 
     Surfaces are numbered 0..N-1, as in surfaces.csv, surfaces.geojson and report.json,
@@ -276,65 +376,59 @@ def fit_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) ->
     """
     from matplotlib.patches import Patch
 
+    v = _view(result, cells)
     with style.drawing():
-        extent = result.grid.extent
-        view = view_box(extent)
-        surfaces = result.surfaces
-        n_lines = len(surfaces.surfaces) if surfaces is not None and surfaces.surfaces else 1
-        entries = 1 + (result.truth is not None) + n_lines
-        fig, ax, _ = style.map_figure(
-            extent, _title(result, fit_title(result)), legend_entries=entries
-        )
-        shown = style.cells_rgba(_shown(result, cells), style.CELL_GREY)
+        extent = v.extent
+        box = view_box(extent)
+        fig, ax, _ = style.map_figure(extent, v.fit_title, legend_entries=v.fit_entries)
+        shown = style.cells_rgba(v.cells, style.CELL_GREY)
         ax.imshow(shown, extent=extent, interpolation="none")
         handles: list[Any] = [Patch(color=style.CELL_GREY, label="processed map")]
-        if result.truth is not None and result.truth.size:
-            truth = broken_at_jumps(result.truth)
-            handles.append(_line(ax, truth, view, label="true surface", **style.TRUTH_STYLE))
-        if surfaces is not None and surfaces.surfaces:
-            for k, s in enumerate(surfaces.surfaces):
-                colour, dash = style.surface_style(k)
-                if s.model in style.POINT_MARKERS:
-                    handles.append(_point(ax, s.polyline, view, s.model, colour, k))
-                    continue
-                handles.append(
-                    _line(
-                        ax, s.polyline, view, color=colour, ls=dash, lw=style.FIT_WIDTH,
-                        label=f"surface {k} ({s.model})",
-                    )
-                )  # fmt: skip
-        elif not isinstance(result.fit, FitFailure):
-            curve = fit_curve(result.fit, result.truth, result.grid.cell)
-            label = f"{result.fit.kind} fit"
+        if v.truth is not None:
+            handles.append(_line(ax, v.truth, box, label="true surface", **style.TRUTH_STYLE))
+        for k, (model, polyline) in enumerate(v.surfaces):
+            colour, dash = style.surface_style(k)
+            if model in style.POINT_MARKERS:
+                handles.append(_point(ax, polyline, box, model, colour, k))
+                continue
             handles.append(
-                _line(ax, curve, view, color=style.FIT_COLOUR, lw=style.FIT_WIDTH, label=label)
-            )
+                _line(
+                    ax, polyline, box, color=colour, ls=dash, lw=style.FIT_WIDTH,
+                    label=f"surface {k} ({model})",
+                )
+            )  # fmt: skip
+        if v.fit_curve is not None:
+            handles.append(
+                _line(
+                    ax, v.fit_curve, box, color=style.FIT_COLOUR, lw=style.FIT_WIDTH,
+                    label=v.fit_label,
+                )
+            )  # fmt: skip
         style.legend_below(fig, handles)
     return fig
 
 
-def alignment_figure(result: RunResult, cells: npt.NDArray[np.bool_] | None = None) -> Figure:
+def alignment_figure(
+    result: RunResult | ResultView, cells: npt.NDArray[np.bool_] | None = None
+) -> Figure:
     """The robot's path at the correction nodes, raw (dashed) and as corrected for drift
     (solid), over the processed map (grey) of the corrected readings."""
     from matplotlib.patches import Patch
 
-    record = result.alignment
-    raw = np.zeros((0, 2)) if record is None else record.raw_path
-    corrected = np.zeros((0, 2)) if record is None else record.corrected_path
+    v = _view(result, cells)
+    raw, corrected = v.paths if v.paths is not None else (np.zeros((0, 2)), np.zeros((0, 2)))
     with style.drawing():
-        extent = result.grid.extent
-        view = view_box(extent)
-        shift = 0.0 if record is None else record.max_shift_m
-        title = _title(result, f"drift correction, up to {length_cm(shift)}")
-        fig, ax, _ = style.map_figure(extent, title, legend_entries=3)
-        shown = style.cells_rgba(_shown(result, cells), style.CELL_GREY)
+        extent = v.extent
+        box = view_box(extent)
+        fig, ax, _ = style.map_figure(extent, v.alignment_title, legend_entries=3)
+        shown = style.cells_rgba(v.cells, style.CELL_GREY)
         ax.imshow(shown, extent=extent, interpolation="none")
         handles: list[Any] = [Patch(color=style.CELL_GREY, label="processed map")]
         handles.append(
-            _line(ax, raw, view, color="black", ls="--", lw=1.2, label="raw odometry path")
+            _line(ax, raw, box, color="black", ls="--", lw=1.2, label="raw odometry path")
         )
         handles.append(
-            _line(ax, corrected, view, color=style.PATH_COLOUR, lw=1.5, label="corrected path")
+            _line(ax, corrected, box, color=style.PATH_COLOUR, lw=1.5, label="corrected path")
         )
         style.legend_below(fig, handles)
     return fig
@@ -357,12 +451,18 @@ def render_figures(
     """
     if not formats:
         return {}
-    cells = _shown(result, None)
-    figures = [] if "arcmap" in skip else [("arcmap", arcmap_figure(result))]
-    figures += [
-        ("processed", processed_figure(result, cells, auto=auto)),
-        ("fit", fit_figure(result, cells)),
-    ]
-    if result.alignment is not None and result.alignment.applied:
-        figures.append(("alignment", alignment_figure(result, cells)))
+    arc = None if "arcmap" in skip else ArcMapView.of(result)
+    return render_views(arc, ResultView.of(result, auto=auto), formats)
+
+
+def render_views(
+    arc: ArcMapView | None, view: ResultView, formats: Sequence[str]
+) -> dict[str, bytes]:
+    """:func:`render_figures` from what the figures show: the arc map's files first
+    (none when ``arc`` is None), then the processed map's, the fit's, and the drift
+    correction's when one was applied."""
+    figures = [] if arc is None else [("arcmap", arcmap_figure(arc))]
+    figures += [("processed", processed_figure(view)), ("fit", fit_figure(view))]
+    if view.drift_corrected:
+        figures.append(("alignment", alignment_figure(view)))
     return figures_bytes(figures, formats)

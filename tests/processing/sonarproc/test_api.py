@@ -150,6 +150,8 @@ def test_default_mode_aligns_and_measures_a_curve_once(
     monkeypatch.setattr(measure, "measure_quality", counted_quality)
     monkeypatch.setattr("sonarproc.quality.measure_quality", counted_quality)
     monkeypatch.setattr("sonarproc.quality.of_auto.measure_quality", counted_quality)
+    # aligned in this process, where it is counted (not in a child while the log is mapped)
+    monkeypatch.setattr("sonarproc.pipeline.align_ahead.fork_is_safe", lambda: False)
     result, record = run_log(load_log(fig12), run_params(), "default")
     assert record is not None and record["mode"] == "default"
     assert calls == {"align": 1, "quality": 1}

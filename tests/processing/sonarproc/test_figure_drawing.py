@@ -1,5 +1,6 @@
-"""Saving several figures at once: the same files whether the SVGs are drawn in a forked
-child or here, a failed child costs nothing but time, and no fork beside another thread."""
+"""Saving several figures at once: the same files whether a share of them (the SVGs, or
+every other figure) is drawn in a forked child or here, a failed child costs nothing but
+time, and no fork beside another thread."""
 
 from __future__ import annotations
 
@@ -37,19 +38,30 @@ def tags(svg: bytes) -> Counter[str]:
     return Counter(e.tag for e in ElementTree.fromstring(svg).iter())
 
 
-def serial(monkeypatch: pytest.MonkeyPatch) -> dict[str, bytes]:
+def serial(
+    monkeypatch: pytest.MonkeyPatch, formats: tuple[str, ...] = ("png", "svg")
+) -> dict[str, bytes]:
     with monkeypatch.context() as m:
-        m.setattr(drawing, "_can_fork", lambda formats: False)
-        return drawing.figures_bytes(figures(), ("png", "svg"))
+        m.setattr(drawing, "fork_is_safe", lambda: False)
+        return drawing.figures_bytes(figures(), formats)
+
+
+def share(formats: tuple[str, ...], stems: tuple[str, ...] = ("f0", "f1", "f2")) -> list[str]:
+    """The names of the files :func:`drawing._childs_share` gives a child."""
+    jobs = [(f"{stem}.{fmt}", None, fmt) for stem in stems for fmt in formats]
+    return [name for name, _, _ in drawing._childs_share(jobs, stems, formats)]  # type: ignore[arg-type]
 
 
 @needs_fork
-def test_files_from_the_child_are_those_drawn_here(monkeypatch: pytest.MonkeyPatch) -> None:
-    if not drawing._can_fork(("png", "svg")):
+@pytest.mark.parametrize("formats", [("png", "svg"), ("png",)])
+def test_files_from_the_child_are_those_drawn_here(
+    formats: tuple[str, ...], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    if not share(formats):
         pytest.skip("another thread runs in this test process: no fork")
-    forked = drawing.figures_bytes(figures(), ("png", "svg"))
-    here = serial(monkeypatch)
-    assert list(forked) == ["f0.png", "f0.svg", "f1.png", "f1.svg", "f2.png", "f2.svg"]
+    forked = drawing.figures_bytes(figures(), formats)
+    here = serial(monkeypatch, formats)
+    assert list(forked) == [f"f{k}.{fmt}" for k in range(3) for fmt in formats]
     assert list(forked) == list(here)
     for name, data in forked.items():
         if name.endswith(".png"):
@@ -67,13 +79,23 @@ def test_a_failed_child_leaves_its_share_to_this_process(monkeypatch: pytest.Mon
         assert tags(drawn[name]) == tags(serial(monkeypatch)[name])
 
 
-def test_no_fork_for_one_format_or_beside_another_thread() -> None:
-    assert not drawing._can_fork(("svg",)) and not drawing._can_fork(("png",))
+@needs_fork
+def test_the_child_draws_the_svgs_or_every_other_figure_but_the_last() -> None:
+    if not share(("png",)):
+        pytest.skip("another thread runs in this test process: no fork")
+    assert share(("png", "svg")) == ["f0.svg", "f1.svg", "f2.svg"]
+    assert share(("png",)) == ["f1.png"]
+    assert share(("svg",), ("a", "b", "c", "d")) == ["a.svg", "c.svg"]
+    assert share(("png",), ("fit",)) == [] and share(("svg",), ("fit",)) == []
+
+
+def test_no_fork_for_one_figure_in_one_format_or_beside_another_thread() -> None:
+    assert share(("png",), ("fit",)) == [] and share(("svg",), ("fit",)) == []
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
     other.start()
     try:
-        assert not drawing._can_fork(("png", "svg"))
+        assert share(("png", "svg")) == [] and share(("png",)) == []
     finally:
         stop.set()
         other.join()
