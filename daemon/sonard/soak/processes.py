@@ -141,7 +141,10 @@ class SoakProcesses:
 def wait_running(locks: Path, proc: subprocess.Popen[str]) -> None:
     """Until ``proc`` holds the port's lock file: it has finalised the logs and runs."""
     mine = f"{proc.pid:10d}\n"
-    deadline = time.monotonic() + 30.0
+    # generous: on a loaded machine a sonard's imports alone took over 30 s, and a SIGTERM
+    # before it holds the lock leaves the last killed log unfinalised (returns at once
+    # when the lock is held)
+    deadline = time.monotonic() + 180.0
     while time.monotonic() < deadline and proc.poll() is None:
         for lock in locks.glob("LCK..*"):
             try:
