@@ -78,12 +78,23 @@ def _open_tolerant(path: Path) -> h5py.File:
         raise
 
 
-SALVAGE_TIMEOUT_S = 10.0
+#: CPU seconds the salvage child may spend: the recovery reads a log of hours in about a
+#: second, so a child still busy after this is looping on corrupt metadata. Counted in the
+#: child's CPU time, not wall time, so a loaded machine that starves the child does not
+#: turn a recoverable log into an unreadable one.
+SALVAGE_CPU_S = 10
+#: Wall seconds before a salvage child that uses no CPU (blocked) is given up: far above
+#: any start-up a loaded machine delays (tens of seconds beside busy loops).
+SALVAGE_TIMEOUT_S = 120.0
 
 
 def _salvage(original: Path, padded: Path) -> Path:
     clean = padded.with_name("salvaged.h5")
-    code = "import sys; from sonarlog import recover_log; recover_log(sys.argv[1], sys.argv[2])"
+    code = (
+        "import resource, sys; "
+        f"resource.setrlimit(resource.RLIMIT_CPU, ({SALVAGE_CPU_S}, {SALVAGE_CPU_S + 1})); "
+        "from sonarlog import recover_log; recover_log(sys.argv[1], sys.argv[2])"
+    )
     try:
         result = subprocess.run(
             [sys.executable, "-c", code, str(padded), str(clean)],

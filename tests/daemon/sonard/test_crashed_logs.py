@@ -160,7 +160,13 @@ def _wait_until_polled_for(trace: Path, start: int, seconds: float) -> float:
     raise AssertionError(f"sonard did not poll for {seconds:.2f} s within 90 s")
 
 
-def _wait_until_owner(locks: Path, pid: int, timeout: float = 30.0) -> None:
+#: How long a new sonard may take to start and finalise the previous log: a second on a
+#: machine with a core to spare, tens of seconds beside two busy loops and other tests
+#: (a start-up took 20 s of wall time there; one finalisation needed more than 30 s).
+START_TIMEOUT_S = 120.0
+
+
+def _wait_until_owner(locks: Path, pid: int, timeout: float = START_TIMEOUT_S) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if any(p.read_text().strip() == str(pid) for p in locks.glob("LCK..*")):
@@ -169,7 +175,7 @@ def _wait_until_owner(locks: Path, pid: int, timeout: float = 30.0) -> None:
     raise AssertionError(f"sonard {pid} never took the port lock")
 
 
-def _wait_until_closed(path: Path, timeout: float = 30.0) -> None:
+def _wait_until_closed(path: Path, timeout: float = START_TIMEOUT_S) -> None:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         if not path.exists():

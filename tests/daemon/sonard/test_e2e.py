@@ -181,11 +181,15 @@ def test_sigterm_stops_robot_and_exits_zero(tmp_path: Path) -> None:
     out = tmp_path / "run.h5"
     with emulator(tmp_path, fast=False) as (pty, trace_path):
         proc = start_sonard(pty, plan, out)
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline:  # wait until the robot drives
-            if trace_path.exists() and '"cmd": "PR"' in trace_path.read_text():
-                break
+        # wait until the robot drives: sonard's handlers are installed long before its
+        # plan sends PR. Start-up (imports, opening the robot) takes a second alone and
+        # many on a loaded machine; a SIGTERM before the handlers would test nothing.
+        deadline = time.monotonic() + 120
+        driving = False
+        while not driving and time.monotonic() < deadline and proc.poll() is None:
+            driving = trace_path.exists() and '"cmd": "PR"' in trace_path.read_text()
             time.sleep(0.05)
+        assert driving, "the robot never drove: " + finish(proc, 10)[1]
         time.sleep(0.5)
         t0 = time.monotonic()
         proc.send_signal(signal.SIGTERM)

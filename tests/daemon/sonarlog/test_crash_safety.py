@@ -127,6 +127,9 @@ def _complete_log(path: Path) -> np.ndarray:
     return readings
 
 
+# twelve salvage processes in turn: a second each on a machine with a core to spare, tens
+# of seconds each beside two busy loops and other tests
+@pytest.mark.timeout(900)
 def test_files_cut_at_random_offsets_give_a_prefix_or_a_one_line_error(tmp_path: Path) -> None:
     source = tmp_path / "whole.h5"
     readings = _complete_log(source)
