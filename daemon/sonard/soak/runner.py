@@ -19,9 +19,10 @@ Checks (exit 1 when one fails, 2 on bad arguments):
 * sonard's open file descriptors end where they started (after warm-up), and (runs of
   30 minutes or more) its RSS grows less than 1 MiB per hour;
 * every killed log opens with plain ``h5py.File(path, "r")`` after the next start, reads as
-  ``crashed``, and lost at most 1 s of readings before its last poll (each is killed once
-  it has polled for a random 0.5-3 s of robot time; its last poll is the last GS the
-  emulator heard before the kill, read from the trace once the emulator has exited).
+  ``crashed``, and lost at most 1 s (``--max-loss``) of readings before its last poll
+  (each is killed once it has polled for a random 1-4 s of robot time past that bound, so
+  a sonard that never wrote its log fails; its last poll is the last GS the emulator heard
+  before the kill, read from the trace once the emulator has exited).
 
 A failure keeps the work directory and prints, for unaccounted firings, what surrounds
 them (:mod:`sonard.soak.diagnosis`).
@@ -227,8 +228,14 @@ def _check_log(procs: SoakProcesses, out: Path, result: SoakResult) -> float:
         return float("nan")
 
 
-def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) -> list[Kill]:
-    """Start sonard, SIGKILL it at a random moment, repeat; the next start finalises."""
+def _kill_trials(
+    procs: SoakProcesses, n: int, seed: int, result: SoakResult, max_loss_s: float
+) -> list[Kill]:
+    """Start sonard, SIGKILL it at a random moment, repeat; the next start finalises.
+
+    The moment is 1-4 s of robot time past ``max_loss_s`` after its first poll: a kill any
+    sooner could not tell a sonard that never wrote its log from one that lost little.
+    """
     rng = np.random.default_rng(seed)
     killed: list[Kill] = []
     with open(procs.work / "kills.err", "w", encoding="utf-8") as err:
@@ -242,7 +249,8 @@ def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) ->
                     proc.send_signal(signal.SIGTERM)
                     proc.wait(30)
                     break
-                polled = wait_polled(procs.trace, start, float(rng.uniform(0.5, 3.0)), proc)
+                after = float(rng.uniform(max_loss_s + 1.0, max_loss_s + 4.0))
+                polled = wait_polled(procs.trace, start, after, proc)
                 killed_at = time.time()
             finally:  # also when the soak itself is interrupted: no sonard outlives it
                 if proc.poll() is None:
@@ -251,17 +259,22 @@ def _kill_trials(procs: SoakProcesses, n: int, seed: int, result: SoakResult) ->
             if polled is None:
                 result.failures.append(f"{out.name}: sonard did not poll for long enough")
             else:
-                killed.append(Kill(out, polled[0], killed_at))
+                # the file's last write before the next start finalises it: pushes that
+                # stopped, or a disk or scheduler that held them back, show against the kill
+                written = out.stat().st_mtime if out.exists() else float("nan")
+                killed.append(Kill(out, polled[0], killed_at, killed_at - written))
     return killed
 
 
 @dataclass(frozen=True)
 class Kill:
-    """One kill trial: its log, its first poll (robot clock, s) and the kill (UNIX s)."""
+    """One kill trial: its log, its first poll (robot clock, s), the kill (UNIX s), and how
+    long before the kill the log file was last written (s)."""
 
     log: Path
     first_poll: float
     killed_at: float
+    written_before: float = float("nan")
 
 
 def _kill_losses(
@@ -283,9 +296,11 @@ def _kill_losses(
         [float(json.loads(line)["t"]) for line in _lines(trace) if b'"GS"' in line], dtype=float
     )
     losses: list[float] = []
+    details: list[str] = []
     for k in killed:
         if not k.log.exists():  # nothing written: the next start removed the empty log
             losses.append(_last_poll(polls, k, offset) - k.first_poll)
+            details.append(f"{k.log.name}: no log, polled {losses[-1]:.2f} s")
             continue
         try:
             with h5py.File(k.log, "r") as f:
@@ -298,15 +313,23 @@ def _kill_losses(
             result.failures.append(f"{k.log.name}: state {log.log_state}, {n_rows} rows")
         if len(log.readings):
             own = clock_offset(log)
-            losses.append(_last_poll(polls, k, own) - (float(log.readings["t"].max()) - own))
+            last = _last_poll(polls, k, own)
+            losses.append(last - (float(log.readings["t"].max()) - own))
         else:
-            losses.append(_last_poll(polls, k, offset) - k.first_poll)
+            last = _last_poll(polls, k, offset)
+            losses.append(last - k.first_poll)
+        details.append(
+            f"{k.log.name}: polled {last - k.first_poll:.2f} s, {len(log.readings)} readings, "
+            f"lost {losses[-1]:.2f} s, file last written {k.written_before:.2f} s before the kill"
+        )
     worst = max(losses, default=0.0)
     result.figures.update(
         kill_trials=len(killed),
         worst_loss_s=round(worst, 3),
         kill_losses_s=" ".join(f"{x:.3f}" for x in losses[:10]),
     )
+    if losses:
+        result.figures["worst_kill"] = details[int(np.argmax(losses))]
     if worst > max_loss_s:
         result.failures.append(f"a kill lost {worst:.2f} s of readings (limit {max_loss_s:g} s)")
 
@@ -345,7 +368,7 @@ def soak(
         if kill_trials:
             procs.emulator.send_signal(signal.SIGUSR1)  # no more faults ...
             time.sleep(EPISODE_S + 1.0)  # ... once the one under way is over
-            killed = _kill_trials(procs, kill_trials, seed, result)
+            killed = _kill_trials(procs, kill_trials, seed, result, max_loss_s)
     finally:
         procs.close()
     offset = _check_log(procs, out, result)

@@ -28,10 +28,12 @@ def test_short_soak_passes(capsys: pytest.CaptureFixture[str]) -> None:
     # firing trace and fault list are the evidence (the output names the directory)
     work = Path(tempfile.mkdtemp(prefix="sonard-soak-"))
     # A kill loses at most 1 s on a machine with a core to spare (0.38 s worst in the hour
-    # soak); the suite shares 2 cores with two busy loops and other tests, and a starved
-    # writer thread flushes late by the scheduler's delay: 1 s more is allowed for it.
+    # soak, 0.47 s in 37 short soaks beside 2-6 busy loops). The suite shares 2 cores with
+    # two busy loops and the other tests' processes and disk writes, which delay the
+    # writer's pushes: a CI run measured 2.44 s. 4 s is allowed; the soak kills only after
+    # 5-8 s of polling, so a sonard that never wrote its log still fails.
     argv = ["45s", "--fault-every", "9", "--kill-trials", "2", "--dir", str(work)]
-    rc = main([*argv, "--max-loss", "2.0"])
+    rc = main([*argv, "--max-loss", "4.0"])
     out = capsys.readouterr().out
     assert rc == 0, out
     shutil.rmtree(work, ignore_errors=True)
