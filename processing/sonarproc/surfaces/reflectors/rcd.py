@@ -49,7 +49,8 @@ their beams, while no plane explains the same ranges.
    so weaker candidates nearby are tested on the rest.
 
 Which kind of point it is (a concave ``corner`` or a convex ``edge``) is decided against
-the fitted planes by :mod:`sonarproc.surfaces.reflectors.classify`.
+the fitted planes by :mod:`sonarproc.surfaces.reflectors.classify`, after
+:mod:`sonarproc.surfaces.reflectors.confirm` checked it against them.
 """
 
 from __future__ import annotations
@@ -77,6 +78,7 @@ __all__ = [
     "RANGE_TOL_M",
     "PointFeature",
     "diffuse_residuals",
+    "distinct_poses",
     "find_point_features",
     "plane_residuals",
     "point_beats_plane",
@@ -469,10 +471,10 @@ def pose_keys(xy: FloatArray) -> npt.NDArray[np.int64]:
     return np.asarray(cells[:, 0] * (1 << 32) + cells[:, 1], dtype=np.int64)
 
 
-def _distinct_poses(xy: FloatArray) -> int:
+def distinct_poses(xy: FloatArray) -> int:
     """Distinct :data:`RANGE_TOL_M` cells the sensor positions ``xy`` fall in.
 
-    >>> _distinct_poses(np.array([[0.0, 0.0], [0.01, 0.0], [0.05, 0.0], [0.0, 0.05]]))
+    >>> distinct_poses(np.array([[0.0, 0.0], [0.01, 0.0], [0.05, 0.0], [0.0, 0.05]]))
     3
     """
     return int(np.unique(pose_keys(xy)).size)
@@ -622,7 +624,7 @@ def _cheap_tests(echoes: EchoGeometry, idx: IntArray) -> tuple[int, float] | Non
     """:func:`_enough`'s tests; when they pass, the distinct poses and :func:`plane_rms`."""
     if idx.size < MIN_READINGS:
         return None
-    poses = _distinct_poses(echoes.xy[idx])
+    poses = distinct_poses(echoes.xy[idx])
     if poses < MIN_POSES:
         return None
     prms = plane_rms(echoes.xy[idx], echoes.range_m[idx])
