@@ -51,7 +51,8 @@ from sonarproc.surfaces.reflectors.point_echoes import (
     answers_its_beams,
     echo_kind,
 )
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.rcd import PointFeature
 from sonarproc.surfaces.reflectors.walls import (
     on_wall_lines,
     side_of_line,

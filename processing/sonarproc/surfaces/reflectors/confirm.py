@@ -30,7 +30,8 @@ from sonarproc.surfaces.reflectors.point_echoes import (
     answers_its_beams,
     far_poses,
 )
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature, point_feature
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.rcd import PointFeature, point_feature
 from sonarproc.surfaces.reflectors.walls import (
     CHAIN_GAP_M,
     END_REACH_M,

@@ -28,7 +28,8 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M, PointFeature, distinct_poses
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M, distinct_poses
+from sonarproc.surfaces.reflectors.rcd import PointFeature
 
 __all__ = [
     "ANSWER_SHARE",

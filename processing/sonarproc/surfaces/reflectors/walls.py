@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 
 __all__ = [
     "CHAIN_GAP_M",
