@@ -6,7 +6,9 @@ held-out refit of the quality stage (:mod:`sonarproc.quality.ahead`). A fork inh
 the arrays as they are (copy on write: nothing is pickled but the answer that comes
 back), and is taken only where it is safe and gains something (:func:`fork_is_safe`).
 The caller always keeps a way to do the work itself: a child that cannot be forked or
-fails gives None, never a different answer.
+fails gives None, never a different answer. :class:`AheadJob` is the bookkeeping of such
+work for a caller that collects one answer later: the child started, collected once, or
+stopped when its answer is no longer wanted.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["ForkedChild", "fork_is_safe"]
+__all__ = ["AheadJob", "ForkedChild", "fork_is_safe"]
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +81,38 @@ class ForkedChild:
             os.kill(self.pid, signal.SIGKILL)
         os.close(self.fd)
         os.waitpid(self.pid, 0)
+
+
+class AheadJob:
+    """Work handed to a forked child now and collected once later, or done by the caller.
+
+    A subclass holds the work's inputs and starts the child where a fork is safe
+    (``if fork_is_safe(): job.fork(work)``); as it needs the answer it calls
+    :meth:`collect` and, given None (no child, or it failed), does the work itself.
+    """
+
+    def __init__(self) -> None:
+        self._child: ForkedChild | None = None
+
+    def fork(self, work: Callable[[], Any]) -> None:
+        """Hand ``work`` to a forked child (none when no child can be forked)."""
+        self._child = ForkedChild.start_work(work)
+
+    @property
+    def forked(self) -> bool:
+        """Whether a child works on the answer (not yet collected)."""
+        return self._child is not None
+
+    def collect(self) -> Any | None:
+        """The child's answer; None if there is no child or it failed. Asked once."""
+        child, self._child = self._child, None
+        return child.collect_any() if child is not None else None
+
+    def cancel(self) -> None:
+        """Stop the child, if it still runs: its answer is not wanted."""
+        child, self._child = self._child, None
+        if child is not None:
+            child.cancel()
 
 
 def _child_main(work: Callable[[], Any], read_fd: int, write_fd: int) -> None:

@@ -12,14 +12,14 @@ measured against it).
 :func:`refine_alignment` therefore, starting from an accepted correction,
 
 1. finds the walls from the readings' tangent votes under the corrected poses
-   (:func:`sonarproc.surfaces.echoes.tangents.tangent_lines`), and the readings each
-   wall returned;
-2. solves, by :func:`scipy.optimize.least_squares` (finite differences over the sparse
-   Jacobian's known structure), for the same smooth correction (node offsets, odometry
-   calibration, with the same odometry ties and calibration prior), every wall's line
-   and a common range delay together: a bundle adjustment whose residuals are each
-   near-axis echo's first-echo range residual ``distance(sensor, wall) - range`` in
-   range deviations (:data:`RANGE_SIGMA_M`; ``soft_l1`` on them, squares on the ties);
+   (:func:`sonarproc.align.walls.find_walls`), and the readings each wall returned;
+2. solves (:mod:`sonarproc.align.bundle`), by :func:`scipy.optimize.least_squares`
+   (finite differences over the sparse Jacobian's known structure), for the same smooth
+   correction (node offsets, odometry calibration, with the same odometry ties and
+   calibration prior), every wall's line and a common range delay together: a bundle
+   adjustment whose residuals are each near-axis echo's first-echo range residual
+   ``distance(sensor, wall) - range`` in range deviations (:data:`RANGE_SIGMA_M`;
+   ``soft_l1`` on them, squares on the ties);
 3. finds the walls again under the refined poses and solves once more;
 4. turns the refined track as a whole about its start to face as the accepted one did
    (the echoes cannot tell which way a whole map faces; see :func:`_placed_like`).
@@ -37,56 +37,32 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import least_squares
-from scipy.sparse import csr_matrix
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
-from sonarproc.align.echoes import EchoRays, echo_rays
-from sonarproc.align.graph import NCAL, ROBUST_SCALE, OdometryTies, odometry_ties
-from sonarproc.align.graph import PoseGraphProblem as _OdometryProblem
-from sonarproc.align.matching import LineMatches
+from sonarproc.align.bundle import (
+    RANGE_SIGMA_M,
+    WallProblem,
+    bundle_cost,
+    lines_start,
+    solve_bundle,
+)
+from sonarproc.align.echoes import echo_rays
+from sonarproc.align.graph import NCAL, odometry_ties
 from sonarproc.align.poses import Alignment
-from sonarproc.align.track import Nodes, place_nodes, travel
-from sonarproc.align.track import wrap as _wrap
-from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.echoes.tangents import tangent_lines
+from sonarproc.align.track import Nodes, blended_poses, place_nodes, travel, wrap
+from sonarproc.align.walls import find_walls
 
-__all__ = ["RANGE_SIGMA_M", "Refinement", "refine_alignment"]
+__all__ = ["RANGE_SIGMA_M", "Refinement", "blended_poses", "refine_alignment"]
 
 log = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
-#: Standard deviation (m) of a first echo's range about its sensor's distance from a flat
-#: wall: 1-inch range steps (2.54 cm / sqrt(12) = 0.73 cm) and a few millimetres of
-#: timing noise, about 1 cm. A wrong association costs linearly beyond
-#: ``ROBUST_SCALE`` of these (the loss is ``soft_l1``).
-RANGE_SIGMA_M = 0.01
-#: A reading belongs to a wall when its range tangent lies within this (m) of the wall's
-#: line: five range deviations, and under the pose errors the graph leaves (about 1 cm).
-WALL_TOL_M = 0.05
-#: Fewest readings per wall: a wall seen from fewer places hardly constrains the poses,
-#: and fewer readings can pair by chance into a line.
-WALL_MIN_VOTES = 20
-#: Echo points further apart along a line (m) start another wall: a doorway or a gap
-#: (the surfaces' own bridge, see :mod:`sonarproc.pipeline.surfacefit`).
-WALL_BRIDGE_M = 0.30
-#: Shortest wall (m): a few beam footprints, so that a corner's or an edge's echoes
-#: (a point that looks like a short line) are not taken for a wall.
-WALL_MIN_SPREAD_M = 0.5
-#: An echo is used when its wall's normal lies within this fraction of the half beam
-#: width of the sensor's axis. Off the axis the echo is weaker (the beam pattern), so it
-#: crosses the receiver's threshold later (time walk) and its range is long, by more
-#: the weaker it is: centimetres at a few metres near the beam's edge. Those errors are
-#: the same each time a wall is seen from the same place, and a map-based refinement
-#: would bend the track to fit them.
-AXIS_FRACTION = 0.5
 #: Bundle adjustments run (the walls found again before the second).
 ROUNDS = 2
 #: A refinement is kept when the chance that noise alone lowers the cost as much is
@@ -141,201 +117,6 @@ class Refinement:
         }
 
 
-@dataclass(frozen=True, eq=False)
-class _Walls:
-    """Walls found under some poses: the rays each returned and a start for its line."""
-
-    ray: IntArray  # rays that a wall returned (M,), indices into all rays
-    wall: IntArray  # the wall of each (M,), 0 .. L - 1
-    centre: FloatArray  # a point of each wall (L, 2): lines are placed relative to it
-    phi: FloatArray  # direction of each wall's normal (L,), away from its sensors
-
-    @property
-    def count(self) -> int:
-        return int(self.phi.size)
-
-
-def _empty_matches() -> LineMatches:
-    z2 = np.zeros((0, 2))
-    return LineMatches(np.zeros(0, dtype=np.intp), z2, z2.copy(), np.zeros(0), z2.copy())
-
-
-class _WallProblem:
-    """Residuals of the bundle adjustment (odometry, calibration, echoes) and which
-    unknowns each depends on (for sparse finite differences)."""
-
-    def __init__(self, nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
-                 walls: _Walls) -> None:  # fmt: skip
-        self.odometry = _OdometryProblem(nodes, ties, rays, track, _empty_matches(), 1.0)
-        self.n_pose = 3 * (nodes.count - 1) + NCAL
-        self.first_echo = 3 * (nodes.count - 1) + NCAL
-        self.walls = walls
-        self.rays = rays.subset(walls.ray)
-        reading = self.rays.reading
-        self.q_pose = track[reading]
-        self.q_lo, self.q_w, self.q_wxy = nodes.lo[reading], nodes.w[reading], nodes.w_xy[reading]
-        self.node_xy = ties.pose[:, :2]
-
-    def split(self, params: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, float]:
-        """Pose parameters, wall normal directions (L,), wall offsets (L,), range delay."""
-        line = params[self.n_pose : -1].reshape(-1, 2)
-        return params[: self.n_pose], line[:, 0], line[:, 1], float(params[-1])
-
-    def _sensor(self, pose_params: FloatArray) -> FloatArray:
-        """Sensor positions (M, 2): each reading's raw position moved rigidly (and scaled
-        by the calibration) by its two nodes' corrections, blended by its weights.
-
-        Moving the raw position rigidly, rather than adding an interpolated offset,
-        follows the raw track's own bends: where the robot turns between two nodes the
-        drift's offset turns with it (an offset interpolated along the track cuts the
-        corner by millimetres, as much as the echoes can tell apart)."""
-        off = np.vstack((np.zeros((1, 3)), pose_params[:-NCAL].reshape(-1, 3)))
-        grow = 1.0 + pose_params[-NCAL]
-        p = self.q_pose[:, :2]
-        pos = np.zeros_like(p)
-        for node, weight in ((self.q_lo, 1.0 - self.q_wxy), (self.q_lo + 1, self.q_wxy)):
-            c, s = np.cos(off[node, 2]), np.sin(off[node, 2])
-            rel = p - self.node_xy[node]
-            moved = np.column_stack((c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1]))
-            pos += weight[:, None] * (self.node_xy[node] + off[node, :2] + grow * moved)
-        turn = (1.0 - self.q_w) * off[self.q_lo, 2] + self.q_w * off[self.q_lo + 1, 2]
-        turret = self.q_pose[:, 2] + turn + self.rays.turret_offset
-        c, s = np.cos(turret), np.sin(turret)
-        m = self.rays.mount
-        return pos + np.column_stack((c * m[:, 0] - s * m[:, 1], s * m[:, 0] + c * m[:, 1]))
-
-    def residuals(self, params: FloatArray) -> FloatArray:
-        pose, phi, d, delay = self.split(params)
-        sensor = self._sensor(pose)
-        w = self.walls.wall
-        normal = np.column_stack((np.cos(phi), np.sin(phi)))[w]
-        reach = d[w] + np.sum(normal * (self.walls.centre[w] - sensor), axis=1)
-        r_echo = (reach - self.rays.range_m + delay) / RANGE_SIGMA_M
-        return np.concatenate((self.odometry.residuals(pose), r_echo))
-
-    def sparsity(self) -> csr_matrix:
-        """Which unknowns each residual depends on (for finite differences)."""
-        n_walls, m = self.walls.count, self.walls.ray.size
-        x = np.zeros(self.n_pose + 2 * n_walls + 1)
-        odo = self.odometry.jacobian(x[: self.n_pose]).tocoo()
-        rows = [odo.row]
-        cols = [odo.col]
-        row = np.arange(m) + odo.shape[0]
-        for node in (self.q_lo, self.q_lo + 1):
-            ok = node > 0
-            for comp in range(3):
-                rows.append(row[ok])
-                cols.append(3 * (node[ok] - 1) + comp)
-        w = self.walls.wall
-        rows += [row, row, row, row]
-        cols += [self.n_pose + 2 * w, self.n_pose + 2 * w + 1,
-                 np.full(m, self.n_pose - NCAL, dtype=np.intp),
-                 np.full(m, x.size - 1, dtype=np.intp)]  # fmt: skip
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        shape = (odo.shape[0] + m, x.size)
-        return csr_matrix((np.ones(r.size), (r, c)), shape=shape)
-
-
-def blended_poses(track: FloatArray, nodes: Nodes, offsets: FloatArray,
-                  scale: float) -> FloatArray:  # fmt: skip
-    """Corrected poses (N, 3) of a time-ordered raw ``track``: each raw position moved
-    rigidly by its two nodes' corrections (turned about the node's raw position by its
-    heading offset, scaled by ``1 + scale``, shifted by its position offset), blended by
-    its distance weight; the heading offset blended by travel.
-
-    On a straight stretch this is the offset interpolated along the track; where the
-    robot turns between two nodes, the correction turns with the raw track (an offset
-    interpolated along it cuts the corner by millimetres).
-    """
-    node_xy = track[nodes.at, :2]
-    p = track[:, :2]
-    out = np.empty_like(track)
-    pos = np.zeros_like(p)
-    for node, weight in ((nodes.lo, 1.0 - nodes.w_xy), (nodes.lo + 1, nodes.w_xy)):
-        c, s = np.cos(offsets[node, 2]), np.sin(offsets[node, 2])
-        rel = p - node_xy[node]
-        moved = np.column_stack((c * rel[:, 0] - s * rel[:, 1], s * rel[:, 0] + c * rel[:, 1]))
-        pos += weight[:, None] * (node_xy[node] + offsets[node, :2] + (1.0 + scale) * moved)
-    out[:, :2] = pos
-    turn = (1.0 - nodes.w) * offsets[nodes.lo, 2] + nodes.w * offsets[nodes.lo + 1, 2]
-    out[:, 2] = _wrap(track[:, 2] + turn)
-    return out
-
-
-def _find_walls(rays: EchoRays, corrected: FloatArray) -> _Walls:
-    """The walls under the corrected poses (N, 3), from the readings' tangent votes."""
-    pose = corrected[rays.reading]
-    xy, look = rays.sensors(pose[:, 0], pose[:, 1], pose[:, 2])
-    geom = EchoGeometry(xy, look, rays.half_beam, rays.range_m)
-    segs, _ = tangent_lines(geom, tol=WALL_TOL_M, min_votes=WALL_MIN_VOTES,
-                            bridge_m=WALL_BRIDGE_M, min_spread_m=WALL_MIN_SPREAD_M)  # fmt: skip
-    if not segs:
-        z = np.zeros(0, dtype=np.intp)
-        return _Walls(z, z.copy(), np.zeros((0, 2)), np.zeros(0))
-    ray = np.concatenate([g.readings for g in segs]).astype(np.intp)
-    wall = np.repeat(np.arange(len(segs)), [g.readings.size for g in segs]).astype(np.intp)
-    centre = np.array([g.points.mean(axis=0) for g in segs])
-    phi = np.array([math.atan2(g.normal[1], g.normal[0]) for g in segs])
-    # near the axis only: an echo off the axis is weaker, and its range longer (time walk)
-    incidence = np.abs(_wrap(look[ray] - phi[wall]))
-    near = incidence <= AXIS_FRACTION * rays.half_beam[ray]
-    return _Walls(ray[near], wall[near], centre, phi)
-
-
-def _robust_echoes(first_echo: int) -> Callable[[FloatArray], FloatArray]:
-    """A :func:`least_squares` loss: ``soft_l1`` (scale :data:`ROBUST_SCALE`) on the echo
-    residuals from index ``first_echo`` on, squares on the odometry ties and the prior.
-
-    An echo far off its wall is more likely another wall's than noise, so it costs
-    linearly; an odometry tie is never an outlier (every step was driven), and a robust
-    tie would let the map turn or stretch freely at one step to fit the echoes' noise.
-    """
-    s2 = ROBUST_SCALE**2
-
-    def loss(z: FloatArray) -> FloatArray:
-        out = np.empty((3, z.size))
-        out[0], out[1], out[2] = z, 1.0, 0.0
-        e = z[first_echo:] / s2
-        t = np.sqrt(1.0 + e)
-        out[0, first_echo:] = 2.0 * s2 * (t - 1.0)
-        out[1, first_echo:] = 1.0 / t
-        out[2, first_echo:] = -0.5 / (s2 * t**3)
-        return out
-
-    return loss
-
-
-def _cost(prob: _WallProblem, x: FloatArray) -> float:
-    """Half the sum of the loss of the residuals at ``x`` (what :func:`_solve` minimises)."""
-    f = prob.residuals(x)
-    return float(0.5 * np.sum(_robust_echoes(prob.first_echo)(f**2)[0]))
-
-
-def _solve(prob: _WallProblem, x0: FloatArray, *, free_pose: bool,
-           max_evaluations: int) -> tuple[FloatArray, int]:  # fmt: skip
-    """Least squares from ``x0``: every unknown, or the walls alone (poses held)."""
-    loss = _robust_echoes(prob.first_echo)
-    if free_pose:
-        res = least_squares(prob.residuals, x0, jac="2-point", jac_sparsity=prob.sparsity(),
-                            method="trf", tr_solver="lsmr", loss=loss, max_nfev=max_evaluations,
-                            x_scale="jac", diff_step=1e-7)  # fmt: skip
-        return np.asarray(res.x, dtype=np.float64), int(res.nfev)
-    head = x0[: prob.n_pose]
-
-    def fun(walls: FloatArray) -> FloatArray:
-        return prob.residuals(np.concatenate((head, walls)))
-
-    res = least_squares(fun, x0[prob.n_pose :], jac="2-point",
-                        jac_sparsity=prob.sparsity()[:, prob.n_pose :], method="trf",
-                        tr_solver="lsmr", loss=loss, max_nfev=max_evaluations, x_scale="jac",
-                        diff_step=1e-7)  # fmt: skip
-    return np.concatenate((head, np.asarray(res.x, dtype=np.float64))), int(res.nfev)
-
-
-def _lines_start(walls: _Walls) -> FloatArray:
-    return np.concatenate((np.column_stack((walls.phi, np.zeros(walls.count))).ravel(), [0.0]))
-
-
 def refine_alignment(
     readings: np.ndarray,
     sensors: np.ndarray,
@@ -387,46 +168,46 @@ def refine_alignment(
     if nodes.count != alignment.node_offsets.shape[0]:
         raise ValueError("refine_alignment: the alignment's nodes do not fit these options")
     rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
-    turned = np.concatenate(([0.0], np.cumsum(np.abs(_wrap(np.diff(track[:, 2]))))))
+    turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap(np.diff(track[:, 2]))))))
     ties = odometry_ties(
         track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
         drift_fraction=drift_fraction, heading_drift=heading_drift, turn_radius=turn_radius,
         position_floor=position_floor, heading_floor=heading_floor,
     )  # fmt: skip
     start = np.concatenate((alignment.node_offsets[1:].ravel(), alignment.calibration))
-    walls = _find_walls(
+    walls = find_walls(
         rays, blended_poses(track, nodes, alignment.node_offsets, float(alignment.calibration[0]))
     )
     if walls.count < 2:
         # one wall fixes neither the position along it nor the scale
         return Refinement(alignment, False, walls.count, int(walls.ray.size))
-    first = _WallProblem(nodes, ties, rays, track, walls)
-    x_before, evals = _solve(first, np.concatenate((start, _lines_start(walls))),
+    first = WallProblem(nodes, ties, rays, track, walls)
+    x_before, evals = solve_bundle(first, np.concatenate((start, lines_start(walls))),
                              free_pose=False, max_evaluations=max_evaluations)  # fmt: skip
     x, pose = x_before, start
     prob = first
     for k in range(ROUNDS):
         if k > 0:
             off = np.vstack((np.zeros((1, 3)), pose[:-NCAL].reshape(-1, 3)))
-            found = _find_walls(rays, blended_poses(track, nodes, off, float(pose[-NCAL])))
+            found = find_walls(rays, blended_poses(track, nodes, off, float(pose[-NCAL])))
             if found.count < 2:
                 break
-            prob = _WallProblem(nodes, ties, rays, track, found)
-            lines = _lines_start(found)
+            prob = WallProblem(nodes, ties, rays, track, found)
+            lines = lines_start(found)
             lines[-1] = x[-1]  # the range delay found so far
-            x, n = _solve(prob, np.concatenate((pose, lines)), free_pose=False,
+            x, n = solve_bundle(prob, np.concatenate((pose, lines)), free_pose=False,
                           max_evaluations=max_evaluations)  # fmt: skip
             evals += n
-        x, n = _solve(prob, x, free_pose=True, max_evaluations=max_evaluations)
+        x, n = solve_bundle(prob, x, free_pose=True, max_evaluations=max_evaluations)
         evals += n
         pose = x[: prob.n_pose]
     pose = _placed_like(pose, alignment.node_offsets, track[nodes.at])
     # judged on the walls found at the accepted poses, their lines refitted to each
-    cost_before = _cost(first, x_before)
-    x_after, n = _solve(first, np.concatenate((pose, x_before[first.n_pose :])),
+    cost_before = bundle_cost(first, x_before)
+    x_after, n = solve_bundle(first, np.concatenate((pose, x_before[first.n_pose :])),
                         free_pose=False, max_evaluations=max_evaluations)  # fmt: skip
     evals += n
-    cost_after = _cost(first, x_after)
+    cost_after = bundle_cost(first, x_after)
     unknowns = first.n_pose
     drop = 2.0 * (cost_before - cost_after)
     threshold = float(chdtri(unknowns, SIGNIFICANCE))
@@ -479,6 +260,6 @@ def _with_offsets(a: Alignment, track: FloatArray, order: IntArray, nodes: Nodes
         a, x=x, y=y, theta=th, corrected_path=a.raw_path + offsets[:, :2],
         node_offsets=offsets, path_difference_max_m=float(diff.max()),
         path_difference_mean_m=float(diff.mean()),
-        heading_difference_max_rad=float(np.abs(_wrap(corrected[:, 2] - track[:, 2])).max()),
+        heading_difference_max_rad=float(np.abs(wrap(corrected[:, 2] - track[:, 2])).max()),
         calibration=calibration,
     )  # fmt: skip

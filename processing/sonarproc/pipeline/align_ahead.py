@@ -23,7 +23,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from sonarlog import SonarLog
-from sonarproc.forked import ForkedChild, fork_is_safe
+from sonarproc.forked import AheadJob, fork_is_safe
 
 if TYPE_CHECKING:
     from sonarproc.pipeline.alignment import AlignmentRecord
@@ -67,8 +67,10 @@ def align_stage(log_: SonarLog, progress: Progress | None = None) -> Aligned:
     return Aligned(aligned, record, time.perf_counter() - t0, time.process_time() - c0)
 
 
-class AlignAhead:
+class AlignAhead(AheadJob):
     """The align stage of one log, run in a forked child or, failing that, here.
+
+    While a child aligns (:attr:`forked`) the log may be mapped meanwhile.
 
     Parameters
     ----------
@@ -77,8 +79,8 @@ class AlignAhead:
     """
 
     def __init__(self, log_: SonarLog) -> None:
+        super().__init__()
         self.log = log_
-        self._child: ForkedChild | None = None
         self._done: Aligned | None = None
         self.here = False  # whether the stage ran in this process (its CPU time is ours)
 
@@ -92,13 +94,8 @@ class AlignAhead:
             progress("align")
         job = cls(log_)
         if fork_is_safe():
-            job._child = ForkedChild.start_work(job._in_child)
+            job.fork(job._in_child)
         return job
-
-    @property
-    def forked(self) -> bool:
-        """Whether a child aligns (not yet collected): the log may be mapped meanwhile."""
-        return self._child is not None
 
     def _in_child(self) -> tuple[SonarLog | None, AlignmentRecord, float, float]:
         """In the child: the stage's answer, with no log when the log is kept as it is
@@ -109,8 +106,7 @@ class AlignAhead:
     def result(self) -> Aligned:
         """The stage's answer: the child's, or computed here (no child, or it failed)."""
         if self._done is None:
-            child, self._child = self._child, None
-            got: Any = child.collect_any() if child is not None else None
+            got: Any = self.collect()
             if isinstance(got, tuple) and len(got) == 4:
                 log_, record, wall_s, cpu_s = got
                 self._done = Aligned(self.log if log_ is None else log_, record, wall_s, cpu_s)
@@ -118,9 +114,3 @@ class AlignAhead:
                 self.here = True
                 self._done = align_stage(self.log)
         return self._done
-
-    def cancel(self) -> None:
-        """Stop the child, if it still runs: the stage's answer is not wanted."""
-        child, self._child = self._child, None
-        if child is not None:
-            child.cancel()

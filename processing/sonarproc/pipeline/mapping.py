@@ -3,7 +3,8 @@
 A *builder* turns the selected readings (:class:`~sonarproc.pipeline.selection.Beams`)
 into a :class:`MethodMap` on a grid: the paper's arcs and morphology
 (:func:`sonarproc.pipeline.arcmap.build_arc_map`), or any method of
-:mod:`sonarproc.methods`. :func:`map_log` runs one builder on a log;
+:mod:`sonarproc.methods`. :func:`map_log` runs one builder on a log (:func:`build_map`
+then :func:`fit_map`, for a caller that decides between the two);
 :func:`evaluate_map` fits and measures a map, and is also what the live accumulator
 (:mod:`sonarproc.pipeline.live`) calls on its incrementally built count map. So every
 map is judged the same way: same selection, same grid, same fit, same metrics.
@@ -32,12 +33,15 @@ from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
 
 __all__ = [
     "STAGES",
+    "BuiltMap",
     "MapBuilder",
     "MappedStage",
     "Measure",
     "MethodMap",
     "OnMapped",
+    "build_map",
     "evaluate_map",
+    "fit_map",
     "map_log",
 ]
 
@@ -259,35 +263,98 @@ def map_log(
     mmap : MethodMap
         The builder's map (with its probability layer, if any).
     """
-    cpu0 = time.process_time() if cpu_start is None else cpu_start
-    timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
-    def stage(name: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        if timings:
-            timings[next(reversed(timings))] += now - clock
-        timings[name] = 0.0
-        clock = now
-        if progress is not None and name in STAGES:
-            progress(name)
-
-    stage("select")
-    beams, counts = select_beams(log_, params)
-    stage("grid")
-    grid = plan_grid(log_, params, beams)
-    mmap = build(beams, grid, params, stage)
+    built = build_map(log_, params, build, progress=progress, cpu_start=cpu_start)
     if on_mapped is not None:
-        on_mapped(MappedStage(str(log_.path), beams, grid, mmap, counts))
+        on_mapped(built.stage)
+    return fit_map(built, empty_message=empty_message, measure=measure)
+
+
+class _StageClock:
+    """Wall time per stage, each stage's from its start to the next's; a progress callback
+    is told of each stage of :data:`STAGES` as it starts."""
+
+    def __init__(self, progress: Stage | None) -> None:
+        self.timings: dict[str, float] = {}
+        self.progress = progress
+        self.clock = time.perf_counter()
+
+    def __call__(self, name: str) -> None:
+        now = time.perf_counter()
+        if self.timings:
+            self.timings[next(reversed(self.timings))] += now - self.clock
+        self.timings[name] = 0.0
+        self.clock = now
+        if self.progress is not None and name in STAGES:
+            self.progress(name)
+
+
+@dataclass(frozen=True, eq=False)
+class BuiltMap:
+    """A log's map as built, before its fit (:func:`build_map`; :func:`fit_map` goes on).
+
+    Attributes
+    ----------
+    log : sonarlog.SonarLog
+        The log mapped.
+    params : RunParams
+        The run's parameters.
+    stage : MappedStage
+        The selected readings, the grid, the builder's map and the reading counts.
+    cpu_start : float
+        ``time.process_time()`` when the run began.
+    clock : callable
+        The stages' clock, still running (the wait before the fit counts in the last
+        build stage, as in :func:`map_log`).
+    """
+
+    log: SonarLog
+    params: RunParams
+    stage: MappedStage
+    cpu_start: float
+    clock: _StageClock
+
+
+def build_map(
+    log_: SonarLog,
+    params: RunParams,
+    build: MapBuilder,
+    *,
+    progress: Stage | None = None,
+    cpu_start: float | None = None,
+) -> BuiltMap:
+    """The first half of :func:`map_log`: select the readings, lay the grid, build the map.
+
+    A caller that must decide, once the map is built, whether to fit it (``run``: whether
+    the log's poses were corrected meanwhile) goes on with :func:`fit_map`.
+    """
+    cpu0 = time.process_time() if cpu_start is None else cpu_start
+    clock = _StageClock(progress)
+    clock("select")
+    beams, counts = select_beams(log_, params)
+    clock("grid")
+    grid = plan_grid(log_, params, beams)
+    mmap = build(beams, grid, params, clock)
+    return BuiltMap(
+        log_, params, MappedStage(str(log_.path), beams, grid, mmap, counts), cpu0, clock
+    )
+
+
+def fit_map(
+    built: BuiltMap, *, empty_message: str | None = None, measure: Measure | None = None
+) -> tuple[RunResult, MethodMap]:
+    """The second half of :func:`map_log`: fit and measure a built map (its parameters)."""
+    _, beams, grid, mmap, counts = built.stage
+    stage = built.clock
     result = evaluate_map(
-        log_, params, grid, mmap, robot_xy=beams.robot_xy, counts=counts, cpu_start=cpu0,
-        stage=stage, timings=timings, empty_message=empty_message, beams=beams,
+        built.log, built.params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
+        cpu_start=built.cpu_start, stage=stage, timings=stage.timings,
+        empty_message=empty_message, beams=beams,
     )  # fmt: skip
     if measure is not None:
         stage("quality")
         measure(beams, grid, mmap, result)
     stage("done")
+    timings = stage.timings
     timings.pop("done")
     result.timings_s = timings
     return result, mmap

@@ -25,7 +25,14 @@ from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.align_ahead import AlignAhead, Aligned, Progress, align_stage
 from sonarproc.pipeline.arcmap import build_arc_map
-from sonarproc.pipeline.mapping import MappedStage, MethodMap, OnMapped, map_log
+from sonarproc.pipeline.mapping import (
+    BuiltMap,
+    MappedStage,
+    MethodMap,
+    OnMapped,
+    build_map,
+    fit_map,
+)
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams
 
@@ -43,14 +50,6 @@ __all__ = [
 ]
 
 METHOD = "morphological processing of sonar arc maps (Baskent & Barshan 1999)"
-
-
-class _Realigned(Exception):
-    """The log was mapped as read while it was aligned, and its poses were corrected."""
-
-    def __init__(self, aligned: Aligned) -> None:
-        super().__init__("the log's poses were corrected: mapped again")
-        self.aligned = aligned
 
 
 def import_stage_modules(params: RunParams) -> None:
@@ -141,23 +140,11 @@ def process(
     mapped = log_
     heldout: HeldOutAhead | None = None
 
-    def resolve_alignment() -> Aligned:
-        # the align stage's answer, waited for as the log as read is mapped
-        nonlocal pending, aligned
-        assert pending is not None
-        got, pending = pending.result(), None
-        aligned = got
-        return got
-
     def start_heldout(stage: MappedStage) -> None:
         # the held-out residual needs the map, not its fit: a child computes it meanwhile
         nonlocal heldout
         from sonarproc.quality.ahead import HeldOutAhead
 
-        if pending is not None:
-            got = resolve_alignment()
-            if got.log is not log_:  # this map is of the poses as read: not the run's
-                raise _Realigned(got)
         if on_mapped is not None:  # the caller's first (the figures' child forked first)
             on_mapped(stage)
         heldout = HeldOutAhead.start(
@@ -178,27 +165,31 @@ def process(
             mapped, params, build_arc_map, beams, grid, mmap, result, residual=residual
         )
 
+    def build(lg: SonarLog) -> BuiltMap:
+        return build_map(lg, params, build_arc_map, progress=progress, cpu_start=cpu0)
+
     cpu_mapped = time.process_time()
     try:
-        try:
-            result, _ = map_log(
-                log_, params, build_arc_map, progress=progress, cpu_start=cpu0,
-                measure=measure, on_mapped=start_heldout,
-            )  # fmt: skip
-        except Exception as err:
-            # mapped as read while the log was aligned: an error of that map (none of
-            # its cells, say) is the run's only where the log keeps its poses
-            if not isinstance(err, _Realigned) and pending is None:
-                raise
-            got = err.aligned if isinstance(err, _Realigned) else resolve_alignment()
-            if got.log is log_:
-                raise
-            cpu0 += time.process_time() - cpu_mapped  # the dropped map is not the method's
-            log_ = mapped = got.log
-            result, _ = map_log(
-                log_, params, build_arc_map, progress=progress, cpu_start=cpu0,
-                measure=measure, on_mapped=start_heldout,
-            )  # fmt: skip
+        if pending is None:
+            built = build(log_)
+        else:
+            # mapped as read while the log was aligned: that map, or its error (none of
+            # its cells, say), is the run's only where the log keeps its poses
+            as_read: BuiltMap | None = None
+            try:
+                as_read = build(log_)
+            except Exception:
+                if pending.result().log is log_:
+                    raise
+            aligned, pending = pending.result(), None  # the answer asked for above, kept
+            if aligned.log is log_ and as_read is not None:
+                built = as_read
+            else:  # the poses were corrected: mapped again from them
+                cpu0 += time.process_time() - cpu_mapped  # the dropped map is not the method's
+                log_ = mapped = aligned.log
+                built = build(log_)
+        start_heldout(built.stage)
+        result, _ = fit_map(built, measure=measure)
     finally:  # a failed run, or a result handed on unmeasured: no child is waited for
         if heldout is not None:
             heldout.cancel()

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy.typing as npt
 
-from sonarproc.forked import ForkedChild, fork_is_safe
+from sonarproc.forked import AheadJob, fork_is_safe
 from sonarproc.grid import Grid
 from sonarproc.params import RunParams
 from sonarproc.pipeline.mapping import MapBuilder
@@ -31,7 +31,7 @@ from sonarproc.quality.measure import HeldOutResidual, held_out, heldout_residua
 __all__ = ["HeldOutAhead"]
 
 
-class HeldOutAhead:
+class HeldOutAhead(AheadJob):
     """The held-out residual of one map, computed in a forked child or, failing that, here.
 
     Parameters
@@ -57,8 +57,8 @@ class HeldOutAhead:
         params: RunParams,
         counts: npt.NDArray[Any] | None,
     ) -> None:
+        super().__init__()
         self._args = (build, beams, grid, params, counts)
-        self._child: ForkedChild | None = None
 
     @classmethod
     def start(
@@ -72,13 +72,8 @@ class HeldOutAhead:
         """The residual of this map, its child forked now where that is safe."""
         job = cls(build, beams, grid, params, counts)
         if fork_is_safe():
-            job._child = ForkedChild.start_work(job._compute)
+            job.fork(job._compute)
         return job
-
-    @property
-    def forked(self) -> bool:
-        """Whether a child computes the residual (not yet collected)."""
-        return self._child is not None
 
     def _compute(self) -> HeldOutResidual:
         build, beams, grid, params, counts = self._args
@@ -86,12 +81,5 @@ class HeldOutAhead:
 
     def residual(self) -> HeldOutResidual:
         """The child's residual, or the residual computed here (no child, or it failed)."""
-        child, self._child = self._child, None
-        got = child.collect_any() if child is not None else None
+        got = self.collect()
         return got if isinstance(got, HeldOutResidual) else self._compute()
-
-    def cancel(self) -> None:
-        """Stop the child, if it still runs: the residual is not wanted."""
-        child, self._child = self._child, None
-        if child is not None:
-            child.cancel()

@@ -44,7 +44,7 @@ from sonarproc.surfaces.echoes.unseen import hidden_runs
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, LINE_REACH_M, on_wall_lines
 
 __all__ = ["complete_to_corners", "trim_to_points"]

@@ -9,9 +9,9 @@ The surface stage runs in two steps round the walls' echo refits:
    surface, and through a bundle of them a line would be fitted (the diagonal phantom
    lines through a corner's arcs).
 2. :func:`refine_with_points` refits the surfaces without those readings, checks each
-   point against the fitted surfaces, drops those in a
-   row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples of a diffusely
-   scattering surface), ends each wall fitted past a point at that point
+   point against the fitted surfaces (:mod:`sonarproc.surfaces.reflectors.confirm`),
+   drops those in a row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples
+   of a diffusely scattering surface), ends each wall fitted past a point at that point
    (:func:`~sonarproc.surfaces.reflectors.complete.trim_to_points`: the points are
    checked against the walls so ended), gives each its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
@@ -33,14 +33,14 @@ from sonarproc.grid import Grid
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.reflectors.classify import (
+from sonarproc.surfaces.reflectors.classify import point_kind
+from sonarproc.surfaces.reflectors.complete import complete_to_corners, trim_to_points
+from sonarproc.surfaces.reflectors.confirm import (
     confirm_points,
     heard_as_corner,
     line_ends,
     on_circles,
-    point_kind,
 )
-from sonarproc.surfaces.reflectors.complete import complete_to_corners, trim_to_points
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -144,7 +144,7 @@ def refine_with_points(
 
     ``refine`` refits the surfaces through the readings it is given. It is given the
     readings no point claimed; the points are then checked against its surfaces
-    (:func:`~sonarproc.surfaces.reflectors.classify.confirm_points`; those in a row,
+    (:func:`~sonarproc.surfaces.reflectors.confirm.confirm_points`; those in a row,
     :func:`~sonarproc.surfaces.reflectors.walls.in_rows`, go too). When some point goes,
     its readings were a surface's after all, and the surfaces are refitted once more
     without the readings of the points that stay only.

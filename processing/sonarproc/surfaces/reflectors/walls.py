@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.reflectors.rcd import RANGE_TOL_M
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 
 __all__ = [
     "CHAIN_GAP_M",
@@ -22,6 +22,7 @@ __all__ = [
     "inside_walls",
     "near_ends",
     "on_wall_lines",
+    "side_of_line",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -161,3 +162,19 @@ def on_wall_lines(
         near_b = (along <= length + WALL_GAP_M) & (along >= max(length - END_REACH_M, 0.5 * length))
         out |= (across <= LINE_REACH_M) & (near_a | near_b)
     return out
+
+
+def side_of_line(a: FloatArray, b: FloatArray, q: FloatArray) -> FloatArray:
+    """Signed side of points ``q`` (N, 2) of the line through ``a`` and ``b``.
+
+    Positive to the left of ``a -> b``; the value is the distance off the line times the
+    length of ``b - a``.
+
+    Examples
+    --------
+    >>> a, b = np.array([0.0, 0.0]), np.array([2.0, 0.0])
+    >>> side_of_line(a, b, np.array([[1.0, 0.5], [1.0, -0.5]])).tolist()
+    [1.0, -1.0]
+    """
+    u = b - a
+    return np.asarray(u[0] * (q[..., 1] - a[1]) - u[1] * (q[..., 0] - a[0]), dtype=np.float64)

@@ -1,0 +1,169 @@
+"""The bundle adjustment of a map-based refinement: poses, walls and a range delay together.
+
+:class:`WallProblem` holds the residuals (the pose graph's odometry ties and calibration
+prior, then every near-axis echo's range residual to its wall, ``distance(sensor, wall)
+- range``, in range deviations :data:`RANGE_SIGMA_M`) and the sparsity of their
+Jacobian; :func:`solve_bundle` solves it by :func:`scipy.optimize.least_squares` with
+the loss :func:`robust_echoes` (``soft_l1`` on the echoes, squares on the ties), every
+unknown or the walls alone; :func:`bundle_cost` is the cost it minimises.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+from scipy.optimize import least_squares
+from scipy.sparse import csr_matrix
+
+from sonarproc.align.echoes import EchoRays
+from sonarproc.align.graph import NCAL, ROBUST_SCALE, OdometryTies
+from sonarproc.align.graph import PoseGraphProblem as _OdometryProblem
+from sonarproc.align.matching import LineMatches
+from sonarproc.align.track import Nodes, rigid_blend
+from sonarproc.align.walls import Walls
+
+__all__ = [
+    "RANGE_SIGMA_M",
+    "WallProblem",
+    "bundle_cost",
+    "lines_start",
+    "robust_echoes",
+    "solve_bundle",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Standard deviation (m) of a first echo's range about its sensor's distance from a flat
+#: wall: 1-inch range steps (2.54 cm / sqrt(12) = 0.73 cm) and a few millimetres of
+#: timing noise, about 1 cm. A wrong association costs linearly beyond
+#: ``ROBUST_SCALE`` of these (the loss is ``soft_l1``).
+RANGE_SIGMA_M = 0.01
+
+
+def _empty_matches() -> LineMatches:
+    z2 = np.zeros((0, 2))
+    return LineMatches(np.zeros(0, dtype=np.intp), z2, z2.copy(), np.zeros(0), z2.copy())
+
+
+class WallProblem:
+    """Residuals of the bundle adjustment (odometry, calibration, echoes) and which
+    unknowns each depends on (for sparse finite differences)."""
+
+    def __init__(self, nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
+                 walls: Walls) -> None:  # fmt: skip
+        self.odometry = _OdometryProblem(nodes, ties, rays, track, _empty_matches(), 1.0)
+        self.n_pose = 3 * (nodes.count - 1) + NCAL
+        self.first_echo = 3 * (nodes.count - 1) + NCAL
+        self.walls = walls
+        self.rays = rays.subset(walls.ray)
+        reading = self.rays.reading
+        self.q_pose = track[reading]
+        self.q_lo, self.q_w, self.q_wxy = nodes.lo[reading], nodes.w[reading], nodes.w_xy[reading]
+        self.node_xy = ties.pose[:, :2]
+
+    def split(self, params: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, float]:
+        """Pose parameters, wall normal directions (L,), wall offsets (L,), range delay."""
+        line = params[self.n_pose : -1].reshape(-1, 2)
+        return params[: self.n_pose], line[:, 0], line[:, 1], float(params[-1])
+
+    def _sensor(self, pose_params: FloatArray) -> FloatArray:
+        """Sensor positions (M, 2): each reading's raw position moved rigidly (and scaled
+        by the calibration) by its two nodes' corrections, blended by its weights
+        (:func:`~sonarproc.align.track.rigid_blend`), its mount turned with it."""
+        off = np.vstack((np.zeros((1, 3)), pose_params[:-NCAL].reshape(-1, 3)))
+        grow = 1.0 + pose_params[-NCAL]
+        pos, turn = rigid_blend(
+            self.q_pose[:, :2], self.node_xy, self.q_lo, self.q_w, self.q_wxy, off, grow
+        )
+        turret = self.q_pose[:, 2] + turn + self.rays.turret_offset
+        c, s = np.cos(turret), np.sin(turret)
+        m = self.rays.mount
+        return pos + np.column_stack((c * m[:, 0] - s * m[:, 1], s * m[:, 0] + c * m[:, 1]))
+
+    def residuals(self, params: FloatArray) -> FloatArray:
+        pose, phi, d, delay = self.split(params)
+        sensor = self._sensor(pose)
+        w = self.walls.wall
+        normal = np.column_stack((np.cos(phi), np.sin(phi)))[w]
+        reach = d[w] + np.sum(normal * (self.walls.centre[w] - sensor), axis=1)
+        r_echo = (reach - self.rays.range_m + delay) / RANGE_SIGMA_M
+        return np.concatenate((self.odometry.residuals(pose), r_echo))
+
+    def sparsity(self) -> csr_matrix:
+        """Which unknowns each residual depends on (for finite differences)."""
+        n_walls, m = self.walls.count, self.walls.ray.size
+        x = np.zeros(self.n_pose + 2 * n_walls + 1)
+        odo = self.odometry.jacobian(x[: self.n_pose]).tocoo()
+        rows = [odo.row]
+        cols = [odo.col]
+        row = np.arange(m) + odo.shape[0]
+        for node in (self.q_lo, self.q_lo + 1):
+            ok = node > 0
+            for comp in range(3):
+                rows.append(row[ok])
+                cols.append(3 * (node[ok] - 1) + comp)
+        w = self.walls.wall
+        rows += [row, row, row, row]
+        cols += [self.n_pose + 2 * w, self.n_pose + 2 * w + 1,
+                 np.full(m, self.n_pose - NCAL, dtype=np.intp),
+                 np.full(m, x.size - 1, dtype=np.intp)]  # fmt: skip
+        r, c = np.concatenate(rows), np.concatenate(cols)
+        shape = (odo.shape[0] + m, x.size)
+        return csr_matrix((np.ones(r.size), (r, c)), shape=shape)
+
+
+def robust_echoes(first_echo: int) -> Callable[[FloatArray], FloatArray]:
+    """A :func:`least_squares` loss: ``soft_l1`` (scale :data:`ROBUST_SCALE`) on the echo
+    residuals from index ``first_echo`` on, squares on the odometry ties and the prior.
+
+    An echo far off its wall is more likely another wall's than noise, so it costs
+    linearly; an odometry tie is never an outlier (every step was driven), and a robust
+    tie would let the map turn or stretch freely at one step to fit the echoes' noise.
+    """
+    s2 = ROBUST_SCALE**2
+
+    def loss(z: FloatArray) -> FloatArray:
+        out = np.empty((3, z.size))
+        out[0], out[1], out[2] = z, 1.0, 0.0
+        e = z[first_echo:] / s2
+        t = np.sqrt(1.0 + e)
+        out[0, first_echo:] = 2.0 * s2 * (t - 1.0)
+        out[1, first_echo:] = 1.0 / t
+        out[2, first_echo:] = -0.5 / (s2 * t**3)
+        return out
+
+    return loss
+
+
+def bundle_cost(prob: WallProblem, x: FloatArray) -> float:
+    """Half the sum of the loss of the residuals at ``x`` (what :func:`solve_bundle` minimises)."""
+    f = prob.residuals(x)
+    return float(0.5 * np.sum(robust_echoes(prob.first_echo)(f**2)[0]))
+
+
+def solve_bundle(prob: WallProblem, x0: FloatArray, *, free_pose: bool,
+           max_evaluations: int) -> tuple[FloatArray, int]:  # fmt: skip
+    """Least squares from ``x0``: every unknown, or the walls alone (poses held)."""
+    loss = robust_echoes(prob.first_echo)
+    if free_pose:
+        res = least_squares(prob.residuals, x0, jac="2-point", jac_sparsity=prob.sparsity(),
+                            method="trf", tr_solver="lsmr", loss=loss, max_nfev=max_evaluations,
+                            x_scale="jac", diff_step=1e-7)  # fmt: skip
+        return np.asarray(res.x, dtype=np.float64), int(res.nfev)
+    head = x0[: prob.n_pose]
+
+    def fun(walls: FloatArray) -> FloatArray:
+        return prob.residuals(np.concatenate((head, walls)))
+
+    res = least_squares(fun, x0[prob.n_pose :], jac="2-point",
+                        jac_sparsity=prob.sparsity()[:, prob.n_pose :], method="trf",
+                        tr_solver="lsmr", loss=loss, max_nfev=max_evaluations, x_scale="jac",
+                        diff_step=1e-7)  # fmt: skip
+    return np.concatenate((head, np.asarray(res.x, dtype=np.float64))), int(res.nfev)
+
+
+def lines_start(walls: Walls) -> FloatArray:
+    """The start of the walls' unknowns: each line as found, no offset; no range delay."""
+    return np.concatenate((np.column_stack((walls.phi, np.zeros(walls.count))).ravel(), [0.0]))

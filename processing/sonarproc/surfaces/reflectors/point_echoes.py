@@ -1,0 +1,171 @@
+"""What a point reflector's echoes alone say of it: a corner, an edge, or nothing.
+
+:func:`echo_kind` reads the echo physics:
+
+* sensors spread round the point by more than a right angle plus
+  :data:`CORNER_TOL_RAD`: an **edge** (a concave corner retro-reflects only towards
+  sensors inside its opening, and only when that opening is within
+  :data:`CORNER_TOL_RAD` of a right angle; a convex edge has a free sector wider than
+  180 degrees);
+* heard from at least :data:`MIN_FAR_POSES` distinct poses farther than
+  :data:`EDGE_REACH_M`: a **corner** (its two specular bounces return as much as a
+  plane, spreading as 1/r^2, heard to the sonar's full range; an edge's diffracted
+  echo is far weaker and dies out close by);
+* passed by: at least :data:`MIN_CROSSINGS` readings from inside the sensors' sector,
+  farther than :data:`EDGE_REACH_M`, with the point near their beam's axis, echoed from
+  beyond it: an **edge** (a corner there would have answered first).
+
+:func:`answers_its_beams` says whether a point answered the beams aimed at it, as a
+retro-reflecting corner does. Both look at the readings from inside the point's sector
+aimed at it (:func:`aimed_from_sector`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M, distinct_poses
+from sonarproc.surfaces.reflectors.rcd import PointFeature
+
+__all__ = [
+    "ANSWER_SHARE",
+    "AXIS_SHARE",
+    "CORNER_TOL_RAD",
+    "EDGE_REACH_M",
+    "MIN_CROSSINGS",
+    "MIN_FAR_POSES",
+    "aimed_from_sector",
+    "answers_its_beams",
+    "echo_kind",
+    "far_poses",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Beams that say a place is free space before a point is an edge (one may be a stray
+#: echo).
+MIN_CROSSINGS = 2
+#: A concave vertex retro-reflects when its opening is within this (rad) of a right angle
+#: (two specular bounces return the pulse only when the walls are near perpendicular;
+#: Kuc & Siegel 1987 find a tolerance of the order of the beam half-width).
+CORNER_TOL_RAD = math.radians(15.0)
+#: An edge is heard no farther than this (m). A diffracted echo is at least 20 dB weaker
+#: than a specular one at 1 m (Kuc & Siegel 1987; Barshan & Kuc 1990) and spreads at
+#: least as fast: with the receiver threshold that lets a plane or a corner be heard to
+#: the Polaroid ranging board's 5 m or more (a specular echo at 5 m is 1/25 of one at
+#: 1 m), an edge falls below it at 5 m x sqrt(0.1), about 1.6 m; 2 m leaves margin.
+EDGE_REACH_M = 2.0
+#: Distinct poses from beyond :data:`EDGE_REACH_M` that make a point a corner (one or
+#: two may be another surface's echo at the same range by chance).
+MIN_FAR_POSES = 3
+#: A point lies near a beam's axis when it is within this fraction of the half-width off
+#: it: the main lobe's centre, where a corner's echo clears the threshold at any range.
+AXIS_SHARE = 0.5
+#: Share of the beams holding a point near their axis that a retro-reflecting corner
+#: answers: all of them, less dropouts and the range step's rounding; more than half.
+ANSWER_SHARE = 0.5
+
+
+def aimed_from_sector(
+    point: PointFeature, echoes: EchoGeometry
+) -> tuple[FloatArray, npt.NDArray[np.bool_]] | None:
+    """Every reading's distance to the point, and whether it was aimed at it from its sector.
+
+    From its sector: the sensor's bearing from the point lies within the bearings of the
+    point's own sensors (the complement of their largest gap, ``point.span_rad`` wide).
+    Aimed at it: the point lies within :data:`AXIS_SHARE` of the half beam of the
+    reading's axis. None when fewer than two readings make the point (no sector).
+
+    Examples
+    --------
+    >>> xy = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [-1.0, 0.0]])
+    >>> heading = np.arctan2(-xy[:, 1], -xy[:, 0])          # every sensor faces the origin
+    >>> e = EchoGeometry(xy, heading, np.full(4, 0.2), np.hypot(*xy.T))
+    >>> f = PointFeature(np.zeros(2), np.arange(2), 2, 0.0, 1.0, np.pi / 2)
+    >>> dist, aimed = aimed_from_sector(f, e)
+    >>> aimed.tolist()                      # the sensor behind, at (-1, 0), is outside
+    [True, True, True, False]
+    """
+    rel = echoes.xy - point.xy
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    own = np.sort(bearing[point.readings])
+    if own.size < 2:
+        return None
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    start = own[(int(np.argmax(gaps)) + 1) % own.size]
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - echoes.heading))))
+    return dist, inside & (off <= AXIS_SHARE * echoes.half_beam)
+
+
+def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
+    """Whether the point answered most of the beams that held it near their axis.
+
+    A retro-reflecting corner returns as much as a plane from anywhere inside its
+    opening, so every reading from inside its sensors' sector (the complement of their
+    largest gap of bearings), no farther than its farthest reading, with the point within
+    :data:`AXIS_SHARE` of the half beam of its axis, ranges it, within :data:`RANGE_TOL_M`.
+    Where several surfaces' arcs cross by chance, the beams aimed at the crossing range
+    the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
+    no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
+    """
+    sector = aimed_from_sector(point, echoes)
+    if sector is None:
+        return False
+    dist, aimed = sector
+    aimed &= dist <= float(dist[point.readings].max()) + RANGE_TOL_M
+    answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
+    return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
+
+
+def far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
+    """Distinct poses that heard the point from beyond :data:`EDGE_REACH_M`."""
+    own = point.readings
+    far = own[echoes.range_m[own] > EDGE_REACH_M]
+    return distinct_poses(echoes.xy[far]) if far.size else 0
+
+
+def echo_kind(point: PointFeature, echoes: EchoGeometry) -> str | None:
+    """``corner`` or ``edge`` from the echoes alone, or None when they do not tell (notes).
+
+    Examples
+    --------
+    Heard from 3 to 4 m by sensors inside a right angle: a corner. Heard from all round,
+    close by: an edge.
+
+    >>> xy = np.array([[3.0, 0.5], [3.5, 0.5], [2.5, 2.5], [0.5, 3.0], [0.5, 3.5]])
+    >>> e = EchoGeometry(xy, np.zeros(5), np.full(5, 0.2), np.hypot(*xy.T))
+    >>> echo_kind(PointFeature(np.zeros(2), np.arange(5), 5, 0.0, 1.0, 1.2), e)
+    'corner'
+    >>> f = PointFeature(np.zeros(2), np.arange(5), 5, 0.0, 1.0, 3.0)
+    >>> echo_kind(f, e)
+    'edge'
+    """
+    if point.span_rad > math.pi / 2 + CORNER_TOL_RAD:
+        return "edge"
+    if far_poses(point, echoes) >= MIN_FAR_POSES:
+        return "corner"
+    if _passed_by(point, echoes) >= MIN_CROSSINGS:
+        return "edge"
+    return None
+
+
+def _passed_by(point: PointFeature, echoes: EchoGeometry) -> int:
+    """Readings from inside the point's sector, beyond the edge reach, that echoed past it.
+
+    Inside the sector and aimed at the point (:func:`aimed_from_sector`), from beyond
+    :data:`EDGE_REACH_M`; the echo came from more than :data:`RANGE_TOL_M` beyond it.
+    """
+    sector = aimed_from_sector(point, echoes)
+    if sector is None:
+        return 0
+    dist, aimed = sector
+    passed = aimed & (dist > EDGE_REACH_M)
+    passed &= echoes.range_m > dist + RANGE_TOL_M
+    passed[point.readings] = False
+    return int(np.count_nonzero(passed))
