@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 from bagbuilders import sim_run, write_range_bag
+from procs import sonarproc_in_child
 
 from sonarproc.batch import SUMMARY_COLUMNS
 from sonarproc.cli import main
@@ -48,10 +49,11 @@ def fleet(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     return logs
 
 
-def _batch(logs: list[Path], out: Path, *extra: str) -> int:
+def _batch(logs: list[Path], out: Path, *extra: str, child: bool = False) -> int:
     args = ["batch", *map(str, logs), "--out", str(out), "--sensors", str(ROBOND / "sensors.yaml")]
     # the paper's knobs: what is tested is the engines, not how a run picks its fit
-    return main([*args, "--cell", "0.02", "--paper", *extra])
+    args += ["--cell", "0.02", "--paper", *extra]
+    return sonarproc_in_child(args) if child else main(args)
 
 
 @pytest.fixture(scope="module")
@@ -128,7 +130,7 @@ def test_serial_run_gives_the_same_summary(
 
 def test_dask_gives_identical_summaries(fleet: list[Path], local_out: Path, tmp_path: Path) -> None:
     pytest.importorskip("distributed")
-    assert _batch(fleet, tmp_path, "--engine", "dask", "--workers", "2") == 1
+    assert _batch(fleet, tmp_path, "--engine", "dask", "--workers", "2", child=True) == 1
     assert (tmp_path / "summary.csv").read_bytes() == (local_out / "summary.csv").read_bytes()
     assert (tmp_path / "summary.jsonl").read_bytes() == (local_out / "summary.jsonl").read_bytes()
 

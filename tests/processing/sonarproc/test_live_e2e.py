@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import yaml
 from foxglove_client import Session, collect_sync, stalled_client
-from procs import stop_process
+from procs import SONARPROC, stop_process
 
 pytest.importorskip("foxglove")
 pytest.importorskip("websockets")
@@ -40,7 +40,6 @@ STEPS = [
     {"dwell": {"seconds": 3.0}},
 ]
 SONARD = [sys.executable, "-m", "sonard"]
-SONARPROC = [sys.executable, "-c", "import sys; from sonarproc.cli import main; sys.exit(main())"]
 EXPECTED = {
     "/sonar/readings": ("protobuf", "foxglove.SceneUpdate"),
     "/sonar/raw": ("json", "sonarmorph.Reading"),
