@@ -17,7 +17,9 @@ their beams, while no plane explains the same ranges.
    :data:`BEAM_SLACK`) holds it.
 3. **Position**: ``p`` by least squares on those ranges
    (Levenberg-Marquardt, :func:`scipy.optimize.leastsq`), gathering again round the new
-   ``p``, twice.
+   ``p``, twice. An accepted point's position is fitted once more with the time walk of
+   its echoes off the beams' axes (:mod:`sonarproc.surfaces.reflectors.time_walk`): seen
+   from a narrow span the walk would shift it sideways.
 4. **Tests**, each with its physical reason:
 
    * at least :data:`MIN_READINGS` readings from at least :data:`MIN_POSES` distinct
@@ -87,6 +89,7 @@ from sonarproc.surfaces.reflectors.range_models import (
     pose_keys,
     sensor_span,
 )
+from sonarproc.surfaces.reflectors.time_walk import TIME_WALK_M, fit_point_with_walk, walk_shape
 
 __all__ = [
     "BEAM_SLACK",
@@ -119,11 +122,6 @@ MIN_POSES = 5
 #: A circle through the readings with a larger radius (m) than this, and more than two
 #: standard errors from zero, is a cylinder: a pillar, not a point.
 MAX_POINT_RADIUS_M = 0.05
-#: The largest range bias (m) that varies across a beam: a weak echo off the beam's axis
-#: crosses the receiver threshold late by up to about 1.5 cm (Kleeman & Kuc 1995). A
-#: circle's radius ``R`` shows in the ranges only as the sag ``R (1 - cos(span / 2))``
-#: across the sensors' span; a sag under this bias is no evidence of a radius.
-TIME_WALK_M = 0.015
 #: An accepted point's readings are gathered again this many times round the new
 #: position.
 GATHER_ROUNDS = 2
@@ -401,4 +399,8 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
         return None
     if _radius_says_cylinder(xy, rng, p):
         return None
+    # the position: the ranges less the time walk of the echoes off the beams' axes
+    # (reads as a sideways shift of the point when it is seen from a narrow span)
+    shape = walk_shape(xy, echoes.heading[idx], echoes.half_beam[idx], p)
+    p = fit_point_with_walk(xy, rng, shape, p)[0]
     return PointFeature(p, idx, poses, rms, prms, sensor_span(xy, p))
