@@ -36,7 +36,7 @@ from sonard.soak.accounting import account_firings, load_firings
 from sonard.soak.underload import busy_loops
 from sonarlog import read_log
 
-pytestmark = pytest.mark.timeout(120)
+pytestmark = [pytest.mark.timeout(120), pytest.mark.slow]
 
 
 # ---------------------------------------------------------------------------- plans
