@@ -20,9 +20,11 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Run the tests marked ``slow`` first, each group in collection order.
 
-    The suite hands tests to its xdist workers one at a time (``--maxschedchunk=1`` in
-    pyproject.toml): longest first, then the short ones fill in, so both workers finish
-    together instead of one running a minute-long test alone at the end. Every worker
-    sorts the same collection the same way (a stable sort), as xdist requires.
+    The suite hands whole test files to its xdist workers (``--dist=loadfile``, so a
+    module's fixtures are built once), in collection order (``--no-loadscope-reorder``,
+    pyproject.toml): a file comes at its first test, so the files holding slow tests go
+    out first and the short ones fill in, and both workers finish together instead of one
+    running a minute-long file alone at the end. Every worker sorts the same collection
+    the same way (a stable sort), as xdist requires.
     """
     items.sort(key=lambda item: item.get_closest_marker("slow") is None)
