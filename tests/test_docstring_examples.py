@@ -8,6 +8,8 @@ import pkgutil
 
 import pytest
 
+pytestmark = pytest.mark.slow
+
 PACKAGES = ("nomad200", "sonarsim", "sonarlog", "sonard", "sonarproc")
 
 

@@ -71,7 +71,7 @@ class ReplyRecorder:
             The new readings it logged (none before the frame is set), or None when the
             reply is implausible and was dropped.
         """
-        if not self.tagger.plausible(state):
+        if not self.tagger.plausible(state, now):
             self.n_rejected += 1
             log.debug("implausible reply dropped (clock %.3f)", state.clock)
             return None
@@ -96,8 +96,13 @@ class ReplyRecorder:
         self.recording = True
 
     def link_lost(self) -> None:
-        """The link failed: replies while reconnecting do not end the outage's gap."""
+        """The link failed: replies while reconnecting do not end the outage's gap.
+
+        The host-minus-robot lag is learnt anew: a fast emulator's clock moves on by each
+        reply timeout of the outage, a restarted one starts again.
+        """
         self._recovering = True
+        self.tagger.forget_host_lag()
 
     def link_back(self) -> None:
         """The link is back: the next reply closes the gap; the pose is learnt anew."""

@@ -28,6 +28,12 @@ inches); the sensors table places each transducer at its face, so
 a range below the 0.15 m usable minimum (bit 0 means "out of range" too), keeping its tof.
 Times are UNIX seconds: robot clock + an offset fixed at the first reply (re-anchored if
 the robot clock ever runs backwards, i.e. the robot was reset).
+
+A reply whose clock runs ahead of the host's is damaged (two bytes that cancel out in the
+byte-sum checksum): a robot builds a reply before the host reads it, so in link time its
+clock, mapped to UNIX time through the least host-minus-robot lag seen, is never ahead of
+the host's. It is dropped, not believed: believing it would log a bogus gap, refuse the
+good replies after it as running backwards, and re-anchor the offset.
 """
 
 from __future__ import annotations
@@ -50,6 +56,14 @@ POSE_SLACK_M = 0.01
 MAX_CLOCK_LEAP_S = 120.0
 #: after this many refused replies in a row the next one is believed
 MAX_REJECTS_IN_ROW = 10
+#: how far a reply's clock may run ahead of the host's clock, beyond one firing cycle (s).
+#: In link time it runs ahead by no more than the fastest reply's latency (ms) plus the
+#: clocks' drift since (100 ppm: 0.1 ms/s). A fast emulator's virtual clock runs ahead by
+#: the link time of the exchanges since the last good reply: a poll (at most one firing
+#: cycle, the plan's limit on the baud rate) plus 0.5 s (the reply timeout) for each lost
+#: reply; 1 s covers two lost replies. A damaged clock byte moves it by 0.256 s or 65.5 s
+#: steps (times the damage): the second byte from 8 steps up, any higher byte always.
+MAX_CLOCK_LEAD_S = 1.0
 
 
 class AttachmentLike(Protocol):
@@ -147,21 +161,47 @@ class Tagger:
         self._last_range = np.full(n, np.nan)
         self._seen = np.zeros(n, dtype=bool)
         self._rejects = 0
+        #: least (host time - robot clock) of the replies believed: the reply with the least
+        #: latency; None until a reply after the start or an outage sets it
+        self._host_lag: float | None = None
 
-    def plausible(self, state: StateLike) -> bool:
+    def plausible(self, state: StateLike, host_time: float | None = None) -> bool:
         """Whether ``state`` fits the last accepted one (a guard against corrupt replies).
 
         The protocol's checksum is a byte sum: two damaged bytes can cancel out. A reply is
         refused when its clock runs backwards by less than a reset would (or leaps more than
-        ``MAX_CLOCK_LEAP_S``), when the pose moved faster than the robot can, or when a pose
-        attachment lies outside the last firing cycle before the reply.
+        ``MAX_CLOCK_LEAP_S``), when the pose moved faster than the robot can, when a pose
+        attachment lies outside the last firing cycle before the reply, or, given the UNIX
+        time ``host_time`` it arrived at, when its clock runs ahead of the host's (see
+        :meth:`clock_runs_ahead`).
         """
-        ok = self._plausible(state)
+        ok = not self.clock_runs_ahead(state, host_time) and self._plausible(state)
         self._rejects = 0 if ok else self._rejects + 1
         if self._rejects > MAX_REJECTS_IN_ROW:  # the robot really changed: follow it
             self.forget_pose()
+            self.forget_host_lag()
             ok, self._rejects = True, 0
         return ok
+
+    def clock_runs_ahead(self, state: StateLike, host_time: float | None) -> bool:
+        """Whether the clock of ``state``, received at UNIX ``host_time``, is damaged.
+
+        It is when it runs ahead of the host's clock (through the least lag seen) by more
+        than ``MAX_CLOCK_LEAD_S`` plus one firing cycle, and no pose attachment vouches for
+        it: the robot fires a sonar every interval, so a clock that really moved on comes
+        with a firing at most two firing cycles (one to fire, one to report it) before it.
+        """
+        if host_time is None or self._host_lag is None:
+            return False
+        clock = float(state.clock)
+        if clock + self._host_lag - host_time <= MAX_CLOCK_LEAD_S + self.cycle:
+            return False
+        fired = [a.pose_time for a in state.sonar_attachments.values() if a.pose_time > 0]
+        return not fired or clock - max(fired) > 2.0 * self.cycle
+
+    def forget_host_lag(self) -> None:
+        """Learn the host-minus-robot lag anew from the next reply (after an outage)."""
+        self._host_lag = None
 
     def forget_pose(self) -> None:
         """Drop the reference for :meth:`plausible` (after DP, DA, ZR or a reconnect)."""
@@ -211,7 +251,10 @@ class Tagger:
         if self.offset is None or (self._last_clock is not None and clock < self._last_clock):
             self.offset = host_time - clock
             self._prev_pose = None
+            self._host_lag = None
         self._last_clock = clock
+        lag = host_time - clock
+        self._host_lag = lag if self._host_lag is None else min(self._host_lag, lag)
         if state.x is None or state.y is None or state.steer is None or state.turret is None:
             return np.zeros(0, READING_DTYPE), np.zeros(0, POSE_DTYPE)
         cur = np.array([clock, state.x, state.y, state.steer, state.turret], dtype=float)

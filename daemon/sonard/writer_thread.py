@@ -6,6 +6,10 @@ thread drains the queue into :class:`sonarlog.LogWriter`, whose own threads push
 buffer to the file every ``flush_interval`` and fsync after each push: so a reading is in
 the file about ``flush_interval`` after it was queued (what bounds the loss on SIGKILL) and
 on stable storage one fsync later (power failure).
+
+At the end of a run :meth:`LogSink.close` waits for the queue to drain as long as the
+thread keeps writing (a loaded machine drains slowly but loses nothing queued), and gives
+up only on a writer that wrote nothing for :data:`WRITER_STUCK_S`.
 """
 
 from __future__ import annotations
@@ -20,11 +24,20 @@ import numpy as np
 
 from sonard.logclock import LogClock
 
-__all__ = ["LogSink", "LogWriteError", "Writer"]
+__all__ = ["WRITER_STUCK_S", "LogSink", "LogWriteError", "Writer"]
 
 log = logging.getLogger(__name__)
 
 _STOP = object()
+
+#: a writer that takes no queued record for this long (s) is stuck, not slow. An append only
+#: copies rows into the writer's buffer, or waits for its lock while the writer's own thread
+#: pushes a batch to the file (an HDF5 write without fsync: well under a second on a busy
+#: disk). No record in 3 s is a hung disk (a dead USB stick, a hung network mount); 3 s
+#: also leaves the writer's own close inside systemd's 5 s stop timeout.
+WRITER_STUCK_S = 3.0
+#: how often close looks at the writer's progress (s)
+_CLOSE_POLL_S = 0.05
 
 
 class LogWriteError(RuntimeError):
@@ -66,6 +79,8 @@ class LogSink:
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self._error: BaseException | None = None
         self.n_readings = 0
+        #: records (readings, poses, events) the thread has handed to the writer so far
+        self.n_written = 0
         self._thread = threading.Thread(target=self._run, name="sonard-writer", daemon=True)
         self._thread.start()
 
@@ -112,13 +127,26 @@ class LogSink:
                     w.append_poses(payload)
                 else:
                     w.event(*payload)
+                self.n_written += 1 if kind == "e" else len(payload)
             except Exception as exc:  # disk full, I/O error: report once, keep the loop alive
                 if self._error is None:
                     log.debug("log writer failed: %s", exc)
                     self._error = exc
 
-    def close(self, timeout: float = 1.5) -> None:
-        """Drain the queue, then flush and close the writer (waits at most ``timeout`` s).
+    def close(self, stuck_s: float = WRITER_STUCK_S) -> None:
+        """Drain the queue, then flush and close the writer.
+
+        The drain is waited for as long as the writer makes progress (:attr:`n_written`
+        keeps increasing), however slowly a loaded machine drains it. A writer that writes
+        nothing for ``stuck_s`` seconds is stuck: the records still queued are lost (logged
+        as an error) and the writer is closed.
+
+        Parameters
+        ----------
+        stuck_s : float
+            How long the writer may make no progress before the drain is given up (s).
+            Counted in waits of this thread, so a process stopped and continued (SIGSTOP)
+            does not count its stop against the writer.
 
         Raises
         ------
@@ -126,9 +154,21 @@ class LogSink:
             Whatever the writer raised while appending or closing.
         """
         self._queue.put(_STOP)
-        self._thread.join(timeout)
-        if self._thread.is_alive():
-            log.error("log writer did not drain within %.1f s", timeout)
+        polls_left = stuck_polls = max(1, round(stuck_s / _CLOSE_POLL_S))
+        written = self.n_written
+        while True:
+            self._thread.join(_CLOSE_POLL_S)
+            if not self._thread.is_alive():
+                break
+            if self.n_written != written:
+                written, polls_left = self.n_written, stuck_polls
+                continue
+            polls_left -= 1
+            if polls_left <= 0:
+                log.error(
+                    "log writer stuck: nothing written for %.1f s, queued records lost", stuck_s
+                )
+                break
         try:
             self._writer.close()
         except Exception as exc:

@@ -265,8 +265,11 @@ def read_csv_log(
         _integral(p, "flags", col["flags"], 0, 65535)
         readings["flags"] = col["flags"]
     c = next(v for v in (speed_of_sound, spec.speed_of_sound, DEFAULT_SPEED_OF_SOUND) if v)
-    readings["tof"] = col["tof"] if has_tof else 2.0 * col["range"] / c
-    range_m = 0.5 * c * col["tof"] if has_tof else col["range"]
+    # a time or range too large to convert (1e308) overflows to inf: beyond every
+    # max_range, so the reading is flagged no-echo below, like any other out-of-range one
+    with np.errstate(over="ignore"):
+        readings["tof"] = col["tof"] if has_tof else 2.0 * col["range"] / c
+        range_m = 0.5 * c * col["tof"] if has_tof else col["range"]
     no_echo = _flag_no_echo(readings, range_m, spec.table)
     t = None if truth is None else np.asarray(truth, dtype=np.float64)
     attrs: dict[str, Any] = {

@@ -18,7 +18,7 @@ CONFIGS = ROOT / "configs"
 SONARPROC = [sys.executable, "-c", "import sys; from sonarproc.cli import main; sys.exit(main())"]
 SONARD = [sys.executable, "-m", "sonard"]
 
-pytestmark = pytest.mark.timeout(300)
+pytestmark = [pytest.mark.timeout(300), pytest.mark.slow]
 
 
 def _run(cmd: list[str]) -> subprocess.CompletedProcess[str]:

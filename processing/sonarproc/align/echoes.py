@@ -104,8 +104,9 @@ def echo_rays(
     known = ids[sort][pos] == r["tx"]
     row = sort[pos]
     s = sensors[row]
-    rng = 0.5 * np.asarray(r["tof"], dtype=np.float64) * speed_of_sound
-    with np.errstate(invalid="ignore"):
+    # a time of flight too large to convert (1e308 s) overflows to inf: not finite, dropped
+    with np.errstate(over="ignore", invalid="ignore"):
+        rng = 0.5 * np.asarray(r["tof"], dtype=np.float64) * speed_of_sound
         ok = (
             known
             & (r["tx"] == r["rx"])

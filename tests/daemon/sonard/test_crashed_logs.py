@@ -24,7 +24,7 @@ from sonard.log_lock import LogLock
 from sonard.soak.accounting import clock_offset
 from sonarlog import read_log, read_superblock
 
-pytestmark = pytest.mark.timeout(180)
+pytestmark = [pytest.mark.timeout(180), pytest.mark.slow]
 
 KILL_TRIALS = 4
 

@@ -52,6 +52,7 @@ def _one_line(proc: subprocess.Popen[str]) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 def test_second_sonard_on_the_same_log_or_port_exits_1_naming_the_first(tmp_path: Path) -> None:
     locks = tmp_path / "lock"
     locks.mkdir()

@@ -178,3 +178,34 @@ def test_readings_dropped_as_late_are_a_gap() -> None:
         (OFFSET + 1.64, f"until {OFFSET + 1.64:.6f}: 1 out-of-order readings dropped")
     ]
     assert [e[2] for e in sink.events if e[1] == "late"] == ["1 out-of-order readings dropped"]
+
+
+def test_a_damaged_clock_leaping_forward_is_dropped() -> None:
+    # two damaged bytes that cancel out in the byte-sum checksum: the clock's third byte is
+    # one higher (65.536 s on), the rest of the reply is good and arrives on time
+    rec, sink = recorder()
+    polls(rec, 0.5, 2.0)
+    damaged = state_at(2.0)
+    damaged.clock = round(2.0 + 65.536, 3)
+    rec.record(damaged, OFFSET + 2.0)
+    polls(rec, 2.04, 3.0)
+    rec.drain()
+    assert rec.n_rejected == 1
+    assert rec.tagger.offset == OFFSET  # not re-anchored
+    assert [e[1] for e in sink.events] == ["clock"]  # no gap, no second anchor
+    n, lost, extra = accounted(sink, 3.0)
+    assert n > 55 and (lost, extra) == (0, 0)
+
+
+def test_a_stalled_host_is_a_gap_not_a_damaged_clock() -> None:
+    # sonard stopped for 5 s (SIGSTOP) after it read a reply but before it stamped it: the
+    # robot's clock moved on 5 s by the next reply, the host's read times agree
+    rec, sink = recorder()
+    polls(rec, 0.5, 2.0)
+    feed(rec, state_at(2.0))
+    rec.record(state_at(2.04), OFFSET + 7.04)  # stamped 5 s late
+    polls(rec, 7.08, 8.0)
+    rec.drain()
+    assert rec.n_rejected == 0
+    gaps = [e for e in sink.events if e[1] == "gap"]
+    assert len(gaps) == 1 and gaps[0][2].startswith(f"until {OFFSET + 7.08:.6f}")

@@ -125,3 +125,33 @@ def test_persistent_change_is_followed() -> None:
     tg.feed(St(clock=100.0, sonar={0: 1.0}), host_time=0.0)
     verdicts = [tg.plausible(St(clock=1.0 + k)) for k in range(12)]  # robot was reset
     assert not any(verdicts[:10]) and verdicts[10]
+
+
+def test_a_clock_ahead_of_the_host_is_damaged_until_it_persists() -> None:
+    # the reply's clock is 65.536 s on (its third byte one higher) while 40 ms passed on the
+    # host: no robot builds a reply after the host read it
+    tg = Tagger([0], speed_of_sound=343.3, interval=0.04, attachments=False)
+    tg.feed(St(clock=10.0, sonar={0: 1.0}), host_time=1000.0)
+    assert tg.clock_runs_ahead(St(clock=75.576), 1000.04)
+    assert not tg.plausible(St(clock=75.576), 1000.04)
+    assert tg.plausible(St(clock=10.08), 1000.08)
+    tg.feed(St(clock=10.08, sonar={0: 1.0}), host_time=1000.08)
+    # a host that read the reply late (stopped, loaded) only makes the clock look behind
+    assert tg.plausible(St(clock=10.12), 1005.0)
+    # a clock that stays ahead (the host slept) is followed after MAX_REJECTS_IN_ROW
+    verdicts = [tg.plausible(St(clock=70.0 + 0.04 * k), 1000.12 + 0.04 * k) for k in range(12)]
+    assert not any(verdicts[:10]) and verdicts[10]
+    tg.feed(St(clock=70.44, sonar={0: 1.0}), host_time=1000.52)
+    assert tg.plausible(St(clock=70.48), 1000.56)
+
+
+def test_a_clock_ahead_with_a_fresh_firing_is_believed() -> None:
+    # a fast emulator's virtual clock moved on by lost replies' timeouts: the robot fired
+    # meanwhile, and the attachment says so
+    tg = Tagger([0, 1], speed_of_sound=343.3, interval=0.04, attachments=True)
+    a0 = Att(0.0, 0.0, 0.0, 0.0, 0.95)
+    tg.feed(St(clock=1.0, sonar={0: 1.0}, sonar_attachments={0: a0}), host_time=1000.0)
+    fresh = Att(0.0, 0.0, 0.0, 0.0, 3.48)
+    assert tg.plausible(St(clock=3.5, sonar={0: 1.0}, sonar_attachments={0: fresh}), 1000.01)
+    stale = St(clock=3.5, sonar={0: 1.0}, sonar_attachments={0: a0})
+    assert not tg.plausible(stale, 1000.01)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -86,3 +88,43 @@ def test_writer_error_is_raised_on_close() -> None:
     sink.readings(_readings(1))
     with pytest.raises(OSError, match="No space"):
         sink.close()
+
+
+class SteadyWriter(SlowWriter):
+    """A writer on a loaded machine: every append takes a while, but each one completes."""
+
+    def __init__(self, per_append_s: float) -> None:
+        super().__init__()
+        self.per_append_s = per_append_s
+
+    def append(self, readings: np.ndarray) -> None:
+        time.sleep(self.per_append_s)
+        self.rows.append(readings)
+
+
+def test_close_waits_for_a_slow_drain_that_makes_progress() -> None:
+    # 100 appends of 20 ms: a drain of at least 2 s, four times the stuck bound given, is
+    # waited for because every append completes well inside it
+    w = SteadyWriter(0.02)
+    sink = LogSink(w)
+    for i in range(100):
+        sink.readings(_readings(2, 2 * i))
+    sink.event("stop")
+    sink.close(stuck_s=0.5)
+    got = np.concatenate(w.rows)
+    np.testing.assert_array_equal(got["t"], np.arange(200.0))
+    assert sink.n_written == 201 and w.events == ["stop"] and w.closed
+
+
+def test_close_gives_up_on_a_stuck_writer(caplog: pytest.LogCaptureFixture) -> None:
+    w = SlowWriter()  # its append waits for the gate, which opens only after close
+    sink = LogSink(w)
+    sink.readings(_readings(2))
+    sink.readings(_readings(2, 2))
+    with caplog.at_level(logging.ERROR, logger="sonard.writer_thread"):
+        sink.close(stuck_s=0.2)
+    assert w.closed and sink.n_written == 0
+    w.gate.set()
+    assert [r.getMessage() for r in caplog.records] == [
+        "log writer stuck: nothing written for 0.2 s, queued records lost"
+    ]

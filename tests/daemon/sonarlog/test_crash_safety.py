@@ -86,6 +86,7 @@ def _lost(path: Path, ready_at: float, appended: list[float]) -> float:
     return max(appended, default=ready_at) - max(last, ready_at)
 
 
+@pytest.mark.slow
 def test_sigkill_at_random_moments_loses_nothing_older_than_one_second(tmp_path: Path) -> None:
     delays = np.random.default_rng(20240601).uniform(0.05, 2.5, KILL_TRIALS)
     with ThreadPoolExecutor(max_workers=4) as pool:
@@ -129,6 +130,7 @@ def _complete_log(path: Path) -> np.ndarray:
 
 # twelve salvage processes in turn: a second each on a machine with a core to spare, tens
 # of seconds each beside two busy loops and other tests
+@pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_files_cut_at_random_offsets_give_a_prefix_or_a_one_line_error(tmp_path: Path) -> None:
     source = tmp_path / "whole.h5"

@@ -55,6 +55,17 @@ def test_range_column_becomes_tof(tmp_path: Path, sensors: Path) -> None:
     assert lg.readings["flags"][0] == 0
 
 
+@pytest.mark.parametrize("column", ["tof", "range"])
+def test_a_value_too_large_to_convert_is_no_echo(
+    tmp_path: Path, sensors: Path, column: str
+) -> None:
+    # 1e308 s or m overflows when converted (to a range or a time): beyond every max_range
+    csv = tmp_path / "r.csv"
+    csv.write_text(f"t,tx,rx,{column},x,y,theta,turret\n0,0,0,1e308,0,0,0,0\n")
+    lg = read_csv_log(csv, sensors)
+    assert lg.readings["flags"][0] == 1 and lg.attrs["no_echo_at_max_range"] == 1
+
+
 def test_header_only_gives_empty_log(tmp_path: Path, sensors: Path) -> None:
     csv = tmp_path / "r.csv"
     csv.write_text("t,tx,rx,tof,x,y,theta,turret\n")

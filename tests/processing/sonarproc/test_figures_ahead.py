@@ -17,6 +17,8 @@ from sonarproc.report import ahead as ahead_module
 from sonarproc.report.run_report import report_files
 from sonarproc.simulate import simulate_to_log
 
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[3]
 SCENARIOS = ROOT / "configs" / "scenarios"
 

@@ -21,6 +21,8 @@ from sonarlog import FLAG_NO_ECHO, read_log
 from sonarlog.sources import read_source, write_sonarlog
 from sonarproc.cli import main
 
+pytestmark = pytest.mark.slow
+
 #: A test scenario (tests/data/scenarios) by path, a shipped one by name.
 RING_SINE = str(Path(__file__).parents[2] / "data" / "scenarios" / "auto5-ring-sine.yaml")
 

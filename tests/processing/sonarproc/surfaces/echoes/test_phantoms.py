@@ -27,6 +27,8 @@ from sonarproc.surfaces.fitting.batch import fit_surface
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.planar.polylines import resample
 
+pytestmark = pytest.mark.slow
+
 C = 343.3
 CELL = 0.01
 ROOM_W, ROOM_H = 8.0, 6.0

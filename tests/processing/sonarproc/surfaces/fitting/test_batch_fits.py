@@ -164,6 +164,7 @@ def _echo_points_one_by_one(
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(st.integers(0, 2**32 - 1))
 def test_echo_points_equal_the_exhaustive_test(seed: int) -> None:
