@@ -138,6 +138,28 @@ def test_silent_readings_open_a_doorway_onto_nothing() -> None:
     assert len(_spans(out)) == 2
 
 
+def test_a_point_reflectors_readings_open_the_doorway_it_was_heard_through() -> None:
+    """A corner behind the doorway answered the readings facing it: they echo from no
+    surface and are left out of the refit, but their sound crossed the doorway."""
+    door = (1.5, 2.4)
+    g = _readings([(0.0, door[0]), (door[1], 4.0)], 0.1, 3.9)
+    g = EchoGeometry(g.xy, g.heading, g.half_beam, g.range_m, np.arange(g.size))
+    heard_wall = g.range_m < BEHIND
+    echoes = g.subset(heard_wall)
+    fit, cells = _line(0.0, 4.0)
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,))
+    assert len(out) == 1  # without them nothing says the door is open
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,), witnesses=g)
+    spans = _spans(out)
+    assert len(spans) == 2, spans
+    (_, end), (start, _) = spans
+    assert end <= door[0] + STEP / 2 + CELL and start >= door[1] - STEP / 2 - CELL, spans
+    # witnesses without rows cannot be told from the echoes: nothing is added
+    plain = EchoGeometry(g.xy, g.heading, g.half_beam, g.range_m)
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,), witnesses=plain)
+    assert len(out) == 1
+
+
 @pytest.mark.parametrize("gap", [(1.5, 2.1), (1.0, 2.5)])
 def test_collinear_pieces_with_an_unseen_gap_join(gap: tuple[float, float]) -> None:
     """Nobody faced the gap (longer than the fixed limit used without readings): one wall."""
