@@ -100,7 +100,7 @@ class TransducerParams:
         return 2.0 * np.pi * self.frequency_hz / speed_of_sound * self.piston_radius
 
 
-def directivity(theta: ArrayLike, ka: float, model: str = "gaussian") -> FloatArray:
+def directivity(theta: ArrayLike, ka: ArrayLike, model: str = "gaussian") -> FloatArray:
     """Main-lobe pressure directivity ``D(theta)`` (1 on the axis).
 
     Examples
@@ -110,7 +110,7 @@ def directivity(theta: ArrayLike, ka: float, model: str = "gaussian") -> FloatAr
     >>> float(directivity(np.deg2rad(20.0), 17.2, "piston")[()])
     0.0
     """
-    x = ka * np.abs(np.sin(np.asarray(theta, dtype=np.float64)))
+    x = np.asarray(ka, dtype=np.float64) * np.abs(np.sin(np.asarray(theta, dtype=np.float64)))
     if model == "gaussian":
         return np.asarray(np.exp(-(x**2) / 8.0))
     if model != "piston":
@@ -120,6 +120,55 @@ def directivity(theta: ArrayLike, ka: float, model: str = "gaussian") -> FloatAr
     return np.asarray(np.where(x < PISTON_FIRST_NULL, d, 0.0))
 
 
+def main_lobe_amplitude(
+    theta_tx: ArrayLike, theta_rx: ArrayLike, r: ArrayLike, ka: ArrayLike, *,
+    model: str = "gaussian", reflectivity: ArrayLike = 1.0, exponent: ArrayLike = 2.0,
+    reference_range: float = 1.0,
+) -> FloatArray:  # fmt: skip
+    """Echo amplitude through the main lobe with spreading: ``rho D(tx) D(rx) (r_ref / r)^n``.
+
+    The one echo-amplitude model of the package and of the processing that undoes its
+    time walk: the directivity of the transmitter and of the receiver
+    (:func:`directivity`; the Gaussian main lobe ``exp(-(ka sin theta)^2 / 8)`` of
+    Barshan & Kuc 1990 by default) times the spreading loss ``(r_ref / r)^n`` (``n = 2``
+    for a specular plane or a retro-reflecting corner in image geometry; Kuc & Siegel
+    1987).
+
+    Parameters
+    ----------
+    theta_tx, theta_rx : array_like
+        Angles (rad) of the echo's path off the transmitter's and the receiver's axis.
+    r : array_like
+        One-way distance (m) to the reflector.
+    ka : array_like
+        The piston's wavenumber times radius (``k a``), one or one per echo.
+    model : {"gaussian", "piston"}
+        Main-lobe directivity model.
+    reflectivity : array_like
+        Amplitude factor ``rho`` of the reflector.
+    exponent : array_like
+        Spreading exponent ``n``.
+    reference_range : float
+        Range (m) at which a head-on perfect plane gives amplitude 1.
+
+    Returns
+    -------
+    ndarray
+        The amplitude relative to the head-on plane echo at ``reference_range``.
+
+    Examples
+    --------
+    On the axis at 2 m, then 6 degrees off both axes there (``ka = 17.2``):
+
+    >>> theta = np.radians([0.0, 6.0])
+    >>> main_lobe_amplitude(theta, theta, 2.0, 17.2).round(4).tolist()
+    [0.25, 0.1114]
+    """
+    d = directivity(theta_tx, ka, model) * directivity(theta_rx, ka, model)
+    rr = reference_range / np.maximum(np.asarray(r, dtype=np.float64), 1e-6)
+    return np.asarray(np.asarray(reflectivity) * d * rr ** np.asarray(exponent))
+
+
 def amplitude(
     theta_tx: ArrayLike, theta_rx: ArrayLike, r: ArrayLike, reflectivity: ArrayLike,
     exponent: ArrayLike, params: TransducerParams, speed_of_sound: float,
@@ -127,12 +176,13 @@ def amplitude(
     """Echo amplitude relative to a head-on plane at ``reference_range``.
 
     ``theta_tx``, ``theta_rx`` are the angles (rad) off each transducer's axis, ``r`` the
-    one-way distance (m), ``exponent`` the spreading exponent.
+    one-way distance (m), ``exponent`` the spreading exponent: :func:`main_lobe_amplitude`
+    with the transducer's ``ka``, beam model and reference range.
     """
-    ka = params.ka(speed_of_sound)
-    d = directivity(theta_tx, ka, params.beam_model) * directivity(theta_rx, ka, params.beam_model)
-    rr = params.reference_range / np.maximum(np.asarray(r, dtype=np.float64), 1e-6)
-    return np.asarray(np.asarray(reflectivity) * d * rr ** np.asarray(exponent))
+    return main_lobe_amplitude(
+        theta_tx, theta_rx, r, params.ka(speed_of_sound), model=params.beam_model,
+        reflectivity=reflectivity, exponent=exponent, reference_range=params.reference_range,
+    )  # fmt: skip
 
 
 def time_walk(amp: ArrayLike, params: TransducerParams, speed_of_sound: float) -> FloatArray:

@@ -6,12 +6,15 @@ the doorway did not echo from the line: their beams went through it and echoed f
 room behind (:mod:`sonarproc.surfaces.freespace`: their *free feet* lie on the line).
 
 Along the line, the echoing readings' feet and the free feet alternate. Between two
-consecutive echo feet (or between the outermost echo foot and the line's end), a stretch
+consecutive echo feet (or between the outermost echo foot and the line's end, or just
+past the end, within :data:`END_LOOK_M`), a stretch
 holding free feet from :data:`~sonarproc.surfaces.freespace.MIN_FREE_POSES` distinct
-viewpoints is open: the wall is cut there. Each side ends halfway between its last echo
-foot and the nearest free foot (the true end of the wall lies somewhere between them; the
-midpoint is the estimate with the smallest largest error). A stretch with no free feet
-stays closed, however long: nothing saw through it.
+viewpoints is open: the wall is cut there. The true end of the wall lies between the
+nearest free foot and its last echo foot less the reach of the end's own echo: a free end
+is a convex edge, and sensors whose feet lie past it still hear it, at a range within the
+tolerance of the wall's (:func:`end_echo_reach`, about a beam's width at a metre). Each
+side ends halfway between those two (the estimate with the smallest largest error). A
+stretch with no free feet stays closed, however long: nothing saw through it.
 
 The pieces keep the line of the whole fit (both sides of a doorway are one wall, and the
 line through all their echo points is the better estimate); a piece whose echoes no
@@ -42,15 +45,58 @@ from sonarproc.surfaces.fitting.merge import collinear_groups, pool_cells
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones, free_feet
 from sonarproc.surfaces.planar.polylines import resample
+from sonarsim.transducer import PISTON_FIRST_NULL, TransducerParams
 
-__all__ = ["STRAIGHT_SHARE", "cut_openings", "join_pieces", "split_line"]
+__all__ = ["STRAIGHT_SHARE", "cut_openings", "end_echo_reach", "join_pieces", "split_line"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
+#: Free feet are looked for this far (m) past a line's ends: as far as a refit stretches
+#: a line over its ridge beyond its echoes
+#: (:data:`~sonarproc.surfaces.echoes.refine.MAX_STRETCH_M`), so an end the sound passed
+#: just beyond is placed as a cut's end is.
+END_LOOK_M = 0.25
 #: A surface whose echo points lie within this share of the range tolerance (RMS) of a
 #: line is straight to the sonar (1 / sqrt(3): points spread evenly within it).
 STRAIGHT_SHARE = 1.0 / np.sqrt(3.0)
+
+
+def end_echo_reach(dist: npt.ArrayLike, half_beam: npt.ArrayLike, margin: float) -> FloatArray:
+    """How far past a wall's free end (m, along the wall) a sensor ``dist`` m from its line
+    still takes the end's echo for the wall's own.
+
+    A wall's free end (a door jamb, the end of a partition) is a convex edge: it
+    diffracts, a weak point source heard over the main lobe while its amplitude
+    ``rho_e D(theta)^2 (r_ref / r)^n`` clears the receiver threshold (Kuc & Siegel 1987;
+    the amplitude of :func:`sonarsim.transducer.main_lobe_amplitude` with the edge's
+    reflectivity and spreading of :class:`sonarsim.transducer.TransducerParams`). A
+    sensor whose foot lies ``u`` past the end hears it at ``sqrt(dist^2 + u^2)``: within
+    the range tolerance ``margin`` of the wall's own distance while
+    ``u <= sqrt((dist + margin)^2 - dist^2)``, so the wall's echo feet run on past its end
+    by up to the lesser of that and ``dist tan(theta)``, the widest angle at which the end
+    is heard. With the Gaussian main lobe (``D^2 = exp(-(ka sin theta)^2 / 4)``, ``ka``
+    from the nominal half-width as the piston's first null) that angle has
+    ``ka sin theta = 2 sqrt(ln(A0 / threshold))``, ``A0`` the head-on amplitude at
+    ``dist`` (taken for the whole slant range: the reach is not understated); 0 where
+    even head-on the end is too weak to hear.
+
+    Examples
+    --------
+    A jamb 0.6 m, 1.1 m and 2 m from a sensor with a 12.5 degree half beam:
+
+    >>> end_echo_reach([0.6, 1.1, 2.0], np.radians(12.5), 0.03).round(3).tolist()
+    [0.116, 0.124, 0.0]
+    """
+    tp = TransducerParams()
+    d = np.maximum(np.asarray(dist, dtype=np.float64), 1e-3)
+    ka = PISTON_FIRST_NULL / np.sin(np.clip(half_beam, 1e-3, 0.5 * np.pi))
+    head_on = tp.edge_reflectivity * (tp.reference_range / d) ** tp.edge_spreading_exponent
+    ratio = np.maximum(head_on / tp.threshold, 1.0)
+    sin_t = np.minimum(2.0 * np.sqrt(np.log(ratio)) / ka, 1.0 - 1e-12)
+    heard = d * sin_t / np.sqrt(1.0 - sin_t**2)
+    within = np.sqrt((d + margin) ** 2 - d**2)
+    return np.asarray(np.minimum(heard, within), dtype=np.float64)
 
 
 def _open_intervals(
@@ -72,9 +118,15 @@ def _open_intervals(
 
 
 def _pieces(
-    length: float, echo_s: FloatArray, free_s: FloatArray, free_view: IntArray
-) -> list[tuple[float, float]]:
-    """The stretches ``(start, end)`` of a line of ``length`` m that stay closed."""
+    length: float, echo_s: FloatArray, free_s: FloatArray, free_view: IntArray,
+    reach: FloatArray | None = None,
+) -> list[tuple[float, float]]:  # fmt: skip
+    """The stretches ``(start, end)`` of a line of ``length`` m that stay closed.
+
+    ``reach``: how far past the wall's end each echo foot's sensor still hears the end
+    (:func:`end_echo_reach`, same order as ``echo_s``; default none).
+    """
+    reach = np.zeros(echo_s.size) if reach is None else reach
     if echo_s.size == 0 or free_s.size == 0:
         return [(0.0, length)]
     opened, lo, hi = _open_intervals(echo_s, free_s, free_view)
@@ -85,10 +137,10 @@ def _pieces(
     first_echo = 0  # the first echo foot of the current piece
     for k in opened.tolist():
         if k > 0 and k > first_echo:  # a piece with echoes ends before interval k
-            end = 0.5 * (echo_s[k - 1] + lo[k])
+            end = min(0.5 * (echo_s[k - 1] - reach[k - 1] + lo[k]), length)
             pieces.append((start, end))
         if k < echo_s.size:
-            start = 0.5 * (hi[k] + echo_s[k])
+            start = max(0.5 * (hi[k] + echo_s[k] + reach[k]), 0.0)
             first_echo = k
         else:
             first_echo = echo_s.size + 1  # nothing after
@@ -146,7 +198,7 @@ def cut_openings(
     >>> cut, _, _ = cut_openings([wall], [pts], [np.arange(xs.size)], cones, margin=0.03,
     ...                          cell=0.01)
     >>> [(round(float(f.polyline[0, 0]), 2), round(float(f.polyline[-1, 0]), 2)) for f in cut]
-    [(0.0, 1.05), (1.95, 3.0)]
+    [(0.0, 0.99), (2.01, 3.0)]
     """
     line = [i for i, f in enumerate(fits) if f.model == "line" and not f.closed
             and len(f.polyline) >= 2]  # fmt: skip
@@ -154,7 +206,11 @@ def cut_openings(
         return list(fits), list(points), list(readings)
     a = np.array([fits[i].polyline[0] for i in line])
     b = np.array([fits[i].polyline[-1] for i in line])
-    seg, read, along = free_feet(a, b, cones, margin=margin)
+    # free feet just past the ends too: an end the sound passed is a free end
+    chord = b - a
+    out_t = chord / np.maximum(np.hypot(*chord.T), 1e-300)[:, None] * END_LOOK_M
+    seg, read, along = free_feet(a - out_t, b + out_t, cones, margin=margin)
+    along = along - END_LOOK_M
     order = np.argsort(seg, kind="stable")
     seg, read, along = seg[order], read[order], along[order]
     bounds = np.searchsorted(seg, np.arange(len(line) + 1))
@@ -166,8 +222,13 @@ def cut_openings(
         f, p = fits[i], points[i]
         length = float(np.hypot(*(b[k] - a[k])))
         t = (b[k] - a[k]) / max(length, 1e-300)
-        es = np.sort((np.stack((p.x, p.y), axis=1) - a[k]) @ t)
-        stretches = _pieces(length, es, along[lo:hi], cones.viewpoint[read[lo:hi]])
+        es = (np.stack((p.x, p.y), axis=1) - a[k]) @ t
+        order = np.argsort(es, kind="stable")
+        rows = readings[i][order]
+        rel = cones.xy[rows] - a[k]
+        dist = np.abs(rel[:, 0] * t[1] - rel[:, 1] * t[0])
+        reach = end_echo_reach(dist, cones.half_beam[rows], margin)
+        stretches = _pieces(length, es[order], along[lo:hi], cones.viewpoint[read[lo:hi]], reach)
         if stretches == [(0.0, length)]:
             continue
         cut[i] = split_line(f, p, readings[i], a[k], t, stretches, cell)

@@ -179,6 +179,27 @@ def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
                         np.concatenate((a.range_m, b.range_m)))  # fmt: skip
 
 
+def _crossed(echoes: EchoGeometry, witnesses: EchoGeometry | None) -> EchoGeometry | None:
+    """The ``witnesses`` not among ``echoes`` (by their rows): the point reflectors' readings.
+
+    A corner or an edge heard through a doorway answers readings whose sound crossed the
+    doorway: they echo from no surface, but they are free space up to their range as
+    much as a wall's readings are (Leonard & Durrant-Whyte 1991: every range bounds the
+    empty cone in front of its sensor). Without their rows the two cannot be told apart,
+    and none are added.
+
+    Examples
+    --------
+    >>> g = EchoGeometry(np.zeros((3, 2)), np.zeros(3), np.full(3, 0.2), np.ones(3),
+    ...                  np.arange(3))
+    >>> _crossed(g.subset(np.array([True, False, True])), g).rows.tolist()
+    [1]
+    """
+    if witnesses is None or witnesses.rows is None or echoes.rows is None:
+        return None
+    return witnesses.subset(~np.isin(witnesses.rows, echoes.rows))
+
+
 def refine_fits(
     fits: list[SurfaceFit],
     cells: list[SurfaceCells],
@@ -213,7 +234,10 @@ def refine_fits(
     witnesses : EchoGeometry, optional
         The readings the last test for surfaces seen through counts (default:
         ``echoes``): every reading, when ``echoes`` leaves out those of point
-        reflectors (they echo from no surface, but their sound crossed free space).
+        reflectors (they echo from no surface, but their sound crossed free space). Those
+        not in ``echoes`` are free space for the openings' cut and the joins of pieces
+        too (:func:`_crossed`); the test of stretches hidden behind something else
+        keeps to ``echoes``: a point's readings faced the point, not the walls.
     silent : EchoGeometry, optional
         Readings that heard nothing, with their sensor's largest range as ``range_m``:
         free space up to there, which cuts walls at openings as the echoes' does
@@ -232,6 +256,14 @@ def refine_fits(
         cur, ridge = screen_fits(cur, ridge, first, tol=rounds[0])
     every = echoes if silent is None else _joined(echoes, silent)
     cones = FreeCones.of(every.xy, every.heading, every.half_beam, every.range_m)
+    # the openings' cut and joins: every reading's sound crossed free space up to its
+    # range, whatever echoed (rows after ``every``'s own, which the echo points index)
+    crossed = _crossed(echoes, witnesses)
+    if crossed is not None and crossed.size:
+        every = _joined(every, crossed)
+        open_cones = FreeCones.of(every.xy, every.heading, every.half_beam, every.range_m)
+    else:
+        open_cones = cones
     # the ridge lies up to the first round's tolerance off the wall
     cur, ridge = merge_collinear(cur, ridge, cell=cell, cones=cones,
                                  margin=rounds[0] if rounds else ROUNDS_M[0])  # fmt: skip
@@ -266,12 +298,12 @@ def refine_fits(
         cur, ridge = nxt, nxt_ridge
     if rounds:
         # openings: free space (readings that saw through a wall) cuts it
-        cur, pts_cells, pts_idx = cut_openings(cur, pts_cells, pts_idx, cones,
+        cur, pts_cells, pts_idx = cut_openings(cur, pts_cells, pts_idx, open_cones,
                                                margin=rounds[-1], cell=cell)  # fmt: skip
         cur, pts_cells, pts_idx = _surfaces_left(cur, pts_cells, pts_idx, cones, min_echoes)
         # ... and joins the pieces of one wall where it did not see through the gap; a
         # stretch no sensor could see at all is not wall, though
-        cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, cones,
+        cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, open_cones,
                                               margin=rounds[-1], cell=cell)  # fmt: skip
         cur, pts_cells, pts_idx = cut_unseen(cur, pts_cells, pts_idx, cones, margin=rounds[-1],
                                               cell=cell)  # fmt: skip

@@ -13,9 +13,11 @@ reads as a shift of the point sideways, of ``walk / span``: 1.5 cm over 0.15 rad
 10 cm.
 
 :func:`walk_shape` is each reading's walk relative to the weakest of the point's echoes,
-from the beam model: the Gaussian main lobe ``D = exp(-(ka sin theta)^2 / 8)`` (Barshan &
-Kuc 1990), ``ka`` from the nominal half-width taken as the piston's first null
-(``ka sin(half width) = 3.8317``), and spreading as ``1 / r^2``.
+from the beam model the simulator hears with
+(:func:`sonarsim.transducer.main_lobe_amplitude`): the Gaussian main lobe
+``D = exp(-(ka sin theta)^2 / 8)`` (Barshan & Kuc 1990), ``ka`` from the nominal
+half-width taken as the piston's first null (``ka sin(half width) = 3.8317``), and
+spreading as ``1 / r^2``.
 :func:`fit_point_with_walk` fits the point and the walk of its weakest echo together,
 that walk bounded by :data:`TIME_WALK_M` (an echo is heard only above the threshold,
 where the walk is largest).
@@ -27,6 +29,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares
 
+from sonarsim.transducer import PISTON_FIRST_NULL, main_lobe_amplitude
+
 __all__ = ["PISTON_FIRST_NULL", "TIME_WALK_M", "fit_point_with_walk", "walk_shape"]
 
 FloatArray = npt.NDArray[np.float64]
@@ -36,12 +40,8 @@ FloatArray = npt.NDArray[np.float64]
 #: circle's radius ``R`` shows in the ranges only as the sag ``R (1 - cos(span / 2))``
 #: across the sensors' span; a sag under this bias is no evidence of a radius.
 TIME_WALK_M = 0.015
-#: First zero of the Bessel function J1: a piston's main lobe ends where ``ka sin theta``
-#: reaches it; the nominal half-width of a Polaroid beam is that first null.
-PISTON_FIRST_NULL = 3.8317
-#: Largest exponent of the relative walk (``(ka sin theta)^2 / 4``): past the first null
-#: the Gaussian keeps falling while no echo is heard, so the shape is capped there.
-_MAX_EXPONENT = PISTON_FIRST_NULL**2 / 4.0
+# J1's first zero to the 4 decimals a nominal half-width given to 0.1 degree warrants
+_FIRST_NULL = round(PISTON_FIRST_NULL, 4)
 
 
 def walk_shape(
@@ -63,12 +63,16 @@ def walk_shape(
     """
     rel = p - xy
     r = np.hypot(rel[:, 0], rel[:, 1])
-    off = np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - heading)))
-    ka = PISTON_FIRST_NULL / np.sin(np.clip(half_beam, 1e-3, 0.5 * np.pi))
-    x = np.minimum((ka * np.sin(np.minimum(np.abs(off), 0.5 * np.pi))) ** 2 / 4.0, _MAX_EXPONENT)
-    # in logs: r^2 / D^2 spans orders of magnitude across a wide beam
-    log_walk = 2.0 * np.log(np.maximum(r, 1e-3)) + x
-    return np.asarray(np.exp(log_walk - log_walk.max()), dtype=np.float64)
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(rel[:, 1], rel[:, 0]) - heading))))
+    # ka from the nominal half-width taken as the piston's first null
+    null = np.clip(half_beam, 1e-3, 0.5 * np.pi)
+    ka = _FIRST_NULL / np.sin(null)
+    # past the first null the Gaussian keeps falling while no echo is heard there: the
+    # weakest echo heard is one at the null, so the angle is capped at it
+    theta = np.minimum(off, null)
+    amp = main_lobe_amplitude(theta, theta, np.maximum(r, 1e-3), ka)
+    # the walk is inversely as the amplitude: relative to the weakest echo's
+    return np.asarray(amp.min() / amp, dtype=np.float64)
 
 
 def fit_point_with_walk(

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from sonarproc.surfaces.echoes.openings import end_echo_reach
 from sonarproc.surfaces.echoes.refine import refine_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
@@ -136,6 +137,58 @@ def test_silent_readings_open_a_doorway_onto_nothing() -> None:
     assert len(out) == 1  # without them nothing says the door is open
     out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,), silent=silent)
     assert len(_spans(out)) == 2
+
+
+def test_a_point_reflectors_readings_open_the_doorway_it_was_heard_through() -> None:
+    """A corner behind the doorway answered the readings facing it: they echo from no
+    surface and are left out of the refit, but their sound crossed the doorway."""
+    door = (1.5, 2.4)
+    g = _readings([(0.0, door[0]), (door[1], 4.0)], 0.1, 3.9)
+    g = EchoGeometry(g.xy, g.heading, g.half_beam, g.range_m, np.arange(g.size))
+    heard_wall = g.range_m < BEHIND
+    echoes = g.subset(heard_wall)
+    fit, cells = _line(0.0, 4.0)
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,))
+    assert len(out) == 1  # without them nothing says the door is open
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,), witnesses=g)
+    spans = _spans(out)
+    assert len(spans) == 2, spans
+    (_, end), (start, _) = spans
+    assert end <= door[0] + STEP / 2 + CELL and start >= door[1] - STEP / 2 - CELL, spans
+    # witnesses without rows cannot be told from the echoes: nothing is added
+    plain = EchoGeometry(g.xy, g.heading, g.half_beam, g.range_m)
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,), witnesses=plain)
+    assert len(out) == 1
+
+
+def test_an_ends_echo_is_heard_about_a_beams_width_past_it() -> None:
+    """The reach of a free end's diffracted echo: within the range tolerance's geometry,
+    nothing where even head-on the edge is under the threshold (beyond 1.53 m)."""
+    d = np.array([0.3, 0.6, 1.1, 1.5, 1.6, 3.0])
+    reach = end_echo_reach(d, HALF_BEAM, 0.03)
+    assert np.all(reach >= 0.0)
+    assert np.all(reach <= np.sqrt((d + 0.03) ** 2 - d**2) + 1e-12)
+    assert np.all(reach[:3] > 0.07) and np.all(reach[:3] < 0.14)
+    assert reach[4] == 0.0 and reach[5] == 0.0
+
+
+def test_a_wall_ends_where_its_end_is_heard_from_past_it() -> None:
+    """A wall y = 1 ending at x = 2 (a jamb): sensors whose feet lie past it hear the jamb
+    (its echo reads sqrt(1 + u^2), within the tolerance) up to its reach, then see
+    through (3 m). The echo feet run on past the end; the cut end comes back to it."""
+    x = np.arange(0.1, 3.0, STEP)
+    u = x - 2.0
+    reach = float(end_echo_reach(1.0, HALF_BEAM, 0.03))
+    r = np.where(u <= 0.0, 1.0, np.where(u <= reach, np.hypot(1.0, u), BEHIND))
+    n = x.size
+    echoes = EchoGeometry(np.c_[x, np.zeros(n)], np.full(n, math.pi / 2), np.full(n, HALF_BEAM), r)
+    fit, cells = _line(0.0, 2.3)
+    out, _ = refine_fits([fit], [cells], echoes, cell=CELL, rounds=(0.03,))
+    spans = _spans(out)
+    assert len(spans) == 1, spans
+    last_echo = float(x[u <= reach].max())
+    assert last_echo > 2.05  # the jamb's echoes put feet past the end ...
+    assert abs(spans[0][1] - 2.0) <= 0.5 * reach + STEP / 2, spans  # ... the end is back
 
 
 @pytest.mark.parametrize("gap", [(1.5, 2.1), (1.0, 2.5)])
