@@ -15,6 +15,7 @@ above its own.
 from __future__ import annotations
 
 import ast
+import functools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -75,12 +76,24 @@ def _target(name: str, modules: dict[str, Path]) -> str | None:
 
 def import_graph(*, typing_only: bool = False) -> dict[str, set[str]]:
     """Module -> the product modules it imports (itself excluded)."""
+    return {module: set(targets) for module, targets in _graph(typing_only).items()}
+
+
+@functools.cache
+def _parsed(path: Path) -> ast.Module:
+    """A module's syntax tree, parsed once for both graphs."""
+    return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+
+
+@functools.cache
+def _graph(typing_only: bool) -> dict[str, frozenset[str]]:
+    """:func:`import_graph`, built once per session (parsing every module is most of the
+    cost of these tests, and the sources do not change while they run)."""
     modules = _modules()
     graph: dict[str, set[str]] = {m: set() for m in modules}
     for module, path in modules.items():
         is_package = path.name == "__init__.py"
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for node in _imports(tree, typing_only=typing_only):
+        for node in _imports(_parsed(path), typing_only=typing_only):
             names: list[str] = []
             if isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]
@@ -96,7 +109,7 @@ def import_graph(*, typing_only: bool = False) -> dict[str, set[str]]:
                 target = _target(name, modules)
                 if target is not None and target != module:
                     graph[module].add(target)
-    return graph
+    return {module: frozenset(targets) for module, targets in graph.items()}
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[tuple[str, ...]]:

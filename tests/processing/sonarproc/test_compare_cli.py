@@ -187,6 +187,8 @@ def test_compare_csv_log_without_truth(tmp_path: Path, capsys: pytest.CaptureFix
             "--out",
             str(out),
             "--json",
+            "--figures",
+            "none",  # the table is looked at, not figures
         ]
     )
     assert code == 0

@@ -39,7 +39,7 @@ def _los_points() -> np.ndarray:
 def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("robond")
     rc = main(["run", str(ROBOND / "readings.csv"), "--sensors", str(ROBOND / "sensors.yaml"),
-               "--out", str(out)])  # fmt: skip
+               "--out", str(out), "--figures", "none"])  # fmt: skip
     assert rc == 0
     return out
 

@@ -218,7 +218,9 @@ def test_scenario_seeds_and_noise(tmp_path: Path, capsys: pytest.CaptureFixture[
         log = tmp_path / f"fig13-{seed}.h5"
         assert main(["simulate", str(FIG13), "--out", str(log), "--seed", str(seed)]) == 0
         out = tmp_path / f"r{seed}"
-        assert main(["run", str(log), "--paper", "--out", str(out), "--json"]) == 0
+        # the metrics are compared, not figures: none are drawn
+        args = ["run", str(log), "--paper", "--out", str(out), "--json", "--figures", "none"]
+        assert main(args) == 0
         m = json.loads(_json_tail(capsys.readouterr().out))["metrics"]
         for key in ("e", "f_c", "E1_m", "E2"):
             assert rows[(0.05, seed)][key] == pytest.approx(m[key], rel=1e-12), key
