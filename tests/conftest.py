@@ -17,6 +17,22 @@ settings.register_profile("explore", derandomize=False, max_examples=1000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
 
+@pytest.fixture(autouse=True)
+def private_port_locks(
+    tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every test's sonards keep their UUCP lock files in a directory of their own.
+
+    ``/run/lock`` is shared by the whole machine, and a lock file outlives a sonard killed
+    with SIGKILL (several tests do that). Its PID is then stale, and a lock file is taken
+    over only when that PID is dead; with ``pid_max`` at 32768 the PID is soon reused by
+    some other live process, and a later test given the same pty number was refused with
+    "in use by PID ..." (or, in a script waiting for sonard's first command, waited for
+    ever). A test that means two sonards to meet sets the directory itself.
+    """
+    monkeypatch.setenv("SONARD_LOCK_DIR", str(tmp_path_factory.mktemp("locks")))
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
     """Run the tests marked ``slow`` first, each group in collection order.
 

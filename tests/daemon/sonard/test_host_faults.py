@@ -93,7 +93,11 @@ def test_disk_full_stops_cleanly_with_a_closed_log(tmp_path: Path) -> None:
             mount -t tmpfs -o size=4m tmpfs {disk}
             {sonard} --port {pty} --plan {plan} --out {disk}/run.h5 2>{keep}/stderr &
             pid=$!
-            until grep -q '"cmd": "DA"' {trace_path} 2>/dev/null; do sleep 0.05; done
+            # sonard gone before its first command (refused, crashed): fail now, by name
+            until grep -q '"cmd": "DA"' {trace_path} 2>/dev/null; do
+                kill -0 $pid 2>/dev/null || exit 3
+                sleep 0.05
+            done
             sleep 1
             date +%s.%N > {keep}/filled_at
             dd if=/dev/zero of={disk}/filler bs=64k 2>/dev/null
