@@ -51,3 +51,20 @@ def test_echoes_time_order_and_fields() -> None:
     f = ev.first()
     got[f.firing] = f.path
     np.testing.assert_array_equal(got, first)
+
+
+def test_beam_model_alone_does_not_load_the_simulator() -> None:
+    # sonarproc's surfaces import the beam model (sonarsim.transducer) on every run: the
+    # package's names load on first use, so that import loads no world, scenario or YAML
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, sonarsim.transducer; "
+        "print(sorted(m for m in sys.modules if m.startswith(('sonarsim', 'yaml'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "['sonarsim', 'sonarsim.geometry', 'sonarsim.transducer']"
+    import sonarsim
+
+    assert sonarsim.World is World and "simulate" in dir(sonarsim)
