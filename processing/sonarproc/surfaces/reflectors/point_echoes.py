@@ -23,6 +23,7 @@ aimed at it (:func:`aimed_from_sector`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -71,7 +72,9 @@ ANSWER_SHARE = 0.5
 
 
 def aimed_from_sector(
-    point: PointFeature, echoes: EchoGeometry
+    point: PointFeature,
+    echoes: EchoGeometry,
+    among: Callable[[FloatArray], npt.NDArray[np.bool_]] | None = None,
 ) -> tuple[FloatArray, npt.NDArray[np.bool_]] | None:
     """Every reading's distance to the point, and whether it was aimed at it from its sector.
 
@@ -79,6 +82,10 @@ def aimed_from_sector(
     point's own sensors (the complement of their largest gap, ``point.span_rad`` wide).
     Aimed at it: the point lies within :data:`AXIS_SHARE` of the half beam of the
     reading's axis. None when fewer than two readings make the point (no sector).
+
+    ``among``, given the distances, marks the only readings the caller asks about (the
+    others are reported not aimed): the bearings, elementwise, are then computed for
+    those alone, with the same values.
 
     Examples
     --------
@@ -92,15 +99,20 @@ def aimed_from_sector(
     """
     rel = echoes.xy - point.xy
     dist = np.hypot(rel[:, 0], rel[:, 1])
-    bearing = np.arctan2(rel[:, 1], rel[:, 0])
-    own = np.sort(bearing[point.readings])
+    mine = rel[point.readings]
+    own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
     if own.size < 2:
         return None
     gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
     start = own[(int(np.argmax(gaps)) + 1) % own.size]
+    rows = np.arange(dist.size) if among is None else np.flatnonzero(among(dist))
+    rel, heading = rel[rows], echoes.heading[rows]
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
     inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
-    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - echoes.heading))))
-    return dist, inside & (off <= AXIS_SHARE * echoes.half_beam)
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - heading))))
+    aimed = np.zeros(dist.size, dtype=bool)
+    aimed[rows] = inside & (off <= AXIS_SHARE * echoes.half_beam[rows])
+    return dist, aimed
 
 
 def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
@@ -114,11 +126,14 @@ def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
     the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
     no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
     """
-    sector = aimed_from_sector(point, echoes)
+
+    def near(dist: FloatArray) -> npt.NDArray[np.bool_]:
+        return np.asarray(dist <= float(dist[point.readings].max()) + RANGE_TOL_M)
+
+    sector = aimed_from_sector(point, echoes, near)
     if sector is None:
         return False
     dist, aimed = sector
-    aimed &= dist <= float(dist[point.readings].max()) + RANGE_TOL_M
     answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
     return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
 
@@ -161,11 +176,13 @@ def _passed_by(point: PointFeature, echoes: EchoGeometry) -> int:
     Inside the sector and aimed at the point (:func:`aimed_from_sector`), from beyond
     :data:`EDGE_REACH_M`; the echo came from more than :data:`RANGE_TOL_M` beyond it.
     """
-    sector = aimed_from_sector(point, echoes)
+
+    def beyond(dist: FloatArray) -> npt.NDArray[np.bool_]:
+        return (dist > EDGE_REACH_M) & (echoes.range_m > dist + RANGE_TOL_M)
+
+    sector = aimed_from_sector(point, echoes, beyond)
     if sector is None:
         return 0
-    dist, aimed = sector
-    passed = aimed & (dist > EDGE_REACH_M)
-    passed &= echoes.range_m > dist + RANGE_TOL_M
+    _, passed = sector
     passed[point.readings] = False
     return int(np.count_nonzero(passed))
