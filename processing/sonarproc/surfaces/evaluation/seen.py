@@ -37,8 +37,12 @@ IntArray = npt.NDArray[np.intp]
 
 #: Range tolerance (m) of "a reading could have produced this truth point".
 SEEN_TOLERANCE_M = 0.02
-#: Candidate (reading, truth point) pairs tested at once: bounds the memory (~100 B a pair).
-PAIRS_PER_CHUNK = 300_000
+#: Candidate (reading, truth point) pairs tested at once: bounds the memory (~100 B a pair)
+#: and the work, as the points seen leave the search only between chunks. The first chunk,
+#: paired with every truth point, sees most of them (the shortest readings of a log that
+#: passes its walls again and again): smaller chunks drop those points sooner, each for
+#: about the cost of a k-d tree of the points. The answer is the same for any size.
+PAIRS_PER_CHUNK = 50_000
 #: The points searched are refreshed once this fraction of them has been seen.
 REBUILD_SEEN_FRACTION = 0.25
 #: One reading in this many (spread over every range) is paired first. The order changes
