@@ -2,8 +2,9 @@
 
 The surfaces are extracted on a map of about 2 cm cells (see
 :mod:`sonarproc.pipeline.surfacefit`); this sums a finer count map into it without
-copying it into a padded array: every ``k``-th row is added in turn, then every
-``k``-th column (the last block may be narrower, as if padded with zeros).
+copying it into a padded array or any array of the fine map's size: the ``k x k``
+strided views of the blocks' cells are added in turn (the last block may be narrower, as
+if padded with zeros).
 """
 
 from __future__ import annotations
@@ -36,13 +37,10 @@ def coarse_counts(
     if k == 1:
         return c.astype(np.int64), grid
     ny, nx = -(-grid.ny // k), -(-grid.nx // k)
-    rows = np.zeros((ny, grid.nx), dtype=np.int64)
-    for i in range(k):
-        part = c[i::k]
-        rows[: part.shape[0]] += part
     summed = np.zeros((ny, nx), dtype=np.int64)
-    for j in range(k):
-        part = rows[:, j::k]
-        summed[:, : part.shape[1]] += part
+    for i in range(k):
+        for j in range(k):
+            part = c[i::k, j::k]
+            summed[: part.shape[0], : part.shape[1]] += part
     half = 0.5 * (k - 1) * grid.cell
     return summed, Grid(grid.x0 + half, grid.y0 + half, k * grid.cell, nx, ny)
