@@ -43,6 +43,9 @@ IntArray = npt.NDArray[np.intp]
 SIGHT_STEP_M = 0.05
 #: Points x readings tested at once, at most (bounds the memory).
 _CHUNK = 2_000_000
+#: A wrapped angle (rad) within this of a beam's edge is tested exactly: a modulo and
+#: ``np.angle`` round differently, by about 1e-15 rad.
+_SCREEN_RAD = 1e-9
 
 
 def facing_views(
@@ -69,8 +72,13 @@ def facing_views(
     short = np.zeros(p.shape[0], dtype=np.intp)
     cone_all = FREE_BEAM_FRACTION * cones.half_beam
     toward = np.arctan2(-n[1], -n[0])  # the direction a sensor faces the line in
-    facing = np.abs(np.angle(np.exp(1j * (cones.heading - toward)))) <= cone_all
-    facing &= np.isfinite(cones.range_m)
+    turn = cones.heading - toward
+    # the angle wrapped by a modulo differs from the exact one by rounding only: it leaves
+    # out the sensors facing well away, and the exact test decides the rest
+    rough = np.abs((turn + np.pi) % (2 * np.pi) - np.pi)
+    near = np.flatnonzero((rough <= cone_all + _SCREEN_RAD) & np.isfinite(cones.range_m))
+    facing = np.zeros(turn.size, dtype=bool)
+    facing[near] = np.abs(np.angle(np.exp(1j * turn[near]))) <= cone_all[near]
     if p.shape[0] == 0 or not facing.any():
         return reached, short
     xy, heading, cone = cones.xy[facing], cones.heading[facing], cone_all[facing]
