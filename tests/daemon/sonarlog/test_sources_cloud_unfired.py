@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from bagbuilders import T0, BagWriter
 
+from sonarlog import FLAG_NO_ECHO
 from sonarlog.sources import load_sensors, read_source
 
 
@@ -51,3 +52,21 @@ def test_points_at_the_robot_centre_are_no_readings(tmp_path: Path, kind: str) -
     assert summary.counts.invalid_dropped == 8
     assert summary.counts.stale_dropped == 32
     assert summary.counts.values == 80
+
+
+def test_an_infinite_end_point_is_still_no_echo(tmp_path: Path) -> None:
+    """REP 117: a driver may put "no echo" at infinity, even as (+inf, +inf) for a
+    transducer facing back and left; that is a reading, not a point behind it."""
+    s = load_sensors("pioneer3-dx").table
+    xy = np.column_stack((s["x"] + np.cos(s["heading"]), s["y"] + np.sin(s["heading"])))
+    xy[13] = np.inf  # transducer 13 (150 degrees): both coordinates at +infinity
+    bag = tmp_path / "run.bag"
+    with BagWriter(bag, "ros1") as bw:
+        for tt in (T0 - 0.05, T0 + 0.05):
+            bw.write("/RosAria/pose", "nav_msgs/msg/Odometry", tt, bw.odometry(tt, 0.0, 0.0, 0.0))
+        bw.write("/RosAria/sonar", "sensor_msgs/msg/PointCloud", T0, bw.cloud(T0, xy))
+    log, summary = read_source(bag, robot="pioneer3-dx")
+    r = log.readings
+    assert len(r) == 16 and summary.counts.invalid_dropped == 0
+    assert (r["flags"][r["tx"] == 13] & FLAG_NO_ECHO).all()
+    assert summary.counts.no_echo_flagged == 1
