@@ -133,18 +133,20 @@ def test_the_ufrgs_corridor_default_run(mod: ModuleType, tmp_path: Path) -> None
     """Held aside from all tuning: what the default run gives, with what must hold.
 
     Measured on the recorded file: 1395 readings (1350 with an echo), 25 surfaces (12
-    with readings), the longest 1.9 m, none of 2 m; 0.11 of the readings explained
-    within 5 cm; held-out residual 2.8 cm median, 168 cm 90th percentile.
+    with readings), the longest 1.9 m, none of 2 m, the fewest distinct poses under a
+    surface 3; 0.11 of the readings explained within 5 cm; held-out residual 2.8 cm
+    median, 168 cm 90th percentile.
     """
-    from sonarproc.cli import main
+    import evaluate as ev
+
     from sonarproc.pipeline.run import load_log
 
     lg = mod.find("ufrgs-corridor")
     path = _public_log("ufrgs-corridor", mod)
     out = tmp_path / "run"
-    assert main(["run", str(path), "--robot", lg.robot, "--out", str(out),
-                 "--figures", "none"]) == 0  # fmt: skip
-    rep = json.loads((out / "report.json").read_text())
+    outcome = ev.run_log(ev.RealLog(lg.name, path, None, lg.robot, lg.source), out)
+    ev.measure(outcome, out)
+    rep, fig = outcome.report, outcome.figures
     counts = rep["counts"]
     # the import: the front ring only (the rear ring's points at the robot's centre dropped)
     assert counts["readings_total"] == 1395
@@ -152,19 +154,20 @@ def test_the_ufrgs_corridor_default_run(mod: ModuleType, tmp_path: Path) -> None
     assert counts["flagged_no_echo"] == 45
     log = load_log(path, robot=lg.robot)
     assert set(np.unique(log.readings["tx"]).tolist()) == set(range(8))
-    # surfaces exist and lie where the readings echo: mostly near their line of sight, and
-    # all within what a beam covers off its axis (5 m range x sin 15 deg half beam: 1.3 m)
-    r = log.readings[(log.readings["flags"] & 1) == 0]
-    tp = log.transducer_poses(r)
-    rng = 0.5 * log.path_lengths(r)
-    los = tp.tx_xy + rng[:, None] * np.column_stack((np.cos(tp.tx_heading),
-                                                     np.sin(tp.tx_heading)))  # fmt: skip
+    assert fig["travel_m"] == pytest.approx(29.4, abs=0.1)
+    # surfaces exist, none rests on one pose, and they lie where the readings echo: mostly
+    # near their line of sight, all within what a beam covers off its axis (5 m range x
+    # sin 15 deg half beam: 1.3 m)
+    assert len(rep["surfaces"]) >= 5 and len(fig["lengths"]) >= 5
+    assert fig["fewest_poses"] >= 2
+    assert min(fig["lengths"]) > 0.0
     with (out / "surfaces.csv").open(newline="") as f:
         pts = np.array([(float(row["x"]), float(row["y"])) for row in csv.DictReader(f)])
-    assert len(rep["surfaces"]) >= 5
+    los = fig["los"]
     near = np.min(np.hypot(*(pts[:, None, :] - los[None, :, :]).transpose(2, 0, 1)), axis=1)
     assert np.median(near) < 0.1 and np.all(near < 5.0 * np.sin(np.radians(15.0)))
     q = rep["quality"]
     assert 0.05 <= q["explained_fraction"] <= 1.0
+    assert fig["explained"] == pytest.approx(q["explained_fraction"], abs=0.05)
     assert q["heldout_residual_median_m"] <= 0.05
     assert q["heldout_residual_median_m"] <= q["heldout_residual_p90_m"]
