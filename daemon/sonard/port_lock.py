@@ -6,7 +6,10 @@ Two mechanisms, because programs honour different ones:
   by minicom, picocom, ModemManager): it holds the owner's PID as ten ASCII digits and a
   newline. A lock file whose PID is dead is stale and taken over. Its directory is
   ``$SONARD_LOCK_DIR`` when set (tests), else the first writable of ``/run/lock`` and
-  ``/var/lock``; when none is writable (a hardened service) this part is skipped;
+  ``/var/lock``; when none is writable (a hardened service) this part is skipped. A live
+  PID is not enough to keep a lock file: PIDs are reused (Linux wraps at ``pid_max``, 32768
+  by default), so a process that started after the lock file was written, and does not
+  have the device open, is another program under a recycled PID, and the file is stale;
 * **TIOCEXCL** on the tty: once set, the kernel refuses every further ``open`` of the
   device (EBUSY) whatever the program, except for root. The flag lasts until the last
   handle on the tty closes: an emulator keeping its own handle on a pty keeps it set after
@@ -34,7 +37,15 @@ from typing import Any
 
 from sonard.log_lock import LockBusy, flock_holders
 
-__all__ = ["ExclusiveClient", "PortLock", "PortUnavailable", "device_holders", "lock_dir"]
+__all__ = [
+    "ExclusiveClient",
+    "PortLock",
+    "PortUnavailable",
+    "device_holders",
+    "lock_dir",
+    "pid_recycled",
+    "process_start_time",
+]
 
 log = logging.getLogger(__name__)
 
@@ -69,20 +80,72 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+#: How much later than the lock file a process must have started to be judged a newcomer
+#: under a recycled PID: ``/proc/stat``'s boot time is whole seconds and file times may be
+#: as coarse, so closer calls are left to the owner.
+START_AFTER_LOCK_SLACK_S = 2.0
+
+
+def process_start_time(pid: int) -> float | None:
+    """When process ``pid`` started, in seconds of the epoch (None without ``/proc``).
+
+    Field 22 of ``/proc/PID/stat`` counts clock ticks from boot; ``btime`` in
+    ``/proc/stat`` is the boot's wall time.
+    """
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+        boot = next(
+            int(line.split()[1])
+            for line in Path("/proc/stat").read_text(encoding="ascii").splitlines()
+            if line.startswith("btime ")
+        )
+    except (OSError, StopIteration, ValueError, IndexError):
+        return None
+    # the command name (field 2) may hold spaces and parentheses: split after its last ')'
+    fields = stat[stat.rfind(")") + 2 :].split()
+    try:
+        ticks = int(fields[19])
+    except (IndexError, ValueError):
+        return None
+    return boot + ticks / os.sysconf("SC_CLK_TCK")
+
+
+def _holds_device(pid: int, device: str) -> bool:
+    fd_dir = Path(f"/proc/{pid}/fd")
+    with contextlib.suppress(OSError):
+        for fd in fd_dir.iterdir():
+            with contextlib.suppress(OSError):
+                if os.readlink(fd) == device:
+                    return True
+    return False
+
+
+def pid_recycled(pid: int, lock_file: Path, device: str) -> bool:
+    """Whether live ``pid`` is a newcomer that cannot be the lock file's writer.
+
+    The writer was running when it wrote the file, so a process that started after the
+    file's last change is another program under a recycled PID. Only judged so when it
+    does not have ``device`` open either: an owner that has it open is the owner whatever
+    the clocks say (a wall-clock step forward moves the computed start time later).
+    """
+    started = process_start_time(pid)
+    if started is None:
+        return False
+    try:
+        written = lock_file.stat().st_mtime
+    except OSError:
+        return False
+    return started > written + START_AFTER_LOCK_SLACK_S and not _holds_device(pid, device)
+
+
 def device_holders(device: str | os.PathLike[str]) -> tuple[int, ...]:
     """PIDs of other processes with ``device`` open (a scan of ``/proc/*/fd``)."""
     target = os.path.realpath(device)
     me = os.getpid()
     pids: list[int] = []
     for proc in Path("/proc").iterdir():
-        if not proc.name.isdigit() or int(proc.name) == me:
-            continue
-        with contextlib.suppress(OSError):
-            for fd in (proc / "fd").iterdir():
-                with contextlib.suppress(OSError):
-                    if os.readlink(fd) == target:
-                        pids.append(int(proc.name))
-                        break
+        if proc.name.isdigit() and int(proc.name) != me and _holds_device(int(proc.name), target):
+            pids.append(int(proc.name))
     return tuple(sorted(pids))
 
 
@@ -172,11 +235,16 @@ class PortLock:
                     pid = self._read_pid(path)
                     if pid == me:
                         break
-                    if _pid_alive(pid):
+                    assert self.device is not None
+                    if _pid_alive(pid) and not pid_recycled(pid, path, self.device):
                         raise LockBusy(
                             f"{self.port} is in use by PID {pid} (lock file {path})", (pid,)
                         ) from None
-                    log.info("taking over stale lock file %s (PID %d is gone)", path, pid)
+                    log.info(
+                        "taking over stale lock file %s (PID %d is gone or started after it)",
+                        path,
+                        pid,
+                    )
                     with contextlib.suppress(FileNotFoundError):
                         path.unlink()
                     continue

@@ -302,6 +302,20 @@ def table(outcomes: list[Outcome]) -> list[str]:
     return [head, sep] + [f"| {label} | " + " | ".join(v) + " |" for label, v in rows]
 
 
+def public_logs_text() -> list[str]:
+    """The public logs that may not be shipped (tools/real_logs/unshipped.py), for the page."""
+    from unshipped import PUBLIC_LOGS
+
+    lines = ["Public logs that may not be shipped are recorded in",
+             "`tools/real_logs/unshipped.py` (source, commit, SHA-256, robot); fetch one",
+             "and run `python tools/real_logs/unshipped.py NAME PATH`. Their figures",
+             "appear below only where their terms allow it.", ""]  # fmt: skip
+    for lg in PUBLIC_LOGS:
+        lines += [f"- `{lg.name}`: <{lg.url}>, {lg.licence}; robot `{lg.robot}`. "
+                  f"{lg.recording[0].upper()}{lg.recording[1:]}."]  # fmt: skip
+    return [*lines, ""]
+
+
 def write_doc(outcomes: list[Outcome]) -> None:
     """docs/real-logs.md: the test set, the table, a figure per log."""
     lines = [
@@ -359,6 +373,7 @@ def write_doc(outcomes: list[Outcome]) -> None:
         "Add a log you may not ship: `python tools/real_logs/evaluate.py --log PATH",
         "[--sensors YAML | --robot PRESET] --source TEXT` (it joins the shipped ones).",
         "",
+        *public_logs_text(),
         *table(outcomes),
         "",
     ]

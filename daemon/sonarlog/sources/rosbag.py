@@ -370,6 +370,23 @@ def _from_ranges(
     return raw, table, ids, source
 
 
+def _behind(xy: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """True where a cloud point lies at or behind its transducer's face.
+
+    A transducer hears only what is in front of it, so an echo's end point is ahead of
+    the transducer along its heading. RosAria leaves a transducer that never fired (the
+    absent rear ring of a Pioneer 3-DX set up with sixteen sonars) at the cloud frame's
+    origin, the robot's centre, which is behind every transducer of the ring; such a
+    point is no reading. Points with a non-finite coordinate are left to the range
+    checks (an infinite end point means no echo).
+    """
+    finite = np.isfinite(xy).all(axis=1)
+    dx, dy = xy[:, 0] - rows["x"], xy[:, 1] - rows["y"]
+    with np.errstate(invalid="ignore"):  # inf - inf at a non-finite point: not used
+        ahead = dx * np.cos(rows["heading"]) + dy * np.sin(rows["heading"])
+    return np.asarray(finite & ~(ahead > 0.0))
+
+
 def _from_cloud(
     path: Path, col: CloudCollector, spec: SensorSet | None
 ) -> tuple[RawValues, np.ndarray, str]:
@@ -390,6 +407,7 @@ def _from_cloud(
     idx = np.arange(xy.shape[0]) - np.repeat(np.cumsum(counts) - counts, counts)
     rows = table[idx]
     rng = np.hypot(xy[:, 0] - rows["x"], xy[:, 1] - rows["y"])
+    rng[_behind(xy, rows)] = np.nan  # not an echo: dropped as invalid
     t = np.repeat(np.asarray(col.t, dtype=np.float64), counts)
     raw = RawValues(t, rows["id"].astype(np.int64), rng, value_key(xy[:, 0], xy[:, 1]), len(col.t))
     return raw, table, spec.source

@@ -18,7 +18,7 @@ from procs import stop_process
 from robots import WORLD, emulator_pty, start_sonard, write_plan
 
 from sonard.log_lock import LockBusy, LogExists, LogLock, flock_holders, is_locked
-from sonard.port_lock import PortLock
+from sonard.port_lock import PortLock, pid_recycled, process_start_time
 from sonarlog import read_log
 
 pytestmark = pytest.mark.timeout(120)
@@ -155,5 +155,49 @@ def test_port_lock_file_holds_the_pid_and_stale_ones_are_taken_over(tmp_path: Pa
         assert stale.read_text() == f"{1:10d}\n"  # a live owner's file is left alone
         assert lock.lock_name == "LCK.." + device.removeprefix("/dev/").replace("/", "_")
     finally:
+        os.close(master)
+        os.close(slave)
+
+
+def test_a_recycled_pid_in_a_lock_file_is_stale_but_a_live_owner_is_not(tmp_path: Path) -> None:
+    """PIDs wrap at pid_max: a live PID whose process started after the lock file was
+    written is another program, unless it has the device open."""
+    master, slave = os.openpty()
+    newcomer = subprocess.Popen(["sleep", "60"])
+    try:
+        device = os.ttyname(slave)
+        lock = PortLock(device, tmp_path)
+        path = tmp_path / lock.lock_name
+        path.write_text(f"{newcomer.pid:10d}\n")
+        an_hour_ago = time.time() - 3600.0
+        os.utime(path, (an_hour_ago, an_hour_ago))
+        started = process_start_time(newcomer.pid)
+        assert started is not None and abs(started - time.time()) < 600.0
+        assert pid_recycled(newcomer.pid, path, device)
+        lock.acquire()
+        assert path.read_text() == f"{os.getpid():10d}\n"
+        lock.release()
+
+        # the same PID written after the process started: it may be the owner
+        path.write_text(f"{newcomer.pid:10d}\n")
+        assert not pid_recycled(newcomer.pid, path, device)
+        with pytest.raises(LockBusy, match=f"PID {newcomer.pid} "):
+            PortLock(device, tmp_path).acquire()
+
+        # a process that has the device open is the owner whatever the clocks say
+        holder = subprocess.Popen(["sleep", "60"], stdin=slave)
+        try:
+            path.write_text(f"{holder.pid:10d}\n")
+            os.utime(path, (an_hour_ago, an_hour_ago))
+            assert not pid_recycled(holder.pid, path, os.path.realpath(device))
+            with pytest.raises(LockBusy, match=f"PID {holder.pid} "):
+                PortLock(device, tmp_path).acquire()
+        finally:
+            holder.kill()
+            holder.wait()
+        assert path.read_text() == f"{holder.pid:10d}\n"
+    finally:
+        newcomer.kill()
+        newcomer.wait()
         os.close(master)
         os.close(slave)

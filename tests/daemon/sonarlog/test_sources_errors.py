@@ -115,9 +115,11 @@ def test_truncated_bag(tmp_path: Path, run: SimRun, kind: str, keep: float) -> N
 
 def test_cloud_needs_a_preset_and_matching_point_count(tmp_path: Path) -> None:
     bag = _bag(tmp_path, "ros1")
+    s = load_sensors("pioneer3-dx").table  # 16 end points, 1 m ahead of each transducer
+    ahead = np.column_stack((s["x"] + np.cos(s["heading"]), s["y"] + np.sin(s["heading"])))
     with BagWriter(bag, "ros1") as bw:
         bw.write("/odom", "nav_msgs/msg/Odometry", T0, bw.odometry(T0, 0.0, 0.0, 0.0))
-        bw.write("/RosAria/sonar", "sensor_msgs/msg/PointCloud", T0, bw.cloud(T0, np.ones((16, 2))))
+        bw.write("/RosAria/sonar", "sensor_msgs/msg/PointCloud", T0, bw.cloud(T0, ahead))
     with pytest.raises(SourceError) as err:
         read_source(bag)
     _one_line(err, bag, "carries no mounts", "preset")
