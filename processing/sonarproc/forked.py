@@ -13,6 +13,7 @@ stopped when its answer is no longer wanted.
 
 from __future__ import annotations
 
+import gc
 import logging
 import os
 import pickle
@@ -118,6 +119,9 @@ class AheadJob:
 def _child_main(work: Callable[[], Any], read_fd: int, write_fd: int) -> None:
     code = 1
     try:
+        # what the child inherits outlives it: its collections never look at it (nor
+        # write to its pages, which the parent's memory shares until written)
+        gc.freeze()
         os.close(read_fd)
         payload = pickle.dumps(work(), protocol=pickle.HIGHEST_PROTOCOL)
         with os.fdopen(write_fd, "wb") as pipe:

@@ -27,6 +27,7 @@ result it drew is not the one reported.
 
 from __future__ import annotations
 
+import gc
 import logging
 import os
 import pickle
@@ -184,6 +185,7 @@ def _draw_when_sent(
     from sonarproc.report import plots
 
     warm_up(formats)
+    gc.freeze()  # matplotlib's modules and font, loaded for good: no collection looks at them
     tag = os.read(go_fd, 1)
     early: dict[str, bytes] = {}
     if tag == b"m":  # the arc map, before the fit: its figure is drawn meanwhile
