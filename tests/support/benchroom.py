@@ -46,7 +46,7 @@ RUN = (
     + "        t, c = time.perf_counter() - t0, time.process_time() - c0\n"
     + "        sys.stderr.write(f'REPORT_S={t} {c}\\n')\n"
     + "_report.write_report = _timed\n"
-    + "from sonarproc.cli import main; sys.exit(main(sys.argv[1:]))"
+    + "from sonarproc.cli.entry import run_console; run_console()"
 )
 FLOOR = (
     PEAK

@@ -50,3 +50,28 @@ def test_the_command_sets_it(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(cli_main, "retain_freed_memory", lambda: calls.append(True) or True)
     assert cli_main.main(["--version"]) == 0
     assert calls == [True]
+
+
+# The console script on --version; an exit handler (run after the command) prints how many
+# objects the collector is left to look at, and how many are frozen.
+_FROZEN = """
+import atexit, gc, sys
+atexit.register(lambda: print(sum(gc.get_count()), gc.get_freeze_count() > 0))
+from sonarproc.cli.entry import main, run_console
+sys.argv = ["sonarproc", "--version"]
+run_console() if {console} else sys.exit(main())
+"""
+
+
+@pytest.mark.parametrize("console", [True, False])
+def test_the_console_script_leaves_the_collector_nothing_at_exit(console: bool) -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", _FROZEN.format(console=console)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    young, frozen = out.stdout.split()[-2:]
+    # the console script freezes the modules and the command's objects as it ends; a
+    # host process calling main() keeps its collector as it is
+    assert frozen == str(console)
+    if console:
+        assert int(young) < 100
