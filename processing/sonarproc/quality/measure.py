@@ -273,7 +273,10 @@ def held_out(
         from sonarproc.pipeline.arcmap import count_map
 
         held_arcs = subset_beams(beams, held).arcs
-        train_counts = counts - count_map(held_arcs, grid, params).astype(counts.dtype, copy=False)
+        # the held-out arcs' map, a fresh array, becomes the training map in place (no
+        # third map of the grid's size)
+        train_counts = count_map(held_arcs, grid, params).astype(counts.dtype, copy=False)
+        np.subtract(counts, train_counts, out=train_counts)
         train_counts.flags.writeable = False  # shared by every run on this map
     return HeldOut(judged, held, held_rows, train_beams, train_counts)
 
