@@ -181,3 +181,16 @@ def test_the_command_line_refuses_missing_inputs(
         em.main([str(tmp_path / "none.csv"), "--surfaces", str(tmp_path / "s.csv")])
     assert missing.value.code == 2
     assert "LOG: no such file" in capsys.readouterr().err
+
+
+def test_a_wall_in_front_hides_a_corner() -> None:
+    corners = em.polyline_corners([], np.array([[0.0, 2.0]]))
+    xy, heading, cone = np.zeros((2, 2)), np.full(2, 90.0 * DEG), np.full(2, 15 * DEG)
+    xy[1] = [0.0, 1.5]
+    got = em.corner_ranges(xy, heading, cone, corners, WALL)  # the wall y = 1 between
+    assert got[0] == math.inf
+    assert got[1] == pytest.approx(0.5, abs=1e-9)
+    # the corner's own walls meet it: they do not hide it
+    own = [np.array([[-1.0, 2.0], [0.0, 2.0], [0.0, 3.0]])]
+    got = em.corner_ranges(xy, heading, cone, corners, own)
+    np.testing.assert_allclose(got, [2.0, 0.5], atol=1e-9)
