@@ -727,6 +727,18 @@ def write_doc(work: Path) -> None:
     rd = load_readings(robond / "readings.csv", robond / "sensors.yaml", None)
     run = Study("robond", rd, *read_map(work / "robond" / "surfaces.csv"))
     walls = Study("robond, side walls", rd, side_wall_map(rd))
+    aria = work / "robond-aria"
+    converter = ROOT / "tools" / "real_logs" / "convert_robond.py"
+    convert = subprocess.run(
+        [sys.executable, str(converter), str(robond), "--order", "aria", "--out", str(aria)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    if convert.returncode != 0:
+        raise SystemExit("echo_models: error: convert_robond.py --order aria failed")
+    _run(["run", str(aria / "readings.csv"), "--sensors", str(aria / "sensors.yaml"),
+          "--out", str(aria / "run"), "--figures", "none"])  # fmt: skip
+    aria_rd = load_readings(aria / "readings.csv", aria / "sensors.yaml", None)
+    aria_study = Study("robond, ARIA order", aria_rd, *read_map(aria / "run" / "surfaces.csv"))
     course = Study("robond, course mounts", remount(rd, dict(enumerate(COURSE_MOUNTS))),
                    walls.lines)  # fmt: skip
     sims: list[tuple[Study, Study]] = []
@@ -737,7 +749,7 @@ def write_doc(work: Path) -> None:
         srd = load_readings(log, None, None)
         sims.append((Study(name, srd, *read_map(work / name / "surfaces.csv")),
                      Study(name, srd, true_lines(name))))  # fmt: skip
-    sc = {st.name: _scores(st) for st in (run, walls, course)}
+    sc = {st.name: _scores(st) for st in (run, walls, course, aria_study)}
     sim_sc = [(_scores(a), _scores(b)) for a, b in sims]
     spec, axis, corn = "specular (today)", "axis ray-cast", "specular and corners"
     r = sc["robond"]
@@ -823,6 +835,13 @@ def write_doc(work: Path) -> None:
             "robond with the course's mount angles (±7.5°, "
             "±22.5°, ±37.5°, ±90°): the side-wall map",
         ),
+        *table(
+            aria_rd,
+            aria_study.lines,
+            "robond with ARIA's column order (the sonars "
+            "mirrored, PROVENANCE.md): its run's surfaces",
+            aria_study.corners,
+        ),
         "The incidence each reading's range implies on the wall its sensor's axis meets",
         "(`arccos(d / r)`, `d` the sensor's distance from that wall, `r` the range): were",
         "the mounts wrong, a sensor's implied incidences would gather at another angle.",
@@ -842,8 +861,11 @@ def write_doc(work: Path) -> None:
         f"  against the side-wall map *{_best(sc['robond, side walls'], 'oblique')[0]}*, "
         f"{_best(sc['robond, side walls'], 'oblique')[1]:.2f};",
         f"  with the course's mount angles *{_best(sc['robond, course mounts'], 'oblique')[0]}*,",
-        f"  {_best(sc['robond, course mounts'], 'oblique')[1]:.2f}. The map is not the limit:",
-        "  the walls a person would draw explain them no better than the run's surfaces.",
+        f"  {_best(sc['robond, course mounts'], 'oblique')[1]:.2f}; with ARIA's column order "
+        f"*{_best(sc['robond, ARIA order'], 'oblique', but=corn)[0]}*,",
+        f"  {_best(sc['robond, ARIA order'], 'oblique', but=corn)[1]:.2f}. The map is not the",
+        "  limit: the walls a person would draw explain them no better than the run's",
+        "  surfaces, and neither the column order nor the mount angles are.",
         "- Their ranges are mostly *longer* than the axis's distance to the wall it meets:",
         f"  the implied incidences lie beyond the axis's and spread over {spread[0]:.0f}–"
         f"{spread[1]:.0f}° between",
