@@ -1,4 +1,4 @@
-"""Which echo model a log's readings follow: specular, axis ray-cast, diffuse or a wider beam.
+"""Which echo model a log's readings follow: specular, axis ray-cast, diffuse, corners.
 
 A run's quality figure (report.json ``quality``) and ``--auto`` predict a reading's range
 by the *specular first echo*: the nearest point of a mapped surface inside the beam where
@@ -26,10 +26,14 @@ cut the angle of the line of sight to an interval (:func:`segment_ranges`):
   in the cone (Moravec & Elfes 1985);
 - ``wide``: specular with a wider cone: a close, strong echo still crosses the detector's
   threshold outside the nominal beam (``sonarsim.transducer``'s effective beam edge widens
-  as the range shortens).
+  as the range shortens);
+- ``specular and corners``: the specular echo or a concave right-angle corner inside the
+  beam that no surface hides, whichever is nearer (:func:`corner_ranges`): a right
+  dihedral returns the pulse from any direction within its opening.
 
-The map is a run's ``surfaces.csv`` (point features, one-row surfaces, are left out as by
-the quality figure). A second map, for the diagnosis only, is the *side-wall map*
+The map is a run's ``surfaces.csv``: its polylines, and its reported corners for the
+model with corners (the quality figure predicts from neither corners nor edges). A
+second map, for the diagnosis only, is the *side-wall map*
 (:func:`side_wall_map`): straight lines through the line-of-sight echo points of the side
 sonars (60 degrees or more off the heading), which face the walls a robot drives along, so
 their line-of-sight and specular echo points agree. It is a rough stand-in for the walls a
