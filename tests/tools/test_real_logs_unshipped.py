@@ -3,8 +3,9 @@
 The registry must name each file exactly (commit, SHA-256, size) and a robot preset that
 exists; the command refuses any other file with a one-line error and exit code 2, and
 writes nothing into docs/real-logs.md for a log whose terms do not allow it. The recorded
-logs themselves are not in the repository: the last test runs one when the user points
-``SONARMORPH_PUBLIC_LOGS`` at a folder holding it, and is skipped otherwise.
+logs themselves are not in the repository: the last test (marker ``public_logs``, which
+./scripts/test leaves out) runs one with ``pytest -m public_logs`` when the user points
+``SONARMORPH_PUBLIC_LOGS`` at a folder holding it.
 """
 
 from __future__ import annotations
@@ -128,7 +129,7 @@ def _public_log(name: str, mod: ModuleType) -> Path:
     return path
 
 
-@pytest.mark.slow
+@pytest.mark.public_logs
 def test_the_ufrgs_corridor_default_run(mod: ModuleType, tmp_path: Path) -> None:
     """Held aside from all tuning: what the default run gives, with what must hold.
 
