@@ -49,10 +49,15 @@ def figure_bytes(fig: Figure, fmt: str) -> bytes:
 
 
 def figures_bytes(
-    figures: Sequence[tuple[str, Figure]], formats: Sequence[str]
+    figures: Sequence[tuple[str, Figure | Callable[[], Figure]]], formats: Sequence[str]
 ) -> dict[str, bytes]:
     """``{"STEM.FMT": bytes}`` for every ``(STEM, figure)`` in every format of ``formats``,
-    in that order; the same bytes as :func:`figure_bytes` of each."""
+    in that order; the same bytes as :func:`figure_bytes` of each.
+
+    A figure may be given as the function that makes it: each process then makes only
+    the figures it draws, after the fork (the child does not wait for this process to
+    make the others, and neither writes to pages the other shares).
+    """
     from concurrent.futures import Future, ThreadPoolExecutor
 
     jobs = [(f"{stem}.{fmt}", fig, fmt) for stem, fig in figures for fmt in formats]
@@ -60,21 +65,37 @@ def figures_bytes(
     child = DrawingChild.start(share) if share else None
     theirs_names = {name for name, _, _ in share} if child is not None else set()
     mine = [job for job in jobs if job[0] not in theirs_names]
+    made = _Made()
     drawn: dict[str, bytes | Future[bytes]] = {}
     try:  # the PNG encoder is this process's only other thread, started after the fork
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="png") as encoder:
             for name, fig, fmt in mine:
                 if fmt == "png":
-                    drawn[name] = encoder.submit(_encode_png, _agg_pixels(fig))
+                    drawn[name] = encoder.submit(_encode_png, _agg_pixels(made(fig)))
                 else:
-                    drawn[name] = figure_bytes(fig, fmt)
+                    drawn[name] = figure_bytes(made(fig), fmt)
     finally:
         theirs = child.collect() if child is not None else None
     if child is not None:
         if theirs is None:  # the child failed: draw its share here
-            theirs = {name: figure_bytes(fig, fmt) for name, fig, fmt in share}
+            theirs = {name: figure_bytes(made(fig), fmt) for name, fig, fmt in share}
         drawn.update(theirs)
     return {name: _result(drawn[name]) for name, _, _ in jobs}
+
+
+class _Made:
+    """The figures of a process: one given, or made once by the function given."""
+
+    def __init__(self) -> None:
+        # keyed by the function itself (kept alive here, so no other takes its id)
+        self._made: dict[Callable[[], Figure], Figure] = {}
+
+    def __call__(self, fig: Figure | Callable[[], Figure]) -> Figure:
+        if not callable(fig):
+            return fig
+        if fig not in self._made:
+            self._made[fig] = fig()
+        return self._made[fig]
 
 
 def _result(value: Any) -> bytes:
@@ -101,7 +122,7 @@ def _childs_share(jobs: list[Job], stems: Sequence[str], formats: Sequence[str])
     return share if fork_is_safe() else []
 
 
-Job = tuple[str, "Figure", str]
+Job = tuple[str, "Figure | Callable[[], Figure]", str]
 
 
 class DrawingChild(ForkedChild):
@@ -109,8 +130,14 @@ class DrawingChild(ForkedChild):
 
     @classmethod
     def start(cls, jobs: Sequence[Job]) -> DrawingChild | None:
-        """Fork a child that sends back ``{name: figure_bytes(fig, fmt)}`` of ``jobs``."""
-        return cls.start_work(lambda: {name: figure_bytes(fig, fmt) for name, fig, fmt in jobs})
+        """Fork a child that sends back ``{name: figure_bytes(fig, fmt)}`` of ``jobs``
+        (a figure given as the function that makes it is made in the child)."""
+
+        def work() -> dict[str, bytes]:
+            made = _Made()
+            return {name: figure_bytes(made(fig), fmt) for name, fig, fmt in jobs}
+
+        return cls.start_work(work)
 
     @classmethod
     def start_work(cls, work: Callable[[], Any]) -> DrawingChild | None:

@@ -11,7 +11,7 @@ figure never imports it. Every line drawn is first cut to the view
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -461,8 +461,11 @@ def render_views(
     """:func:`render_figures` from what the figures show: the arc map's files first
     (none when ``arc`` is None), then the processed map's, the fit's, and the drift
     correction's when one was applied."""
-    figures = [] if arc is None else [("arcmap", arcmap_figure(arc))]
-    figures += [("processed", processed_figure(view)), ("fit", fit_figure(view))]
+    # each figure made where it is drawn (this process or the drawing child)
+    figures: list[tuple[str, Callable[[], Figure]]] = []
+    if arc is not None:
+        figures.append(("arcmap", lambda: arcmap_figure(arc)))
+    figures += [("processed", lambda: processed_figure(view)), ("fit", lambda: fit_figure(view))]
     if view.drift_corrected:
-        figures.append(("alignment", alignment_figure(view)))
+        figures.append(("alignment", lambda: alignment_figure(view)))
     return figures_bytes(figures, formats)
