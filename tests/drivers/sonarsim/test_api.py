@@ -68,3 +68,16 @@ def test_beam_model_alone_does_not_load_the_simulator() -> None:
     import sonarsim
 
     assert sonarsim.World is World and "simulate" in dir(sonarsim)
+
+
+def test_every_exported_name_loads_from_the_module_the_table_names() -> None:
+    # the lazy package lists its names three times (type-checking imports, the loader's
+    # table, __all__): the table and __all__ must agree, and each name must resolve
+    import importlib
+
+    import sonarsim
+
+    table = sonarsim._EXPORTS  # type: ignore[attr-defined]
+    assert sorted(table) == sorted(sonarsim.__all__)
+    for name, module in table.items():
+        assert getattr(sonarsim, name) is getattr(importlib.import_module(module), name)
