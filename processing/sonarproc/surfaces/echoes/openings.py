@@ -327,7 +327,11 @@ def join_pieces(
         pool_cells([replace(points[m], weight=readings[m].astype(np.float64)) for m in g])
         for g in groups
     ]
-    refit = fit_surfaces([replace(p, weight=np.ones(p.size)) for p in pooled], cell=cell)
+    refit = fit_surfaces(
+        [replace(p, weight=np.ones(p.size)) for p in pooled],
+        cell=cell,
+        scatter=STRAIGHT_SHARE * margin,
+    )
     group_of = {m: k for k, g in enumerate(groups) for m in g}
     out_f: list[SurfaceFit] = []
     out_p: list[SurfaceCells] = []

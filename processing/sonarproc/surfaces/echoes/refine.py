@@ -48,7 +48,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.occlusion import contradicted
-from sonarproc.surfaces.echoes.openings import cut_openings, join_pieces
+from sonarproc.surfaces.echoes.openings import STRAIGHT_SHARE, cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
 from sonarproc.surfaces.echoes.unseen import cut_unseen
@@ -269,6 +269,9 @@ def refine_fits(
                                  margin=rounds[0] if rounds else ROUNDS_M[0])  # fmt: skip
     pts_cells: list[SurfaceCells] = []
     pts_idx: list[IntArray] = []
+    # the most a reading's echo point scatters about its surface: the last round's range
+    # tolerance as an RMS (uniform within it), whatever a looser round gathered
+    noise = STRAIGHT_SHARE * rounds[-1] if rounds else 0.0
     for r, tol in enumerate(rounds):
         scored, need = _scored(echoes, r, len(rounds), min_echoes)
         got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
@@ -286,7 +289,8 @@ def refine_fits(
                          np.ones(got[k][0].size), cur[k].closed)
             for k in todo
         ]  # fmt: skip
-        for k, ec, new in zip(todo, sets, fit_surfaces(sets, cell=cell), strict=True):
+        refits = fit_surfaces(sets, cell=cell, scatter=noise)
+        for k, ec, new in zip(todo, sets, refits, strict=True):
             if isinstance(new, SurfaceFailure):
                 continue
             # stretched over its ridge before the next round: a fit through echo points

@@ -9,7 +9,9 @@ candidates the criterion needs:
 1. fewer than :data:`~sonarproc.surfaces.fitting.models.MIN_CELLS` cells, or all at one point:
    a :class:`~sonarproc.surfaces.fitting.models.SurfaceFailure`;
 2. the line, kept at once when its RMS residual is at most ``1.25 floor + 0.25 cell``
-   (the criterion would pick it whatever the others give);
+   (the criterion would pick it whatever the others give); for echo points the floor is
+   at least their scatter about their neighbours (the range noise), which a spline
+   threading sparse points would otherwise undercut;
 3. otherwise the arc (dropped if it does not bend: radius above 20 times its length);
 4. the spline, only when neither passes the same test and there are at least
    :data:`~sonarproc.surfaces.fitting.models.MIN_SPLINE_CELLS` cells;
@@ -28,7 +30,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.arcs import arc_candidate, fit_circles
-from sonarproc.surfaces.fitting.grouped import floor_rms
+from sonarproc.surfaces.fitting.grouped import floor_rms, scatter_rms
 from sonarproc.surfaces.fitting.lines import fit_lines, line_candidate, line_params
 from sonarproc.surfaces.fitting.models import (
     CELL_FACTOR,
@@ -48,13 +50,18 @@ __all__ = ["fit_surface", "fit_surfaces"]
 
 FloatArray = npt.NDArray[np.float64]
 
+#: Fewest echo points whose scatter sets the floor (``scatter``): the RMS of m deviations
+#: is uncertain by about 1 / sqrt(2 m) of itself, a quarter with the 8 deviations of 10
+#: points; fewer say too little about the range noise to overrule the floor.
+MIN_SCATTER_POINTS = 10
+
 
 def _length(poly: FloatArray) -> float:
     return float(np.hypot(*np.diff(poly, axis=0).T).sum()) if len(poly) > 1 else 0.0
 
 
 def fit_surfaces(
-    groups: Sequence[SurfaceCells], *, cell: float
+    groups: Sequence[SurfaceCells], *, cell: float, scatter: float = 0.0
 ) -> list[SurfaceFit | SurfaceFailure]:
     """Fit every group and keep the model the criterion picks (see the module notes).
 
@@ -64,6 +71,18 @@ def fit_surfaces(
         Surfaces' cells, each in order along it.
     cell : float
         Cell size (m): the polylines' step and the criterion's unit.
+    scatter : float
+        When positive, the groups are echo points, not cells, and this is the largest
+        RMS range scatter (m) a reading's echo point can have about its surface (the
+        refinement's range tolerance as an RMS): the floor is at least the points'
+        scatter about their neighbours
+        (:func:`~sonarproc.surfaces.fitting.grouped.scatter_rms`, the range noise no
+        model can explain), up to this. Sparse readings leave one echo point or none per
+        bin of the floor, whose distance to its own mean is nil, so that a line through
+        a straight wall's noisy points would always lose to an arc or a spline threading
+        them (which breaks the wall into pieces that no longer join); points scattered
+        more widely than a reading's range can err are no surface's noise (the chance
+        gatherings of a first, loose round), and excuse nothing beyond the bound.
 
     Returns
     -------
@@ -92,6 +111,9 @@ def fit_surfaces(
     n = sizes[big]
     lines = fit_lines(x, y, n, cell=cell)
     floor = floor_rms(x, y, s, n, cell=cell)
+    if scatter > 0:
+        noise = np.minimum(scatter_rms(x, y, s, n, lines.point, lines.direction), scatter)
+        floor = np.where(n >= MIN_SCATTER_POINTS, np.maximum(floor, noise), floor)
     bound = SPLINE_FACTOR * floor + CELL_FACTOR * cell
     for k in np.flatnonzero(~lines.ok).tolist():
         out[big[k]] = SurfaceFailure("all cells at one point", int(n[k]))
@@ -128,7 +150,16 @@ def fit_surfaces(
                 found["spline"] = spline
         rms = {m: f.rms for m, f in found.items()}
         out[big[k]] = _surface(
-            c, found[choose_model(rms, cell=cell, reference=float(floor[k]))], rms
+            c,
+            found[
+                choose_model(
+                    rms,
+                    cell=cell,
+                    reference=float(floor[k]),
+                    noise=float(floor[k]) if scatter > 0 else 0.0,
+                )
+            ],
+            rms,
         )
     return out
 

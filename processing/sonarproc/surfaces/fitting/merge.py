@@ -8,11 +8,18 @@ Line segments that are nearly parallel (:data:`MERGE_ANGLE_RAD`) and lie on one 
 one surface: their cells are pooled and fitted again. Two walls of a corridor (far more
 than :data:`MERGE_OFFSET_M` apart) stay separate.
 
-*On one line* means within the pieces' fit uncertainty: each end of one piece lies within
-``3 sigma(u) + cell`` of the other's line (never more than :data:`MERGE_OFFSET_M`), where
-``sigma(u) = rms sqrt(1/N + (u - u_mean)^2 / S_uu)`` is the standard error of a total least
-squares line through ``N`` cells with residual ``rms`` at a distance ``u`` along it (the
-cell: the ridge's own quantisation, one cell either way).
+*On one line* means within the pieces' fit uncertainty: both ends of one piece lie within
+``3 hypot(sigma(u), sigma_end) + cell`` of the other's line (never more than
+:data:`MERGE_OFFSET_M`), where ``sigma(u) = rms sqrt(1/N + (u - u_mean)^2 / S_uu)`` is the
+standard error of a total least squares line through ``N`` cells with residual ``rms`` at
+a distance ``u`` along it, and ``sigma_end`` the same of the end's own piece at that end
+(an end is a point of that piece's fitted line, as uncertain as the line is there: two
+pieces of one wall differ by both errors), the cell: the ridge's own quantisation, one
+cell either way. One of the two lines passing
+so is enough: a short piece of a sparse log (a few echo points over a metre) has a line
+whose direction is uncertain by a degree or two, which puts a long piece's far end
+beyond :data:`MERGE_OFFSET_M` of it although the long piece's own line, which is well
+determined, passes through the short piece.
 
 The gap between them: given the readings (:class:`~sonarproc.surfaces.freespace.FreeCones`),
 the pieces are joined however long the gap, unless readings from
@@ -62,15 +69,18 @@ def _frames(
     fits: list[SurfaceFit], cells: list[SurfaceCells]
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Each piece's line (a point, a unit direction), its ends and its residual (m): a
-    line's own; for another model, the total least squares line through its cells."""
+    line's own; for another model, the total least squares line through its cells, and
+    its ends projected onto that line (a piece taken as straight is that line: a curve's
+    ends, which bend off it, would put it off its neighbour's line)."""
     m = len(fits)
     c, t, rms = np.zeros((m, 2)), np.zeros((m, 2)), np.zeros(m)
+    ends = np.stack([f.polyline[[0, -1]] for f in fits]) if fits else np.zeros((0, 2, 2))
     for k, (f, p) in enumerate(zip(fits, cells, strict=True)):
         if f.model == "line":
             c[k], t[k], rms[k] = f.params["point"], f.params["direction"], f.rms_m
         else:
             c[k], t[k], rms[k] = _tls(p)
-    ends = np.stack([f.polyline[[0, -1]] for f in fits]) if fits else np.zeros((0, 2, 2))
+            ends[k] = c[k] + np.outer((ends[k] - c[k]) @ t[k], t[k])
     return c, t, ends, rms
 
 
@@ -110,9 +120,10 @@ def collinear_groups(
     spread = _spread([cells[k] for k in line], c, t, rms)
     # only nearly parallel pairs are tested further (a few per cent of all pairs)
     i, j = np.nonzero(np.triu(np.abs(t @ t.T) >= np.cos(MERGE_ANGLE_RAD), 1))
-    ok = _on_line(c[i], t[i], ends[i], ends[j], spread[i], cell) & _on_line(
-        c[j], t[j], ends[j], ends[i], spread[j], cell
-    )
+    # the better determined line decides: a short piece's own line, extrapolated over a
+    # long one, is too uncertain to say where the wall runs there
+    ok = _on_line(c[i], t[i], ends[j], spread[i], cell, _end_sigma(c[j], t[j], ends[j], spread[j]))
+    ok |= _on_line(c[j], t[j], ends[i], spread[j], cell, _end_sigma(c[i], t[i], ends[i], spread[i]))
     i, j = i[ok], j[ok]
     gap0, gap1 = _gaps(c[i], t[i], ends[i], ends[j])
     if cones is None:
@@ -210,18 +221,29 @@ def _spread(cells: list[SurfaceCells], c: FloatArray, t: FloatArray, rms: FloatA
     return out
 
 
+def _sigma(u: FloatArray, spread: FloatArray) -> FloatArray:
+    """Standard error across a line at positions ``u`` along it (rows of ``_spread``)."""
+    rms, n, mean, suu = (spread[:, k, None] for k in range(4))
+    return np.asarray(rms * np.sqrt(1.0 / n + (u - mean) ** 2 / suu))
+
+
+def _end_sigma(c: FloatArray, t: FloatArray, ends: FloatArray, spread: FloatArray) -> FloatArray:
+    """Standard error of each piece's own line at its two ends (pair, end)."""
+    return _sigma(np.einsum("pex,px->pe", ends - c[:, None, :], t), spread)
+
+
 def _on_line(
-    c: FloatArray, t: FloatArray, own: FloatArray, other: FloatArray, spread: FloatArray,
-    cell: float,
+    c: FloatArray, t: FloatArray, other: FloatArray, spread: FloatArray, cell: float,
+    other_sigma: FloatArray,
 ) -> BoolArray:  # fmt: skip
-    """Whether each ``other`` segment lies on the line ``c + u t`` of its ``own`` partner:
-    both its ends within the line's uncertainty there (module notes)."""
+    """Whether each ``other`` segment lies on the line ``c + u t``: both its ends within the
+    line's uncertainty there, combined with the uncertainty of the ends themselves (each
+    is an end of the other piece's own fitted line; module notes)."""
     normal = np.stack((-t[:, 1], t[:, 0]), axis=1)
     rel = other - c[:, None, :]  # (pair, end, xy)
     offset = np.abs(np.einsum("pex,px->pe", rel, normal))
     along = np.einsum("pex,px->pe", rel, t)
-    rms, n, mean, suu = (spread[:, k, None] for k in range(4))
-    sigma = rms * np.sqrt(1.0 / n + (along - mean) ** 2 / suu)
+    sigma = np.hypot(_sigma(along, spread), other_sigma)
     tol = np.minimum(MERGE_SIGMAS * sigma + cell, MERGE_OFFSET_M)
     return np.asarray(np.all(offset <= tol, axis=1))
 

@@ -138,10 +138,14 @@ class Candidate:
     closed: bool = False
 
 
-def choose_model(rms: dict[str, float], *, cell: float, reference: float | None = None) -> str:
+def choose_model(
+    rms: dict[str, float], *, cell: float, reference: float | None = None, noise: float = 0.0
+) -> str:
     """The model the criterion picks from the candidates' RMS residuals (m).
 
-    ``reference`` stands in for the spline's residual when no spline was fitted.
+    ``reference`` stands in for the spline's residual when no spline was fitted;
+    ``noise`` is the points' own scatter (echo points' range noise), below which no
+    model's residual means anything: the reference is at least that.
 
     Examples
     --------
@@ -151,8 +155,12 @@ def choose_model(rms: dict[str, float], *, cell: float, reference: float | None 
     'arc'
     >>> choose_model({"line": 0.03, "arc": 0.004}, cell=0.01, reference=0.0035)
     'arc'
+    >>> choose_model({"line": 0.013, "spline": 0.001}, cell=0.02, noise=0.012)
+    'line'
     """
     ref = rms.get("spline", reference)
+    if ref is not None:
+        ref = max(ref, noise)
     for m in MODELS:
         if m not in rms:
             continue

@@ -15,7 +15,9 @@ the nearest such corner at each end. The stretch is not made where readings from
 :data:`~sonarproc.surfaces.freespace.MIN_FREE_POSES` distinct viewpoints saw through it
 (:func:`~sonarproc.surfaces.freespace.free_feet`: an opening between the wall's end and
 the corner stays open), nor where it would cross another fitted surface (the corner is
-another room's), nor through a stretch that stood hidden behind something else
+another room's) or run along one (another piece of the same line, found nearer the
+corner, reaches it: the stretch would put two surfaces on one stretch of wall), nor
+through a stretch that stood hidden behind something else
 (:func:`~sonarproc.surfaces.echoes.unseen.hidden_runs`, from either side: the readings
 facing it squarely came back short of it, so its corner is another wall's on the same
 line, such as the back corner of the next door recess behind a corridor wall).
@@ -79,6 +81,21 @@ def _crosses(p: FloatArray, q: FloatArray, others: list[FloatArray]) -> bool:
     return bool(rows.size)
 
 
+def _runs_along(p: FloatArray, q: FloatArray, others: list[FloatArray]) -> bool:
+    """Whether the segment ``p q`` (less its last :data:`CROSS_END_M` at both ends) runs
+    along another polyline: a vertex of one lies on it, within the ranges' tolerance."""
+    length = float(np.hypot(*(q - p)))
+    if length <= 2 * CROSS_END_M or not others:
+        return False
+    u = (q - p) / length
+    pts = np.concatenate(others)
+    d = pts - p
+    along = d @ u
+    across = np.abs(d[:, 0] * u[1] - d[:, 1] * u[0])
+    inside = (along > CROSS_END_M) & (along < length - CROSS_END_M)
+    return bool(np.any(inside & (across <= LINE_REACH_M)))
+
+
 def _hidden(p: FloatArray, q: FloatArray, cones: FreeCones) -> bool:
     """Whether the stretch ``p q`` holds a hidden run, seen from either side of it."""
     length = float(np.hypot(*(q - p)))
@@ -140,6 +157,8 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
             p = a + t * (target if end_before else length)
             q = a + t * (0.0 if end_before else target)
             if float(np.hypot(*(q - p))) < MIN_STRETCH_M or _crosses(p, q, others):
+                continue
+            if _runs_along(p, q, others):
                 continue
             _, read, _ = free_feet(p[None, :], q[None, :], cones, margin=RANGE_TOL_M)
             if np.unique(cones.viewpoint[read]).size >= MIN_FREE_POSES or _hidden(p, q, cones):

@@ -98,3 +98,13 @@ def test_a_wall_fitted_past_a_point_on_its_line_ends_there() -> None:
     c = Fit("corner", np.array([[3.0, 0.0]]), 0.0, 0.0, 9, 9)
     short = wall([2.7, 0.0], [3.1, 0.0])
     assert trim_to_points([c, short], [[3.0, 0.0]]) == [c, short]
+
+
+def test_a_piece_is_not_stretched_along_another_piece_of_its_line() -> None:
+    # two pieces of the wall y = 0, a gap between them left open: only the nearer one
+    # reaches each corner, and no stretch runs along the other piece
+    near, far = _wall((0.3, 0.0), (2.0, 0.0)), _wall((2.6, 0.0), (3.5, 0.0))
+    corners = [_point("corner", (0.0, 0.0)), _point("corner", (5.0, 0.0))]
+    out = complete_to_corners([near, far, *corners], NONE)
+    np.testing.assert_allclose(out[0].polyline[[0, -1]], [[0.0, 0.0], [2.0, 0.0]], atol=1e-9)
+    np.testing.assert_allclose(out[1].polyline[[0, -1]], [[2.6, 0.0], [5.0, 0.0]], atol=1e-9)
