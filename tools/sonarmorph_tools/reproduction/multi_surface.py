@@ -63,11 +63,15 @@ TEST_SEEN: tuple[str, ...] = (
     "heldout3-two-door-room", "heldout3-recess-junction", "heldout3-lbox-hall",
     "heldout4-entry-room", "heldout4-facing-doors", "heldout4-column-alcove",
     "heldout5-stepped-wall", "heldout5-rotated-room", "heldout5-pier-diagonal",
+    "heldout6-plus-hall", "heldout6-end-door", "heldout6-slant-office",
+    "sparse10-door-corridor", "sparse10-hall-loop", "sparse10-junction",
+    "sparse10-l-corridor", "sparse10-return-corridor",
 )  # fmt: skip
 #: Transducer-physics scenes of the test data, written before the rules they judge were
 #: changed and run only to judge them.
 HELD_OUT: tuple[str, ...] = (
-    "heldout6-plus-hall", "heldout6-end-door", "heldout6-slant-office",
+    "heldout7-dogleg-corridor", "heldout7-box-hall", "heldout7-tee-doors",
+    "sparse10-heldout-cross", "sparse10-heldout-office", "sparse10-heldout-dogleg",
 )  # fmt: skip
 #: Transducer-physics targets: precision (m), completeness, share of output far (> 10 cm)
 #: from every true surface.
