@@ -13,7 +13,6 @@ host process's allocator.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import sys
 
 __all__ = ["HEAP_BLOCK_LIMIT", "HEAP_KEEP_LIMIT", "retain_freed_memory"]
@@ -38,9 +37,11 @@ def retain_freed_memory() -> bool:
     """
     if not sys.platform.startswith("linux"):
         return False
-    name = ctypes.util.find_library("c")
     try:
-        libc = ctypes.CDLL(name or "libc.so.6")
+        # the symbols the process has loaded already: the C library the interpreter runs
+        # on, whose allocator numpy uses (ctypes.util.find_library would run ldconfig in
+        # a subprocess, at every start, for the same answer)
+        libc = ctypes.CDLL(None)
         mallopt = libc.mallopt
     except (OSError, AttributeError):  # musl and others have no mallopt
         return False
