@@ -217,10 +217,12 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
+    from sonarproc.pipeline.run import import_stage_modules
     from sonarproc.report import default_out_dir, write_report
     from sonarproc.report.ahead import AheadFigures
     from sonarproc.report.plots import parse_figure_formats
     from sonarproc.run_modes import run_log
+    from sonarproc.runtime import loading_modules
 
     with guarded():
         formats = parse_figure_formats(figures)
@@ -236,6 +238,10 @@ def run_command(
         # and the result come; forked first (it needs none of the modules the run loads
         # next) and before the progress bar's thread (no fork beside one).
         ahead = AheadFigures.start(formats)
+        # the stages' modules, loaded now (run_log would load them first thing) out of
+        # the collector's sight (sonarproc.runtime)
+        with loading_modules():
+            import_stage_modules(params)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
         try:
             read = {
