@@ -256,6 +256,11 @@ def run_command(
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
+            if not as_json:
+                # the summary's modules, loaded now: the report next waits for the
+                # figures' child, which is still drawing (this process is idle then)
+                import rich.console
+                import rich.table  # noqa: F401
             doc = write_report(result, out_dir, auto=record, figures=formats, ahead=ahead)
         finally:
             progress.close()
