@@ -168,6 +168,22 @@ def process(
     def build(lg: SonarLog) -> BuiltMap:
         return build_map(lg, params, build_arc_map, progress=progress, cpu_start=cpu0)
 
+    def fit_ahead(built: BuiltMap) -> BuiltMap:
+        # what fit = "auto" does with the map alone (not with the readings' echo points)
+        if params.fit != "auto":
+            return built
+        import numpy as np
+
+        from sonarproc.pipeline.surfacefit import start_fit
+
+        _, beams, grid, mmap, _ = built.stage
+        try:
+            ix, iy = np.nonzero(mmap.processed.T)
+            ahead = start_fit(mmap.processed, mmap.evidence, grid, beams, cells=(ix, iy))
+        except Exception:  # the fit meets it again, where it reports it, if the map is kept
+            return built
+        return replace(built, fit_start=ahead)
+
     cpu_mapped = time.process_time()
     try:
         if pending is None:
@@ -183,8 +199,10 @@ def process(
                     raise
             else:
                 # most logs keep their poses: the map as read is then the run's, and its
-                # held-out refit starts now, while this process waits for the decision
+                # held-out refit and the first half of its fit start now, while this
+                # process would wait for the decision
                 start_heldout(as_read.stage)
+                as_read = fit_ahead(as_read)
             aligned, pending = pending.result(), None  # the answer asked for above, kept
             if aligned.log is log_ and as_read is not None:
                 built = as_read

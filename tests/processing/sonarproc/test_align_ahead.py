@@ -16,7 +16,7 @@ from drift import drifted_readings, looped_scenario
 from sonarlog import LogWriter, SonarLog, read_log
 from sonarproc import forked
 from sonarproc.params import RunParams
-from sonarproc.pipeline import align_ahead, process
+from sonarproc.pipeline import align_ahead, process, surfacefit
 from sonarproc.pipeline.result import RunResult
 from sonarproc.quality.ahead import HeldOutAhead
 from sonarproc.report.run_report import report_dict
@@ -77,10 +77,21 @@ def test_a_log_kept_as_read_is_mapped_once_meanwhile(
 ) -> None:
     path = tmp_path / "room-box.h5"
     simulate_to_log(ROOT / "configs" / "scenarios" / "room-box.yaml", path)
+    starts: list[Any] = []
+    real_start_fit = surfacefit.start_fit
+
+    def spy_start_fit(*args: Any, **kwargs: Any) -> Any:
+        starts.append(real_start_fit(*args, **kwargs))
+        return starts[-1]
+
+    monkeypatch.setattr(surfacefit, "start_fit", spy_start_fit)
     ahead, here, refits = both_ways(read_log(path), monkeypatch)
     assert ahead.alignment is not None and ahead.alignment.applied is False
     assert record(ahead) == record(here)
     assert len(refits) == 1  # the map as read's held-out refit, started meanwhile, kept
+    # the fit's first half: done ahead on the map as read (then used), and by the run
+    # that aligns first, in its fit
+    assert len(starts) == 2 and starts[0].found is not None
     assert ahead.timings_s["align"] > 0 and list(ahead.timings_s) == list(here.timings_s)
 
 
