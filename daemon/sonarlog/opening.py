@@ -23,11 +23,13 @@ import sys
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-
-import h5py
+from typing import TYPE_CHECKING
 
 from sonarlog.errors import InvalidLogError
 from sonarlog.state import read_superblock
+
+if TYPE_CHECKING:  # imported as a file is opened (reading a CSV or bag log needs no HDF5)
+    import h5py
 
 
 def _first_line(err: BaseException) -> str:
@@ -44,6 +46,8 @@ def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
     InvalidLogError
         If the file is missing, is not HDF5, or cannot be opened; the message names the file.
     """
+    import h5py
+
     p = Path(path)
     if not p.is_file():
         raise InvalidLogError(f"{p}: no such file")
@@ -69,6 +73,8 @@ def open_log_file(path: str | os.PathLike[str]) -> Iterator[h5py.File]:
 
 
 def _open_tolerant(path: Path) -> h5py.File:
+    import h5py
+
     try:
         return h5py.File(path, "r")
     except OSError as err:

@@ -6,9 +6,8 @@ import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import h5py
 import numpy as np
 
 from sonarlog.errors import InvalidLogError
@@ -27,6 +26,9 @@ from sonarlog.schema import (
     sensor_table_problem,
 )
 from sonarlog.state import CRASHED_ATTR, LogState, flock_held, integrity_warning, read_superblock
+
+if TYPE_CHECKING:  # h5py loads as a log is opened: a CSV or bag log never needs it
+    import h5py
 
 log = logging.getLogger(__name__)
 
@@ -240,6 +242,8 @@ def _check_attrs(path: Path, attrs: dict[str, Any]) -> None:
 
 
 def _dataset(path: Path, f: h5py.File, name: str, fields: tuple[str, ...]) -> h5py.Dataset:
+    import h5py
+
     if name not in f or not isinstance(f[name], h5py.Dataset):
         raise InvalidLogError(f"{path}: missing required dataset /{name}")
     ds = f[name]
@@ -295,6 +299,8 @@ def _valid_prefix(rows: np.ndarray) -> int:
 
 
 def _optional_rows(f: h5py.File, name: str, dtype: np.dtype) -> np.ndarray | None:
+    import h5py
+
     if name not in f or not isinstance(f[name], h5py.Dataset):
         return None
     rows = _read_prefix(f[name])

@@ -39,8 +39,8 @@ import time
 from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
+from typing import TYPE_CHECKING
 
-import h5py
 import numpy as np
 
 from sonarlog.integrity import seal
@@ -55,6 +55,9 @@ from sonarlog.schema import (
     as_sensor_table,
 )
 from sonarlog.space import SpaceGuard
+
+if TYPE_CHECKING:  # imported as a log is created (readers of CSV and bag logs never need it)
+    import h5py
 
 log = logging.getLogger(__name__)
 
@@ -151,6 +154,8 @@ class LogWriter:
         self.error: OSError | None = None
         #: rows refused for want of space and never written (counted on close)
         self.dropped_on_close = 0
+
+        import h5py
 
         # HDF5's own file lock would clash with the flock sonard holds on the log for the
         # whole run (flock locks belong to open files, not processes): the owner locks.

@@ -20,7 +20,7 @@ from sonarproc.cli import (
     watch,
 )
 from sonarproc.cli.app import app
-from sonarproc.runtime import retain_freed_memory
+from sonarproc.runtime import freeze_modules, retain_freed_memory
 
 __all__ = ["main", "run_console"]
 
@@ -75,7 +75,7 @@ def run_console() -> NoReturn:  # pragma: no cover - console-script shim
     a run's modules and maps). Only the console script does: a host process calling
     :func:`main` keeps its collector as it is.
     """
-    gc.freeze()
+    freeze_modules()  # and those a command loads later (sonarproc.runtime.loading_modules)
     code = main()
     gc.freeze()
     sys.exit(code)

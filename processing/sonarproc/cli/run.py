@@ -217,10 +217,12 @@ def run_command(
     With --foxglove the result is then served to the Foxglove app until Ctrl-C.
     """
     from sonarproc.fit import FitFailure
+    from sonarproc.pipeline.run import import_stage_modules
     from sonarproc.report import default_out_dir, write_report
     from sonarproc.report.ahead import AheadFigures
     from sonarproc.report.plots import parse_figure_formats
     from sonarproc.run_modes import run_log
+    from sonarproc.runtime import loading_modules
 
     with guarded():
         formats = parse_figure_formats(figures)
@@ -236,6 +238,10 @@ def run_command(
         # and the result come; forked first (it needs none of the modules the run loads
         # next) and before the progress bar's thread (no fork beside one).
         ahead = AheadFigures.start(formats)
+        # the stages' modules, loaded now (run_log would load them first thing) out of
+        # the collector's sight (sonarproc.runtime)
+        with loading_modules():
+            import_stage_modules(params)
         progress = _DelayedProgress(enabled=sys.stderr.isatty() and not as_json and not auto)
         try:
             read = {
@@ -250,6 +256,11 @@ def run_command(
             if result.log_warning:
                 typer.echo(f"sonarproc: warning: {result.log_warning}", err=True)
             progress("report")
+            if not as_json:
+                # the summary's modules, loaded now: the report next waits for the
+                # figures' child, which is still drawing (this process is idle then)
+                import rich.console
+                import rich.table  # noqa: F401
             doc = write_report(result, out_dir, auto=record, figures=formats, ahead=ahead)
         finally:
             progress.close()

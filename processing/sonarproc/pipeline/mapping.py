@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +30,9 @@ from sonarproc.params import RunParams
 from sonarproc.pipeline.evaluation import SeenAhead, fit_and_measure, map_counts, no_arc_message
 from sonarproc.pipeline.result import RunResult
 from sonarproc.pipeline.selection import Beams, plan_grid, select_beams
+
+if TYPE_CHECKING:  # scipy's modules load with the fit, not with the map
+    from sonarproc.pipeline.surfacefit import FitStart
 
 __all__ = [
     "STAGES",
@@ -106,6 +109,7 @@ def evaluate_map(
     timings: dict[str, float] | None = None,
     empty_message: str | None = None,
     beams: Beams | None = None,
+    fit_start: FitStart | None = None,
 ) -> RunResult:
     """Fit and measure a map; the record of the run.
 
@@ -133,6 +137,9 @@ def evaluate_map(
         The error when the map is empty (default: no arc touches the map or bbox).
     beams : Beams, optional
         The mapped readings: ``fit = "auto"`` refits surfaces through their echo points.
+    fit_start : sonarproc.pipeline.surfacefit.FitStart, optional
+        The first half of ``fit = "auto"``'s choice on this map and these readings,
+        computed already (:attr:`BuiltMap.fit_start`).
 
     Raises
     ------
@@ -161,7 +168,9 @@ def evaluate_map(
         if truth is not None and beams is not None and not glance:
             ahead = SeenAhead(truth, beams)
         try:
-            auto = choose_fit(mmap.processed, mmap.evidence, grid, beams, cells=cells)
+            auto = choose_fit(
+                mmap.processed, mmap.evidence, grid, beams, cells=cells, start=fit_start
+            )
         finally:  # no thread outlives the fit, even a failed one
             if ahead is not None:
                 ahead.join()
@@ -305,6 +314,9 @@ class BuiltMap:
     clock : callable
         The stages' clock, still running (the wait before the fit counts in the last
         build stage, as in :func:`map_log`).
+    fit_start : sonarproc.pipeline.surfacefit.FitStart or None
+        The first half of ``fit = "auto"``'s choice on this map, computed ahead
+        (:func:`~sonarproc.pipeline.surfacefit.start_fit`); None: the fit does it.
     """
 
     log: SonarLog
@@ -312,6 +324,7 @@ class BuiltMap:
     stage: MappedStage
     cpu_start: float
     clock: _StageClock
+    fit_start: FitStart | None = None
 
 
 def build_map(
@@ -348,7 +361,7 @@ def fit_map(
     result = evaluate_map(
         built.log, built.params, grid, mmap, robot_xy=beams.robot_xy, counts=counts,
         cpu_start=built.cpu_start, stage=stage, timings=stage.timings,
-        empty_message=empty_message, beams=beams,
+        empty_message=empty_message, beams=beams, fit_start=built.fit_start,
     )  # fmt: skip
     if measure is not None:
         stage("quality")

@@ -99,7 +99,9 @@ def process(
         started by it (:class:`~sonarproc.pipeline.align_ahead.AlignAhead`), used in place
         of running it again (``run``'s default mode may hand the log on to ``--auto``,
         which then needs the same aligned poses). While a child aligns, the log is mapped
-        as read; a log whose poses the stage corrects is then mapped again.
+        as read and the held-out refit of that map starts (the quality stage's, in a
+        child); a log whose poses the stage corrects is then mapped again, and its
+        refit started again.
     quality_of_curves : bool, optional
         Measure the quality of a map that is one curve (no surfaces). ``False`` where the
         caller replaces such a result (``run``'s default mode hands it to ``--auto``, which
@@ -145,8 +147,6 @@ def process(
         nonlocal heldout
         from sonarproc.quality.ahead import HeldOutAhead
 
-        if on_mapped is not None:  # the caller's first (the figures' child forked first)
-            on_mapped(stage)
         heldout = HeldOutAhead.start(
             build_arc_map, stage.beams, stage.grid, params, stage.mmap.evidence
         )
@@ -168,6 +168,22 @@ def process(
     def build(lg: SonarLog) -> BuiltMap:
         return build_map(lg, params, build_arc_map, progress=progress, cpu_start=cpu0)
 
+    def fit_ahead(built: BuiltMap) -> BuiltMap:
+        # what fit = "auto" does with the map alone (not with the readings' echo points)
+        if params.fit != "auto":
+            return built
+        import numpy as np
+
+        from sonarproc.pipeline.surfacefit import start_fit
+
+        _, beams, grid, mmap, _ = built.stage
+        try:
+            ix, iy = np.nonzero(mmap.processed.T)
+            ahead = start_fit(mmap.processed, mmap.evidence, grid, beams, cells=(ix, iy))
+        except Exception:  # the fit meets it again, where it reports it, if the map is kept
+            return built
+        return replace(built, fit_start=ahead)
+
     cpu_mapped = time.process_time()
     try:
         if pending is None:
@@ -181,14 +197,26 @@ def process(
             except Exception:
                 if pending.result().log is log_:
                     raise
+            else:
+                # most logs keep their poses: the map as read is then the run's, and its
+                # held-out refit and the first half of its fit start now, while this
+                # process would wait for the decision
+                start_heldout(as_read.stage)
+                as_read = fit_ahead(as_read)
             aligned, pending = pending.result(), None  # the answer asked for above, kept
             if aligned.log is log_ and as_read is not None:
                 built = as_read
             else:  # the poses were corrected: mapped again from them
+                if heldout is not None:  # the dropped map's refit is not wanted
+                    heldout.cancel()
+                    heldout = None
                 cpu0 += time.process_time() - cpu_mapped  # the dropped map is not the method's
                 log_ = mapped = aligned.log
                 built = build(log_)
-        start_heldout(built.stage)
+        if on_mapped is not None:
+            on_mapped(built.stage)
+        if heldout is None:
+            start_heldout(built.stage)
         result, _ = fit_map(built, measure=measure)
     finally:  # a failed run, or a result handed on unmeasured: no child is waited for
         if heldout is not None:

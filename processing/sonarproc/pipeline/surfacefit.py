@@ -52,6 +52,7 @@ from sonarproc.surfaces.reflectors.points import claim_points, refine_with_point
 __all__ = [
     "EXTRACT_CELL_M",
     "AutoFit",
+    "FitStart",
     "choose_fit",
     "coarse_counts",
     "column_spans",
@@ -60,6 +61,7 @@ __all__ = [
     "refine_surfaces",
     "seen_of_truth",
     "silent_geometry",
+    "start_fit",
     "surface_kind",
     "surfaces_fit_record",
 ]
@@ -163,6 +165,83 @@ def one_curve_at_a_glance(
     )
 
 
+@dataclass(frozen=True, eq=False)
+class FitStart:
+    """The first half of :func:`choose_fit` on one map (:func:`start_fit`): the surfaces
+    found on the map's ridge, before they are refitted through the echo points.
+
+    Attributes
+    ----------
+    answer : AutoFit or None
+        The choice itself, where nothing follows (nothing to fit, one function of x).
+    found : SurfaceSet or None
+        The surfaces found on the ridge, to be refitted.
+    detail : dict or None
+        The choice's record so far.
+    criterion : str
+        Why surfaces.
+    extract : tuple or None
+        The coarse count map and its grid the surfaces were found on.
+    lines_first : bool
+        A long log's path (:func:`_lines_first`): nothing is done ahead.
+    spread : dict or None
+        The kept cells' column spans (the record's first entries).
+    """
+
+    answer: AutoFit | None
+    found: SurfaceSet | None = None
+    detail: dict[str, Any] | None = None
+    criterion: str = ""
+    extract: tuple[npt.NDArray[Any], Grid] | None = None
+    lines_first: bool = False
+    spread: dict[str, float] | None = None
+
+
+def start_fit(
+    processed: npt.NDArray[np.bool_],
+    counts: npt.NDArray[Any],
+    grid: Grid,
+    beams: Beams | None = None,
+    *,
+    cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
+    lines_first: bool | None = None,
+) -> FitStart:
+    """The first half of :func:`choose_fit` (same parameters): the map's column spans,
+    the surfaces on its ridge and the choice between one function and surfaces; what
+    needs only the map. ``run`` computes it while the align stage decides whether the
+    map is the run's (:func:`sonarproc.pipeline.run.process`)."""
+    if not np.any(processed):
+        empty = find_surfaces(processed, grid, counts)
+        return FitStart(AutoFit("surfaces", "nothing is left to fit", empty, {"surfaces": 0}))
+    spans = column_spans(processed, grid.cell, cells=cells)
+    median = float(np.median(spans)) if spans.size else 0.0
+    p90 = float(np.percentile(spans, 90)) if spans.size else 0.0
+    spread = {"median_column_span_m": median, "p90_column_span_m": p90}
+    fast = (
+        f"one function of x when the kept cells of the median column span <= "
+        f"{MEDIAN_SPAN_M:g} m and those of 90 % of the columns <= {P90_SPAN_M:g} m"
+    )
+    if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
+        return FitStart(AutoFit("function", fast, None, spread))
+    if lines_first is None:
+        lines_first = beams is not None and beams.path.size >= LINES_FIRST_READINGS
+    if beams is not None and lines_first:
+        return FitStart(None, lines_first=True, spread=spread)
+    if beams is not None:
+        ex_counts, ex_grid = coarse_counts(counts, grid, EXTRACT_CELL_M)
+    else:
+        ex_counts, ex_grid = np.asarray(counts), grid
+    kept = ridge_nms(vote(ex_counts > 0, ex_counts, SURFACE_VOTES), ex_counts)
+    found = find_surfaces(kept, ex_grid, ex_counts)
+    decision = decide(found)
+    detail = {**spread, **decision.to_json()}
+    detail.pop("choice", None)
+    criterion = detail.pop("criterion")
+    if decision.single_function:
+        return FitStart(AutoFit("function", str(criterion), None, detail))
+    return FitStart(None, found, detail, str(criterion), (ex_counts, ex_grid))
+
+
 def choose_fit(
     processed: npt.NDArray[np.bool_],
     counts: npt.NDArray[Any],
@@ -171,6 +250,7 @@ def choose_fit(
     *,
     cells: tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]] | None = None,
     lines_first: bool | None = None,
+    start: FitStart | None = None,
 ) -> AutoFit:
     """Decide between the paper's polynomial and several surfaces (see the module notes).
 
@@ -192,44 +272,27 @@ def choose_fit(
         by default when ``beams`` holds at least :data:`LINES_FIRST_READINGS` readings.
         ``--auto`` scores a long log's surfaces on subsets of it with the fit the run on
         every reading makes.
+    start : FitStart, optional
+        :func:`start_fit` of these same arguments, when the caller has it already.
 
     Returns
     -------
     AutoFit
     """
-    if not np.any(processed):
-        empty = find_surfaces(processed, grid, counts)
-        return AutoFit("surfaces", "nothing is left to fit", empty, {"surfaces": 0})
-    spans = column_spans(processed, grid.cell, cells=cells)
-    median = float(np.median(spans)) if spans.size else 0.0
-    p90 = float(np.percentile(spans, 90)) if spans.size else 0.0
-    spread = {"median_column_span_m": median, "p90_column_span_m": p90}
-    fast = (
-        f"one function of x when the kept cells of the median column span <= "
-        f"{MEDIAN_SPAN_M:g} m and those of 90 % of the columns <= {P90_SPAN_M:g} m"
-    )
-    if median <= MEDIAN_SPAN_M and p90 <= P90_SPAN_M:
-        return AutoFit("function", fast, None, spread)
-    if lines_first is None:
-        lines_first = beams is not None and beams.path.size >= LINES_FIRST_READINGS
-    if beams is not None and lines_first:
-        return _lines_first(counts, grid, beams, spread)
-    if beams is not None:
-        ex_counts, ex_grid = coarse_counts(counts, grid, EXTRACT_CELL_M)
-    else:
-        ex_counts, ex_grid = np.asarray(counts), grid
-    kept = ridge_nms(vote(ex_counts > 0, ex_counts, SURFACE_VOTES), ex_counts)
-    found = find_surfaces(kept, ex_grid, ex_counts)
-    decision = decide(found)
-    detail = {**spread, **decision.to_json()}
-    detail.pop("choice", None)
-    criterion = detail.pop("criterion")
-    if decision.single_function:
-        return AutoFit("function", str(criterion), None, detail)
+    s = start
+    if s is None:
+        s = start_fit(processed, counts, grid, beams, cells=cells, lines_first=lines_first)
+    if s.answer is not None:
+        return s.answer
+    if s.lines_first:
+        assert beams is not None and s.spread is not None
+        return _lines_first(counts, grid, beams, s.spread)
+    assert s.found is not None and s.detail is not None and s.extract is not None
+    found, detail = s.found, dict(s.detail)
     if beams is not None and found.surfaces:
-        found = refine_surfaces(found, beams, grid.cell, counts=(ex_counts, ex_grid))
+        found = refine_surfaces(found, beams, grid.cell, counts=s.extract)
         detail["surfaces"] = len(found.surfaces)
-    return AutoFit("surfaces", str(criterion), found, detail)
+    return AutoFit("surfaces", s.criterion, found, detail)
 
 
 def _lines_first(

@@ -182,9 +182,12 @@ def _draw_when_sent(
 ) -> dict[str, bytes]:
     """In the child: import what drawing needs, wait for the arc map or the result; draw
     the arc map's figure as soon as the map comes, the others when the result does."""
-    from sonarproc.report import plots
+    from sonarproc.runtime import loading_modules
 
-    warm_up(formats)
+    with loading_modules():  # the console script's: no collection while matplotlib loads
+        from sonarproc.report import plots
+
+        warm_up(formats)
     gc.freeze()  # matplotlib's modules and font, loaded for good: no collection looks at them
     tag = os.read(go_fd, 1)
     early: dict[str, bytes] = {}

@@ -16,8 +16,9 @@ from drift import drifted_readings, looped_scenario
 from sonarlog import LogWriter, SonarLog, read_log
 from sonarproc import forked
 from sonarproc.params import RunParams
-from sonarproc.pipeline import align_ahead, process
+from sonarproc.pipeline import align_ahead, process, surfacefit
 from sonarproc.pipeline.result import RunResult
+from sonarproc.quality.ahead import HeldOutAhead
 from sonarproc.report.run_report import report_dict
 from sonarproc.simulate import simulate_to_log
 
@@ -39,25 +40,35 @@ def record(result: RunResult) -> dict[str, Any]:
     return doc
 
 
-def both_ways(log: SonarLog, monkeypatch: pytest.MonkeyPatch) -> tuple[RunResult, RunResult]:
-    """The run with the align stage in a child (checked to be forked), and all here."""
+def both_ways(
+    log: SonarLog, monkeypatch: pytest.MonkeyPatch
+) -> tuple[RunResult, RunResult, list[HeldOutAhead]]:
+    """The run with the align stage in a child (checked to be forked), and all here; and
+    the held-out refits the first run started, in order."""
     started: list[align_ahead.AlignAhead] = []
     start = align_ahead.AlignAhead.start
+    refits: list[HeldOutAhead] = []
+    start_refit = HeldOutAhead.start.__func__  # type: ignore[attr-defined]
 
     def spy(*args: Any, **kwargs: Any) -> align_ahead.AlignAhead:
         started.append(start(*args, **kwargs))
         return started[-1]
 
+    def spy_refit(cls, *args):  # type: ignore[no-untyped-def]
+        refits.append(start_refit(cls, *args))
+        return refits[-1]
+
     params = RunParams(cell=0.02, fit="auto")
     with monkeypatch.context() as m:
         m.setattr(align_ahead.AlignAhead, "start", spy)
+        m.setattr(HeldOutAhead, "start", classmethod(spy_refit))
         ahead = process(log, params)
     if not started or started[0].here:
         pytest.skip("another thread runs in this test process: no fork")
     with monkeypatch.context() as m:
         m.setattr(align_ahead, "fork_is_safe", lambda: False)
         here = process(log, params)
-    return ahead, here
+    return ahead, here, refits
 
 
 @needs_fork
@@ -66,9 +77,21 @@ def test_a_log_kept_as_read_is_mapped_once_meanwhile(
 ) -> None:
     path = tmp_path / "room-box.h5"
     simulate_to_log(ROOT / "configs" / "scenarios" / "room-box.yaml", path)
-    ahead, here = both_ways(read_log(path), monkeypatch)
+    starts: list[Any] = []
+    real_start_fit = surfacefit.start_fit
+
+    def spy_start_fit(*args: Any, **kwargs: Any) -> Any:
+        starts.append(real_start_fit(*args, **kwargs))
+        return starts[-1]
+
+    monkeypatch.setattr(surfacefit, "start_fit", spy_start_fit)
+    ahead, here, refits = both_ways(read_log(path), monkeypatch)
     assert ahead.alignment is not None and ahead.alignment.applied is False
     assert record(ahead) == record(here)
+    assert len(refits) == 1  # the map as read's held-out refit, started meanwhile, kept
+    # the fit's first half: done ahead on the map as read (then used), and by the run
+    # that aligns first, in its fit
+    assert len(starts) == 2 and starts[0].found is not None
     assert ahead.timings_s["align"] > 0 and list(ahead.timings_s) == list(here.timings_s)
 
 
@@ -82,9 +105,11 @@ def test_a_corrected_log_is_mapped_again_from_its_corrected_poses(
     with LogWriter(path, res.sensors, speed_of_sound=float(res.speed_of_sound),
                    robot="sim", truth=res.truth) as w:  # fmt: skip
         w.append(drifted_readings(res.readings, seed=0))
-    ahead, here = both_ways(read_log(path), monkeypatch)
+    ahead, here, refits = both_ways(read_log(path), monkeypatch)
     assert ahead.alignment is not None and ahead.alignment.applied is True
     assert record(ahead) == record(here)
+    # the map as read's refit, dropped with that map, and the corrected map's
+    assert len(refits) == 2 and not refits[0].forked and not refits[1].forked
     shift = ahead.alignment.corrected_path - ahead.alignment.raw_path
     assert float(np.abs(shift).max()) > 0.05
 

@@ -75,3 +75,30 @@ def test_the_console_script_leaves_the_collector_nothing_at_exit(console: bool) 
     assert frozen == str(console)
     if console:
         assert int(young) < 100
+
+
+# Modules loaded in loading_modules(), with or without the console script's switch: the
+# collector inside the block, and the frozen count and the collector after it.
+_LOADING = """
+import gc, sys
+from sonarproc import runtime
+if sys.argv[1] == "console":
+    runtime.freeze_modules()
+before = gc.get_freeze_count()
+with runtime.loading_modules():
+    inside = gc.isenabled()
+    import sonarproc.pipeline.surfacefit
+print(inside, gc.get_freeze_count() > before, gc.isenabled())
+"""
+
+
+@pytest.mark.parametrize("mode", ["console", "host"])
+def test_a_commands_modules_load_out_of_the_collectors_sight(mode: str) -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", _LOADING, mode], capture_output=True, text=True, check=True
+    )
+    inside, frozen, after = out.stdout.split()
+    # the console script loads them with the collector off and freezes them; a host
+    # process calling the command keeps its collector as it is
+    assert (inside, frozen) == (("False", "True") if mode == "console" else ("True", "False"))
+    assert after == "True"
