@@ -112,18 +112,13 @@ def read_surfaces(path: Path) -> list[np.ndarray]:
     return [np.asarray(v) for _, v in sorted(polys.items()) if len(v) >= 2]
 
 
-def measure(outcome: Outcome, out: Path) -> None:
-    """Truth-free figures from the log and the run's surfaces (into ``outcome.figures``)."""
-    from sonarproc.align import align_poses
-    from sonarproc.pipeline.run import load_log
-    from sonarproc.surfaces import EchoGeometry, echo_points
+def own_echo_geometry(readings: np.ndarray, lg: Any) -> tuple[Any, np.ndarray, np.ndarray]:
+    """The own-echo readings of ``readings`` with an echo in the sensors' range, as
+    :class:`sonarproc.surfaces.EchoGeometry`; also which readings those are (the
+    own-echo mask over ``readings`` and, over those, the in-range mask)."""
+    from sonarproc.surfaces import EchoGeometry
 
-    lg = load_log(outcome.log.path, sensors=outcome.log.sensors, robot=outcome.log.robot)
-    r = lg.readings[np.argsort(lg.readings["t"], kind="stable")]
-    fig = outcome.figures
-    fig["robot"] = str(lg.attrs.get("robot", ""))
-    fig["duration_s"] = float(r["t"][-1] - r["t"][0]) if r.size else 0.0
-    fig["travel_m"] = float(np.sum(np.hypot(np.diff(r["x"]), np.diff(r["y"]))))
+    r = readings
     ok = ((r["flags"] & 1) == 0) & (r["tx"] == r["rx"]) & np.isfinite(r["tof"])
     tp = lg.transducer_poses(r[ok])
     path = lg.path_lengths(r[ok])
@@ -133,6 +128,22 @@ def measure(outcome: Outcome, out: Path) -> None:
                                   tp.rx_heading[keep], path[keep],
                                   tx_half_beamwidth=tp.tx_half_beamwidth[keep],
                                   rx_half_beamwidth=tp.rx_half_beamwidth[keep])  # fmt: skip
+    return geo, ok, keep
+
+
+def measure(outcome: Outcome, out: Path) -> None:
+    """Truth-free figures from the log and the run's surfaces (into ``outcome.figures``)."""
+    from sonarproc.align import align_poses
+    from sonarproc.pipeline.run import load_log
+    from sonarproc.surfaces import echo_points
+
+    lg = load_log(outcome.log.path, sensors=outcome.log.sensors, robot=outcome.log.robot)
+    r = lg.readings[np.argsort(lg.readings["t"], kind="stable")]
+    fig = outcome.figures
+    fig["robot"] = str(lg.attrs.get("robot", ""))
+    fig["duration_s"] = float(r["t"][-1] - r["t"][0]) if r.size else 0.0
+    fig["travel_m"] = float(np.sum(np.hypot(np.diff(r["x"]), np.diff(r["y"]))))
+    geo, ok, keep = own_echo_geometry(r, lg)
     polys = read_surfaces(out / "surfaces.csv") if (out / "surfaces.csv").is_file() else []
     per = echo_points(polys, [False] * len(polys), geo, tol=EXPLAINED_TOL) if polys else []
     pose = np.column_stack((r["x"], r["y"], r["theta"]))[ok][keep]

@@ -47,7 +47,7 @@ sys.path.insert(0, str(ROOT / "tests" / "support"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from drift import drifted_readings  # noqa: E402
-from evaluate import EXPLAINED_TOL, read_surfaces  # noqa: E402
+from evaluate import EXPLAINED_TOL, own_echo_geometry, read_surfaces  # noqa: E402
 
 FloatArray = npt.NDArray[np.float64]
 SCENES = ROOT / "tests" / "data" / "scenarios"
@@ -207,18 +207,10 @@ def fragmentation(data: dict[str, Any], beam: tuple[FloatArray, ...],
 
 def one_pose_surfaces(lg: Any, polys: list[FloatArray]) -> tuple[int, int]:
     """Surfaces whose echoes come from a single robot pose, and the fewest poses of any."""
-    from sonarproc.surfaces import EchoGeometry, echo_points
+    from sonarproc.surfaces import echo_points
 
     r = lg.readings
-    ok = ((r["flags"] & 1) == 0) & (r["tx"] == r["rx"]) & np.isfinite(r["tof"])
-    tp = lg.transducer_poses(r[ok])
-    path = lg.path_lengths(r[ok])
-    rng = 0.5 * path
-    keep = (rng >= tp.min_range) & (rng <= tp.max_range)
-    geo = EchoGeometry.from_beams(tp.tx_xy[keep], tp.tx_heading[keep], tp.rx_xy[keep],
-                                  tp.rx_heading[keep], path[keep],
-                                  tx_half_beamwidth=tp.tx_half_beamwidth[keep],
-                                  rx_half_beamwidth=tp.rx_half_beamwidth[keep])  # fmt: skip
+    geo, ok, keep = own_echo_geometry(r, lg)
     if not polys:
         return 0, 0
     per = echo_points(polys, [False] * len(polys), geo, tol=EXPLAINED_TOL)
