@@ -33,7 +33,6 @@ __all__ = [
     "AutoChoice",
     "Score",
     "clustered_paired_se",
-    "one_se_setting",
     "paired_se",
     "robust_residual",
 ]
@@ -165,34 +164,6 @@ def clustered_paired_se(
         return (take * x[order]).sum(axis=1) / k[:, 0]
 
     return float(np.std(trimmed(b) - trimmed(a), ddof=1))
-
-
-def one_se_setting(
-    family: str, losses: dict[float, npt.NDArray[np.float64]], allowed: set[float], nse: float = 1.0
-) -> float | None:
-    """The smoothest of ``allowed`` settings within ``nse`` paired standard errors of the best.
-
-    The one-standard-error rule: the best is the lowest :func:`robust_residual`; the
-    smoothest is the largest spline smoothing length, or the lowest polynomial order.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(1)
-    >>> base = rng.random(300) * 0.01
-    >>> losses = {0.1: base, 0.4: base + rng.normal(0.0, 0.001, 300), 1.6: base + 0.003}
-    >>> one_se_setting("spline", losses, {0.1, 0.4, 1.6})
-    0.4
-    """
-    pool = {k: v for k, v in losses.items() if k in allowed}
-    if not pool:
-        return None
-    res = {k: robust_residual(v) for k, v in pool.items()}
-    best = min(res, key=lambda k: res[k])
-    near = [
-        k for k in pool
-        if k == best or res[k] - res[best] <= nse * paired_se(pool[best], pool[k])
-    ]  # fmt: skip
-    return max(near) if family == "spline" else min(near)
 
 
 @dataclass
