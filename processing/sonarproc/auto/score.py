@@ -188,6 +188,8 @@ class Score:
     hull_m: float = 0.0
     coverage_frac: float = 1.0
     function_folds: int = 0
+    #: folds whose map was empty (their held-out readings cost the cap)
+    empty_folds: int = 0
     too_large: int = 0
     excluded: str | None = None
     #: whether the guard rails' fits (hull, coverage) were judged: only the candidates
@@ -201,6 +203,7 @@ class Score:
         self.base_losses.extend(fold.base_losses)
         self.mean_counts.extend(fold.mean_counts)
         self.function_folds += fold.function_folds
+        self.empty_folds += fold.empty_folds
         self.too_large = max(self.too_large, fold.too_large)
 
     def finish(self, cell: float) -> None:
@@ -218,7 +221,8 @@ class Score:
                 f"{SURFACES_MAX_CELLS} (--auto's time budget for the surfaces fit)"
             )
             return
-        if not res:
+        folds = max((len(v) for v in self.losses.values()), default=0)
+        if not res or self.empty_folds >= folds:
             self.excluded = "the method left nothing on the map"
             return
         pool = covering or inside or res
