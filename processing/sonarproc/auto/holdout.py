@@ -19,7 +19,6 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import TransducerPoses
-from sonarproc.errors import ParameterError
 from sonarproc.fit import Fit, FitFailure
 from sonarproc.methods.base import Beams
 from sonarproc.methods.echo_model import first_echo_path
@@ -28,7 +27,6 @@ from sonarproc.methods.echo_model import first_echo_path
 MAX_SAMPLES = 500
 
 __all__ = [
-    "FOLD_SCHEMES",
     "MAX_SAMPLES",
     "Split",
     "curve_path",
@@ -37,12 +35,9 @@ __all__ = [
     "heldout_splits",
     "hull_excess",
     "local_hull",
-    "make_folds",
-    "pass_folds",
     "predicted_path",
     "range_loss",
     "subset_beams",
-    "time_block_folds",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -84,71 +79,6 @@ def firing_index(readings: np.ndarray) -> npt.NDArray[np.intp]:
     return firing
 
 
-def time_block_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:
-    """Fold of each reading: ``k`` contiguous blocks of firings in time (a random rotation).
-
-    Examples
-    --------
-    >>> from sonarlog.schema import empty_readings
-    >>> r = empty_readings(8)
-    >>> r["t"] = np.arange(8) // 2
-    >>> f = time_block_folds(r, 2)
-    >>> bool(f[0] == f[1] and len(set(f.tolist())) == 2 and (np.diff(f) != 0).sum() <= 2)
-    True
-    """
-    firing = firing_index(readings)
-    n = int(firing.max()) + 1 if firing.size else 0
-    shift = int(np.random.default_rng(seed).integers(0, max(n, 1)))
-    block = ((np.arange(n) + shift) % max(n, 1)) * k // max(n, 1)
-    return np.asarray(block[firing], dtype=np.intp)
-
-
-def pass_folds(readings: np.ndarray, k: int, *, seed: int = 0) -> npt.NDArray[np.intp]:
-    """Fold of each reading: each transmitter's firings, in time order, cut into ``k``
-    contiguous runs (its passes along the robot's path), the runs dealt to the folds at
-    random per transmitter.
-
-    Examples
-    --------
-    >>> from sonarlog.schema import empty_readings
-    >>> r = empty_readings(8)
-    >>> r["t"] = np.arange(8)
-    >>> r["tx"] = [1, 2] * 4
-    >>> f = pass_folds(r, 2)
-    >>> bool(f[0] == f[2] and f[4] == f[6] and f[0] != f[4])
-    True
-    """
-    firing = firing_index(readings)
-    n = int(firing.max()) + 1 if firing.size else 0
-    first = np.zeros(n, dtype=np.intp)
-    first[firing] = np.arange(firing.size)
-    tx = np.asarray(readings["tx"], dtype=np.int64)[first]
-    order = np.lexsort((np.arange(n), tx))
-    starts = np.r_[0, np.flatnonzero(np.diff(tx[order])) + 1] if n else np.zeros(0, np.intp)
-    counts = np.diff(np.r_[starts, n])
-    run = (np.arange(n) - np.repeat(starts, counts)) * k // np.repeat(counts, counts)
-    rng = np.random.default_rng(seed)
-    deal = rng.random((starts.size, k)).argsort(axis=1)  # a permutation of the folds each
-    fold = np.empty(n, dtype=np.intp)
-    fold[order] = deal[np.repeat(np.arange(starts.size), counts), run]
-    return np.asarray(fold[firing], dtype=np.intp)
-
-
-#: How ``--auto`` may split the firings into folds (``choose(folds_by=...)``).
-FOLD_SCHEMES = {"firings": firing_folds, "time": time_block_folds, "passes": pass_folds}
-
-
-def make_folds(
-    readings: np.ndarray, k: int, *, by: str = "firings", seed: int = 0
-) -> npt.NDArray[np.intp]:
-    """Fold of each reading by the scheme ``by`` (a key of :data:`FOLD_SCHEMES`)."""
-    try:
-        scheme = FOLD_SCHEMES[by]
-    except KeyError as err:
-        raise ParameterError("folds_by", f"{by!r} is not one of {', '.join(FOLD_SCHEMES)}") from err
-    return scheme(readings, k, seed=seed)
-
-
 #: One fold's split: the training readings (a mask) and the held-out ones predicted.
 Split = tuple[BoolArray, npt.NDArray[np.intp]]
 
@@ -159,7 +89,6 @@ def heldout_splits(
     repeats: int,
     heldout_per_fold: int,
     *,
-    by: str = "firings",
     seed: int = 0,
 ) -> list[Split]:
     """Every fold's split, the folds drawn ``repeats`` times (seeds ``seed + 1000 * rep``),
@@ -182,7 +111,7 @@ def heldout_splits(
     rng = np.random.default_rng(seed + 2)
     splits: list[Split] = []
     for rep in range(repeats):
-        fold = make_folds(readings, folds, by=by, seed=seed + 1000 * rep)
+        fold = firing_folds(readings, folds, seed=seed + 1000 * rep)
         for f in range(folds):
             test = np.flatnonzero(fold == f)
             if test.size:

@@ -33,7 +33,6 @@ __all__ = [
     "AutoChoice",
     "Score",
     "clustered_paired_se",
-    "one_se_setting",
     "paired_se",
     "robust_residual",
 ]
@@ -167,34 +166,6 @@ def clustered_paired_se(
     return float(np.std(trimmed(b) - trimmed(a), ddof=1))
 
 
-def one_se_setting(
-    family: str, losses: dict[float, npt.NDArray[np.float64]], allowed: set[float], nse: float = 1.0
-) -> float | None:
-    """The smoothest of ``allowed`` settings within ``nse`` paired standard errors of the best.
-
-    The one-standard-error rule: the best is the lowest :func:`robust_residual`; the
-    smoothest is the largest spline smoothing length, or the lowest polynomial order.
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(1)
-    >>> base = rng.random(300) * 0.01
-    >>> losses = {0.1: base, 0.4: base + rng.normal(0.0, 0.001, 300), 1.6: base + 0.003}
-    >>> one_se_setting("spline", losses, {0.1, 0.4, 1.6})
-    0.4
-    """
-    pool = {k: v for k, v in losses.items() if k in allowed}
-    if not pool:
-        return None
-    res = {k: robust_residual(v) for k, v in pool.items()}
-    best = min(res, key=lambda k: res[k])
-    near = [
-        k for k in pool
-        if k == best or res[k] - res[best] <= nse * paired_se(pool[best], pool[k])
-    ]  # fmt: skip
-    return max(near) if family == "spline" else min(near)
-
-
 @dataclass
 class Score:
     """A candidate's held-out residual at each setting, its best, and the guard rails."""
@@ -217,6 +188,8 @@ class Score:
     hull_m: float = 0.0
     coverage_frac: float = 1.0
     function_folds: int = 0
+    #: folds whose map was empty (their held-out readings cost the cap)
+    empty_folds: int = 0
     too_large: int = 0
     excluded: str | None = None
     #: whether the guard rails' fits (hull, coverage) were judged: only the candidates
@@ -230,6 +203,7 @@ class Score:
         self.base_losses.extend(fold.base_losses)
         self.mean_counts.extend(fold.mean_counts)
         self.function_folds += fold.function_folds
+        self.empty_folds += fold.empty_folds
         self.too_large = max(self.too_large, fold.too_large)
 
     def finish(self, cell: float) -> None:
@@ -247,7 +221,8 @@ class Score:
                 f"{SURFACES_MAX_CELLS} (--auto's time budget for the surfaces fit)"
             )
             return
-        if not res:
+        folds = max((len(v) for v in self.losses.values()), default=0)
+        if not res or self.empty_folds >= folds:
             self.excluded = "the method left nothing on the map"
             return
         pool = covering or inside or res

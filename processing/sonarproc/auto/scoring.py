@@ -148,6 +148,13 @@ def fold_scores(
         c = s.candidate
         key, entry = maps.get(c)
         if entry is None:
+            # a fold whose map is empty explains none of its held-out readings: each costs
+            # the cap, as a reading the curve does not explain, so every candidate is
+            # scored on the same readings (and its losses pair with the echo refit's)
+            s.empty_folds += 1
+            for setting in c.settings:
+                s.losses.setdefault(setting, []).append(np.full(held.size, cap))
+            s.base_losses.append(np.full(held.size, cap))
             continue
         mmap, bins, _, _ = entry
         if c.family == "surfaces":

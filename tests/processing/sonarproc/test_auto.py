@@ -15,7 +15,7 @@ from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose, run_auto
 from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
 from sonarproc.auto.score import COVERAGE_MIN, TRIM, robust_residual
-from sonarproc.auto.scoring import implied_span
+from sonarproc.auto.scoring import fold_scores, implied_span
 from sonarproc.auto.select import _sample_firings
 from sonarproc.cli import main
 from sonarproc.methods.testing import flat_wall_beams
@@ -81,6 +81,32 @@ def test_trimmed_residual_and_coverage_guard() -> None:
     s.base_losses = [np.full(40, 0.0005)]  # a line does better by > 1/4 cell: never chosen
     s.finish(0.01)
     assert s.excluded is not None and "constant or a line" in s.excluded
+
+
+def test_a_fold_whose_map_is_empty_costs_the_cap_on_its_held_out_readings() -> None:
+    """Every candidate is scored on the same held-out readings: a fold where its map is
+    empty explains none of them (each costs the cap), so its losses pair with the echo
+    refit's reading by reading; a candidate empty on every fold left nothing."""
+    beams, grid = flat_wall_beams()
+    n = len(beams.path)
+    held, cap = np.arange(0, n, 4), 0.05
+    scores = [Score(c) for c in CANDIDATES if c.family != "surfaces"][:2]
+    fold_scores(scores, beams, grid, RunParams(), np.zeros(n, bool), held, cap)
+    walls = [Score(s.candidate) for s in scores]
+    fold_scores(walls, beams, grid, RunParams(), np.ones(n, bool), held, cap)
+    for s, wall in zip(scores, walls, strict=True):
+        assert s.empty_folds == 1 and s.losses
+        for losses in s.losses.values():
+            assert len(losses) == 1
+            np.testing.assert_array_equal(losses[0], np.full(held.size, cap))
+        s.absorb(wall)  # a second fold that maps the wall
+        s.finish(grid.cell)
+        assert s.excluded is None or "left nothing" not in s.excluded
+        assert {v.size for v in map(np.concatenate, s.losses.values())} == {2 * held.size}
+    empty = Score(scores[0].candidate)
+    fold_scores([empty], beams, grid, RunParams(), np.zeros(n, bool), held, cap)
+    empty.finish(grid.cell)
+    assert empty.excluded == "the method left nothing on the map"
 
 
 def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
