@@ -15,6 +15,7 @@ from sonarproc.align.graph import (
     CALIBRATION_PRIOR,
     NCAL,
     correction_costs,
+    echo_medians,
     odometry_ties,
     solve_graph,
 )
@@ -63,6 +64,9 @@ class Alignment:
         errors have the opposite sign).
     reason : str
         Why the poses were left as they were, or ``""`` when a correction was solved.
+    echo_median_before_m, echo_median_after_m : float
+        Median absolute echo residual (m) on the same matches as ``cost_before`` and
+        ``cost_after``: how well the typical echo agrees with its wall.
     """
 
     x: FloatArray
@@ -81,6 +85,8 @@ class Alignment:
     cost_after: float
     calibration: FloatArray
     reason: str = ""
+    echo_median_before_m: float = 0.0
+    echo_median_after_m: float = 0.0
 
     def summary(self) -> dict[str, float | int | str]:
         """The scalar figures, for a report."""
@@ -94,6 +100,8 @@ class Alignment:
             "matches": self.matches,
             "cost_before": self.cost_before,
             "cost_after": self.cost_after,
+            "echo_median_before_m": self.echo_median_before_m,
+            "echo_median_after_m": self.echo_median_after_m,
             "odometry_scale_error": float(self.calibration[0]),
             "odometry_heading_rate_rad_per_m": float(self.calibration[1]),
             "reason": self.reason,
@@ -240,7 +248,7 @@ def align_poses(
     calibration = np.zeros(NCAL)
     first, last = match_radius
     done = evaluations = matched = 0
-    cost_before = cost_after = 0.0
+    cost_before = cost_after = med_before = med_after = 0.0
     first_matches = None
     for k in range(rounds):
         radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
@@ -296,6 +304,9 @@ def align_poses(
         cost_before, cost_after = correction_costs(
             nodes, ties, rays, track, first_matches, offsets, calibration, echo_sigma=echo_sigma
         )
+        med_before, med_after = echo_medians(
+            nodes, ties, rays, track, first_matches, offsets, calibration, echo_sigma=echo_sigma
+        )
     per = interpolate_offsets(offsets, nodes.lo, nodes.w, nodes.w_xy)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)
@@ -305,7 +316,8 @@ def align_poses(
     return Alignment(
         x, y, th, raw_path, raw_path + offsets[:, :2], offsets,
         float(diff.max()), float(diff.mean()), float(np.abs(per[:, 2]).max()),
-        done, evaluations, matched, cost_before, cost_after, calibration,
+        done, evaluations, matched, cost_before, cost_after, calibration, "",
+        med_before, med_after,
     )  # fmt: skip
 
 
