@@ -50,11 +50,11 @@ from sonarproc.align.track import Nodes, interpolate_offsets
 
 __all__ = [
     "CALIBRATION_PRIOR",
+    "CorrectionCosts",
     "GraphSolution",
     "OdometryTies",
     "PoseGraphProblem",
     "correction_costs",
-    "echo_medians",
     "odometry_ties",
     "solve_graph",
 ]
@@ -245,38 +245,39 @@ def robust_cost(residuals: FloatArray) -> float:
     return float(0.5 * ROBUST_SCALE**2 * np.sum(2.0 * (np.sqrt(1.0 + z) - 1.0)))
 
 
+@dataclass(frozen=True)
+class CorrectionCosts:
+    """A correction judged on given matches: without it (``before``) and with it.
+
+    ``cost_*``: the robust cost :func:`solve_graph` minimises (odometry ties, calibration
+    prior and echo residuals); ``median_*_m``: the median absolute echo residual (m), the
+    typical echo's disagreement with its matched wall, which the robust cost does not
+    show apart from its few large residuals.
+    """
+
+    cost_before: float
+    cost_after: float
+    median_before_m: float
+    median_after_m: float
+
+
 def correction_costs(
     nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
     matches: LineMatches, offsets: FloatArray, calibration: FloatArray, *, echo_sigma: float,
-) -> tuple[float, float]:  # fmt: skip
-    """The robust cost on given matches without a correction, and with the given one.
-
-    The same cost :func:`solve_graph` minimises (odometry ties, calibration prior and
-    echo residuals), evaluated without solving: a correction found on one set of matches
-    can be judged on another.
-    """
+) -> CorrectionCosts:  # fmt: skip
+    """The robust cost and the median echo residual on given matches, without a
+    correction and with the given one, evaluated without solving: a correction found on
+    one set of matches can be judged on another."""
     prob = PoseGraphProblem(nodes, ties, rays, track, matches, echo_sigma)
     x = np.concatenate((np.asarray(offsets[1:], dtype=np.float64).ravel(), calibration))
-    return robust_cost(prob.residuals(np.zeros_like(x))), robust_cost(prob.residuals(x))
-
-
-def echo_medians(
-    nodes: Nodes, ties: OdometryTies, rays: EchoRays, track: FloatArray,
-    matches: LineMatches, offsets: FloatArray, calibration: FloatArray, *, echo_sigma: float,
-) -> tuple[float, float]:  # fmt: skip
-    """Median absolute echo residual (m) on given matches without and with a correction.
-
-    The typical echo's disagreement with its matched wall, which the robust cost of
-    :func:`correction_costs` does not show apart from its few large residuals.
-    """
-    prob = PoseGraphProblem(nodes, ties, rays, track, matches, echo_sigma)
-    x = np.concatenate((np.asarray(offsets[1:], dtype=np.float64).ravel(), calibration))
+    before, after = prob.residuals(np.zeros_like(x)), prob.residuals(x)
     n = matches.size
     if n == 0:
-        return 0.0, 0.0
-    before = np.abs(prob.residuals(np.zeros_like(x))[-n:]) * echo_sigma
-    after = np.abs(prob.residuals(x)[-n:]) * echo_sigma
-    return float(np.median(before)), float(np.median(after))
+        med_before = med_after = 0.0
+    else:  # the echo residuals are the last n, in units of echo_sigma
+        med_before = float(np.median(np.abs(before[-n:]) * echo_sigma))
+        med_after = float(np.median(np.abs(after[-n:]) * echo_sigma))
+    return CorrectionCosts(robust_cost(before), robust_cost(after), med_before, med_after)
 
 
 def solve_graph(

@@ -15,7 +15,6 @@ from sonarproc.align.graph import (
     CALIBRATION_PRIOR,
     NCAL,
     correction_costs,
-    echo_medians,
     odometry_ties,
     solve_graph,
 )
@@ -301,12 +300,11 @@ def align_poses(
         # Judged on the matches found at the raw poses, not on the last round's: those
         # were chosen near the corrected poses, so the raw poses' cost on them is inflated
         # by the choice itself (an echo's structure, such as a corner's, read as drift).
-        cost_before, cost_after = correction_costs(
+        judged = correction_costs(
             nodes, ties, rays, track, first_matches, offsets, calibration, echo_sigma=echo_sigma
         )
-        med_before, med_after = echo_medians(
-            nodes, ties, rays, track, first_matches, offsets, calibration, echo_sigma=echo_sigma
-        )
+        cost_before, cost_after = judged.cost_before, judged.cost_after
+        med_before, med_after = judged.median_before_m, judged.median_after_m
     per = interpolate_offsets(offsets, nodes.lo, nodes.w, nodes.w_xy)
     cx, cy, cth = apply_offsets(track[:, 0], track[:, 1], track[:, 2], per)
     x, y, th = np.empty(r.size), np.empty(r.size), np.empty(r.size)
