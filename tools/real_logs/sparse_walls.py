@@ -55,9 +55,10 @@ SCENES = ROOT / "tests" / "data" / "scenarios"
 #: Scenes used while developing the surface rules.
 SEEN = ("sparse10-door-corridor", "sparse10-junction", "sparse10-hall-loop",
         "sparse10-l-corridor", "sparse10-return-corridor", "sparse10-heldout-cross",
-        "sparse10-heldout-office", "sparse10-heldout-dogleg")  # fmt: skip
+        "sparse10-heldout-office", "sparse10-heldout-dogleg", "sparse11-heldout-tee",
+        "sparse11-heldout-room-door", "sparse11-heldout-wide-cross")  # fmt: skip
 #: Scenes held out from all tuning, run once after the last rule change.
-HELD_OUT = ("sparse11-heldout-tee", "sparse11-heldout-room-door", "sparse11-heldout-wide-cross")
+HELD_OUT = ("sparse12-heldout-lab", "sparse12-heldout-side-rooms", "sparse12-heldout-alcove-hall")
 
 LONG_WALL_M = 2.0
 COVER_TOL_M = 0.10
