@@ -12,6 +12,18 @@ Two figures, both with the first-echo prediction of ``--auto``
   more fit, not ``k``, and is still honestly held out (no left-out reading touched the
   map that predicts it). At most :data:`MAX_HELDOUT` left-out readings are predicted
   (a fixed-seed subsample).
+
+  A held-out reading whose beams no surface of the held-out map crosses (or whose
+  predicted echo lies beyond the sensor's largest range) has no predicted range: it has
+  no residual, and counts against ``heldout_predicted_fraction`` (and, in sample,
+  against the explained fraction) instead. Counting it as the largest range would make
+  the residual a figure of the sensor's range setting and of how a driver reports
+  silence, not of the map. A reading the map does predict keeps its whole residual,
+  whichever way it errs: one that ends short of the predicted echo heard a reflector
+  the map lacks (the map says the beam is free up to the surface behind it), one that
+  reaches beyond it saw through a surface the map has. On a sparse map the first kind
+  can reach metres (from the unmapped reflector to the wall behind it): that is the
+  map's error, and the figure shows it.
 - the *fraction of readings explained*: of the readings the run mapped (at most
   :data:`MAX_EXPLAINED` of them, a fixed-seed subsample), those whose range the run's
   own map predicts within :data:`TOLERANCE` (5 cm); a reading whose beams no surface

@@ -172,6 +172,50 @@ def _surfaces_left(
     return [fits[i] for i in kept], [pts[i] for i in kept], [idx[i] for i in kept]
 
 
+def _unsupported(
+    fits: list[SurfaceFit], echoes: EchoGeometry, tol: float, min_echoes: int
+) -> list[int]:
+    """The surfaces that, as they will be reported, too few readings echo from.
+
+    A surface's echoes are gathered against the geometry of the round before: the last
+    refit through them, its stretch over the ridge and the cuts at openings all move it
+    afterwards. Through the echo points of a robot turning on one spot (its sensors a few
+    centimetres apart, every range the same) a line may be fitted that faces none of
+    the beams that heard it; no reading's foot then lies on it, and its support was
+    counted on a line that is not reported. The echoes are therefore gathered once more
+    against the surfaces as they stand, at the last round's tolerance and each reading
+    to its best match (a first echo comes from one surface), and a surface that fewer
+    than ``min_echoes`` of them, or fewer than :data:`MIN_VIEWPOINTS` viewpoints, echo
+    from goes. Their spread is not asked again: a wall the robot drove straight at has
+    its feet at one spot once its line faces the approach, and its direction is then
+    the approach's, from many viewpoints.
+
+    Examples
+    --------
+    A wall along y = 1 heard from three spots below it, and a short line turned 20
+    degrees off it near the middle spot (no beam's foot lies on it):
+
+    >>> wall = np.column_stack((np.linspace(-1, 1, 201), np.ones(201)))
+    >>> t = np.radians(20.0)
+    >>> turned = np.array([[0.3, 1.0], [0.3 + 0.2 * np.cos(t), 1.0 + 0.2 * np.sin(t)]])
+    >>> fits = [SurfaceFit("line", p, 1.0, 0.0, 6, 6, False, {}) for p in (wall, turned)]
+    >>> x = np.repeat([-0.6, 0.0, 0.6], 2) + np.tile([0.0, 0.01], 3)
+    >>> g = EchoGeometry(np.column_stack((x, np.zeros(6))), np.full(6, np.pi / 2),
+    ...                  np.full(6, 0.2), np.ones(6))
+    >>> _unsupported(fits, g, 0.03, 5)
+    [1]
+    """
+    if not fits:
+        return []
+    got = echo_points([f.polyline for f in fits], [f.closed for f in fits], echoes, tol=tol)
+    view = viewpoint_ids(echoes.xy)
+    return [
+        i
+        for i, e in enumerate(got)
+        if e.readings.size < min_echoes or np.unique(view[e.readings]).size < MIN_VIEWPOINTS
+    ]
+
+
 def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
     """The readings of ``a``, then those of ``b`` (``a``'s rows keep their indices)."""
     return EchoGeometry(np.concatenate((a.xy, b.xy)), np.concatenate((a.heading, b.heading)),
@@ -329,6 +373,8 @@ def refine_fits(
             cell=cell,
         )
     )
+    if rounds:
+        drop |= set(_unsupported(cur, echoes, rounds[-1], min_echoes))
     out = [
         replace(f, viewpoints=int(np.unique(cones.viewpoint[pts_idx[i]]).size))
         for i, f in enumerate(cur)

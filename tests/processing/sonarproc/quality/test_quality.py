@@ -289,3 +289,22 @@ def test_firings_are_numbered_as_the_distinct_time_and_transmitter_pairs() -> No
         keys = np.column_stack((np.asarray(r["t"], dtype=np.float64), r["tx"]))
         _, expect = np.unique(keys, axis=0, return_inverse=True)
         np.testing.assert_array_equal(firing_index(r), expect.reshape(-1))
+
+
+def test_a_reading_short_of_the_map_keeps_its_residual_one_with_nothing_mapped_has_none() -> None:
+    """Readings of the wall y = 1 m. A map of only the wall behind it (y = 3 m) predicts
+    every one of them at 3 m: each keeps its 2 m residual (the map lacks the reflector it
+    heard). A map with nothing in their beams predicts none: no residual, and they count
+    against the predicted fraction instead of as the sensor's largest range."""
+    from sonarproc.methods.testing import flat_wall_beams
+
+    beams, _ = flat_wall_beams(10)
+    rows = np.arange(beams.path.size)
+    behind = MapCurves([resample(np.array([[-3.0, 3.0], [5.0, 3.0]]), 0.01)], [0], single=False)
+    path, surface = predict_paths(behind, beams, rows)
+    residual = 0.5 * np.abs(beams.path - path)
+    assert np.all(np.isfinite(residual)) and surface.tolist() == [0] * rows.size
+    np.testing.assert_allclose(residual, 2.0, atol=0.01)
+    aside = MapCurves([resample(np.array([[10.0, -1.0], [10.0, 1.0]]), 0.01)], [0], single=False)
+    path, surface = predict_paths(aside, beams, rows)
+    assert np.all(np.isnan(path)) and surface.tolist() == [-1] * rows.size
