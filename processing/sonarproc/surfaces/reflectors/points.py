@@ -16,7 +16,10 @@ The surface stage runs in two steps round the walls' echo refits:
    checked against the walls so ended), turns a plane fitted through the arcs of a corner
    heard over a narrow spread of bearings into that corner
    (:func:`~sonarproc.surfaces.reflectors.corner_planes.planes_as_corners`: the ranges
-   alone cannot tell them apart, the walls' lines can), gives each its kind
+   alone cannot tell them apart, the walls' lines can), looks on the walls' lines for the
+   corners such readings make when no plane was fitted through them
+   (:func:`~sonarproc.surfaces.reflectors.line_corners.corners_on_wall_lines`), gives
+   each its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
@@ -45,6 +48,7 @@ from sonarproc.surfaces.reflectors.confirm import (
     on_circles,
 )
 from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
+from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -194,6 +198,8 @@ def refine_with_points(
         fits = [f for k, f in enumerate(fits) if k not in gone]
         cells = [c for k, c in enumerate(cells) if k not in gone]
         kept += [(-1, p) for p in corners]
+    # a corner whose ranges a plane explains as well, and that no plane was fitted to
+    kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept])]
     out, out_cells = list(fits), list(cells)
     for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))

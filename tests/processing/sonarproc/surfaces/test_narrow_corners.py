@@ -1,12 +1,14 @@
-"""A corner heard over a narrow spread of bearings and fitted as a plane is reported as a corner.
+"""A corner heard over a narrow spread of bearings is reported as a corner.
 
 One sensor on a straight stretch of track, looking back into a room's corner from 4-5 m,
 reads its distance to the corner (1-inch range steps, 5 mm noise, seeded). A plane through
-the corner, normal to the line of sight, explains those ranges as well as the point; the
-surfaces handed to :func:`refine_with_points` hold the two walls and that diagonal plane.
-The diagonal goes and a corner stands where the walls' lines meet. A short plane that
-crosses a wall's line obliquely but whose readings do not all meet at one point, and a
-plane meeting the wall square, stay.
+the corner, normal to the line of sight, explains those ranges as well as the point.
+Handed the two walls and that diagonal plane, :func:`refine_with_points` drops the
+diagonal and reports a corner where the walls' lines meet; handed the two walls only, it
+finds the corner on their lines. A short plane that crosses a wall's line obliquely but
+whose readings do not all meet at one point, a plane meeting the wall square, and a
+wall's readings at the edge of the beam, heard along its normal, make no corner; a wall
+is not stretched to a corner past an edge on its line.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ import numpy as np
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.complete import complete_to_corners
 from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
+from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.points import ClaimedPoints, refine_with_points
 
 INCH = 0.0254
@@ -102,3 +106,40 @@ def test_a_wall_meeting_another_square_is_no_corner_echo() -> None:
     echoes, fits = _room()
     gone, points = planes_as_corners(fits[:2], echoes)
     assert (gone, points) == ([], [])
+
+
+def test_a_corner_no_plane_was_fitted_to_is_found_on_the_walls_lines() -> None:
+    echoes, fits = _room()
+    walls = fits[:2]
+    cells = [_cells(f) for f in walls]
+    found = ClaimedPoints([], np.zeros(echoes.size, dtype=bool))
+    out, _ = refine_with_points(lambda e: (list(walls), list(cells)), echoes, found)
+    corners = [s for s in out if s.model == "corner"]
+    assert len(corners) == 1
+    assert np.hypot(*corners[0].polyline[0]) < 0.02
+    assert corners[0].support == 10
+
+
+def test_a_walls_echoes_at_the_beam_edge_along_its_normal_make_no_corner() -> None:
+    # a wall x = 0 (not fitted) heard at 10 degrees off the axis by a sensor driving
+    # along its normal, 2 cm beside the fitted wall y = 0's line: its arcs all pass
+    # through (0, 0), but so does the plane x = 0, square to y = 0
+    rng = np.random.default_rng(3)
+    xs = np.linspace(0.8, 2.2, 12)
+    wall_x = np.linspace(1.2, 3.8, 12)
+    xy = np.r_[np.c_[xs, np.full(12, 0.02)], np.c_[wall_x, np.full(12, 1.5)]]
+    heading = np.r_[np.full(12, np.radians(170.0)), np.full(12, -np.pi / 2)]
+    r = np.r_[_quantised(xs, rng), _quantised(np.full(12, 1.5), rng)]
+    echoes = EchoGeometry(xy, heading, np.full(24, np.radians(12.5)), r)
+    assert corners_on_wall_lines([_line((1.0, 0.0), (4.0, 0.0))], echoes, []) == []
+
+
+def test_no_wall_is_stretched_past_an_edge_to_a_corner() -> None:
+    wall = _line((1.0, 0.0), (4.0, 0.0))
+    corner = SurfaceFit("corner", np.array([[7.0, 0.0]]), 0.0, 0.0, 9, 9, False, {})
+    edge = SurfaceFit("edge", np.array([[5.5, 0.0]]), 0.0, 0.0, 9, 9, False, {})
+    none = EchoGeometry(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0))
+    stretched = complete_to_corners([wall, corner], none)[0]
+    assert stretched.polyline[[0, -1]].round(6).tolist() == [[1.0, 0.0], [7.0, 0.0]]
+    kept = complete_to_corners([wall, corner, edge], none)[0]
+    assert kept.polyline[[0, -1]].round(6).tolist() == [[1.0, 0.0], [4.0, 0.0]]
