@@ -20,12 +20,16 @@ echo), every :data:`STEP_M`, for the place the most unexplained readings pass th
 distance, inside the beam: :func:`~sonarproc.surfaces.reflectors.gathering.gather`). It
 is a corner when:
 
-* at least :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` readings from
+* at least :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` unexplained readings
+  (no fitted surface's specular echo, no reported point's; a corner's readings near
+  their beams' axes meet its walls' lines at their range, so a diffuse echo off a wall
+  is not ruled out here) from
   :data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES` distinct sensor positions pass
   through it, refitted along the line (one unknown, least squares on the ranges) and
   gathered again there (a chance crossing of arcs of other surfaces meets the line at a
   place a few times, not eight times within the range tolerance);
-* the sensors lie on the side of the line that the wall was seen from (inside the
+* the sensors lie on the side of the line that the wall was seen from, and span no
+  more than a right angle and the retro-reflection tolerance round it (inside the
   corner's opening; a corner is heard from its inside only);
 * their lines of sight to it cross no fitted plane short of it (the sound reached it),
   and it answered most beams that held it near their axis
@@ -60,6 +64,7 @@ import numpy.typing as npt
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.gathering import (
+    BEAM_SLACK,
     CANDIDATE_SPACING_M,
     ArcIndex,
     gather,
@@ -107,6 +112,51 @@ def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t
             break
         t -= float(jac @ res) / den
     return t
+
+
+def _crossing_counts(
+    echoes: EchoGeometry, idx: IntArray, a: FloatArray, u: FloatArray, t: FloatArray
+) -> IntArray:
+    """How many arcs of readings ``idx`` pass near each place ``a + t u`` (``t`` evenly spaced).
+
+    A reading's circle (its sensor, its range) meets the line at up to two places; those
+    inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
+    range tolerance of a place within that tolerance over the cosine ``c`` of its sight
+    line's angle to the line of the crossing. Sight lines within :data:`CORNER_TOL_RAD` of
+    square to the line do not count: such readings face the wall's line head on, where a
+    plane along the line explains them (:func:`_no_plane`), and their tolerance along the
+    line would be unbounded.
+    """
+    d = echoes.xy[idx] - a
+    along = d @ u
+    off = d[:, 0] * u[1] - d[:, 1] * u[0]
+    rng = echoes.range_m[idx]
+    reach = np.abs(off) <= rng + RANGE_TOL_M
+    half = np.sqrt(np.maximum(rng[reach] ** 2 - off[reach] ** 2, 0.0))
+    tc = np.concatenate((along[reach] - half, along[reach] + half))
+    rows = np.concatenate((idx[reach], idx[reach]))
+    v = a + tc[:, None] * u - echoes.xy[rows]
+    bearing = np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[rows]
+    off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
+    c = np.abs(v @ u) / np.maximum(echoes.range_m[rows], 1e-9)
+    ok = (off_axis <= BEAM_SLACK * echoes.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
+    tc, width = tc[ok], RANGE_TOL_M / c[ok]
+    step = float(t[1] - t[0]) if t.size > 1 else 1.0
+    lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
+    hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
+    diff = np.zeros(t.size + 1, dtype=np.intp)
+    np.add.at(diff, lo, 1)
+    np.add.at(diff, hi, -1)
+    return np.asarray(np.cumsum(diff)[:-1], dtype=np.intp)
+
+
+def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
+    """Which places ``t`` (ascending, m along a line) gather no fewer readings than every
+    place within :data:`CANDIDATE_SPACING_M` of them."""
+    lo = np.searchsorted(t, t - CANDIDATE_SPACING_M)
+    hi = np.searchsorted(t, t + CANDIDATE_SPACING_M, "right")
+    best = [sizes[a:b].max() for a, b in zip(lo.tolist(), hi.tolist(), strict=True)]
+    return np.asarray(sizes >= np.array(best, dtype=sizes.dtype).reshape(-1))
 
 
 def _occluded(
@@ -208,7 +258,7 @@ def corners_on_wall_lines(
                  if g.readings.size else 0.0
                  for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
     index = ArcIndex(echoes, free)
-    places, owner = [], []
+    places, owner, along = [], [], []
     for k, (a, b) in enumerate(walls):
         length = float(np.hypot(*(b - a)))
         if length <= 0 or seen_side[k] == 0.0:
@@ -219,19 +269,36 @@ def corners_on_wall_lines(
             np.arange(-WALL_GAP_M, inner, STEP_M),
             np.arange(length - inner, length + WALL_GAP_M, STEP_M),
         ):
-            places.append(a + t[:, None] * u)
-            owner.append(np.full(t.size, k))
+            # where the most arcs cross the line: a place within the candidate spacing of
+            # one with more is that one's (its arcs spread over the range tolerance round it)
+            counts = _crossing_counts(echoes, np.flatnonzero(free), a, u, t)
+            t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
+            if t.size:
+                places.append(a + t[:, None] * u)
+                owner.append(np.full(t.size, k))
+                along.append(t)
     if not places:
         return []
     starts, which = np.concatenate(places), np.concatenate(owner)
     gathers = gather_all(echoes, free, starts, index)
     sizes = np.fromiter(map(len, gathers), dtype=np.intp, count=len(gathers))
+    # the places where the most readings meet along each line: a place within the
+    # candidate spacing of one with more is that one's (its arcs spread over the range
+    # tolerance round it)
+    cuts = np.cumsum([t.size for t in along])[:-1]
+    peak = np.concatenate([_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)])
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
+    tried: list[tuple[int, FloatArray]] = []
     for c in np.argsort(-sizes, kind="stable"):
         if sizes[c] < MIN_READINGS:
             break
         k = int(which[c])
+        # a place whose readings settled, on this line, where others' had and failed
+        if not peak[c] or any(
+            j == k and float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for j, q in tried
+        ):
+            continue
         a, b = walls[k]
         u = (b - a) / float(np.hypot(*(b - a)))
         idx = gathers[c][free[gathers[c]]]
@@ -239,6 +306,7 @@ def corners_on_wall_lines(
             continue
         at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
         x = a + at * u
+        tried.append((k, x))
         idx = gather(echoes, free, x, index)
         xy, rng = echoes.xy[idx], echoes.range_m[idx]
         if idx.size < MIN_READINGS or distinct_poses(xy) < MIN_POSES:
@@ -249,12 +317,15 @@ def corners_on_wall_lines(
             continue
         if bool(inside_walls(x, walls)[0]) or _occluded(xy, x, walls):
             continue
-        if not _no_plane(echoes, idx, x, u):
+        # a corner is heard from inside its opening only: a right angle, and the tolerance
+        span = sensor_span(xy, x)
+        if span > 0.5 * math.pi + CORNER_TOL_RAD:
             continue
         res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
         f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
-                         plane_rms(xy, rng), sensor_span(xy, x))  # fmt: skip
-        if not answers_its_beams(f, echoes):
+                         plane_rms(xy, rng), span)  # fmt: skip
+        # the retro-reflection test first: it turns down the chance crossings of a long log
+        if not answers_its_beams(f, echoes) or not _no_plane(echoes, idx, x, u):
             continue
         found.append(f)
         taken.append(x)

@@ -46,7 +46,7 @@ def _cells(fit: SurfaceFit) -> SurfaceCells:
 def _room(seed: int = 11) -> tuple[EchoGeometry, list[SurfaceFit]]:
     """Walls y = 0 and x = 0 seen head on, the corner (0, 0) from one sensor far along y = 3.8."""
     rng = np.random.default_rng(seed)
-    xs = np.linspace(2.4, 3.2, 10)
+    xs = np.sort(rng.uniform(2.4, 3.2, 10))  # irregular steps: the 1-inch rounding is no line
     corner_s = np.c_[xs, np.full(xs.size, 3.8)]
     corner_r = _quantised(np.hypot(xs, 3.8), rng)
     wall_x = np.linspace(1.2, 3.8, 12)
