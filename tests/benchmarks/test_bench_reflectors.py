@@ -2,8 +2,9 @@
 
 The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wandering in a
 20 m x 20 m room, mapped at 1 cm. ``sonarproc.pipeline.process`` with the default fit
-(``auto``: surfaces) runs with the point reflectors and without them (their search
-replaced by one that finds none), the runs interleaved, best of three CPU times each.
+(``auto``: surfaces) runs with the point reflectors and without them (their search, the
+corners fitted as planes and the corners on the walls' lines each replaced by one that
+finds none), the runs interleaved, best of three CPU times each.
 The ratio (with - without) / without is the stage's added cost; the target, with the
 free-space cut of the openings, is at most 25 %.
 """
@@ -21,6 +22,7 @@ from sonarlog import read_log
 from sonarproc.params import RunParams
 from sonarproc.pipeline import process
 from sonarproc.pipeline import surfacefit as surfacefit_module
+from sonarproc.surfaces.reflectors import points as points_module
 from sonarproc.surfaces.reflectors.points import ClaimedPoints
 
 TARGET = 0.25
@@ -37,11 +39,17 @@ def test_bench_reflectors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> No
     lg = read_log(path)
     params = RunParams(cell=0.01, bbox=(0.0, ROOM, 0.0, ROOM), fit="auto")
     search = surfacefit_module.claim_points
+    stages = {"planes_as_corners": points_module.planes_as_corners,
+              "corners_on_wall_lines": points_module.corners_on_wall_lines}  # fmt: skip
+    nothing = {"planes_as_corners": lambda *a, **k: ([], []),
+               "corners_on_wall_lines": lambda *a, **k: []}  # fmt: skip
     best = {"with": float("inf"), "without": float("inf")}
     points = 0
     for _ in range(3):
         for name, fn in (("without", _none), ("with", search)):
             monkeypatch.setattr(surfacefit_module, "claim_points", fn)
+            for stage, real in stages.items():
+                monkeypatch.setattr(points_module, stage, real if fn is search else nothing[stage])
             t0 = time.process_time()
             res = process(lg, params)
             best[name] = min(best[name], time.process_time() - t0)

@@ -16,7 +16,10 @@ the nearest such corner at each end. The stretch is not made where readings from
 (:func:`~sonarproc.surfaces.freespace.free_feet`: an opening between the wall's end and
 the corner stays open), nor where it would cross another fitted surface (the corner is
 another room's) or run along one (another piece of the same line, found nearer the
-corner, reaches it: the stretch would put two surfaces on one stretch of wall), nor
+corner, reaches it: the stretch would put two surfaces on one stretch of wall), nor past
+an ``edge`` reported on the stretch (a convex edge is a wall's free end, a jamb or the
+mouth of a junction: the wall does not run on through it, and the stretch would close
+the opening the edge stands at), nor
 through a stretch that stood hidden behind something else
 (:func:`~sonarproc.surfaces.echoes.unseen.hidden_runs`, from either side: the readings
 facing it squarely came back short of it, so its corner is another wall's on the same
@@ -136,6 +139,7 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
     corners = np.array([f.polyline[0] for f in fits if f.model == "corner"]).reshape(-1, 2)
     if corners.shape[0] == 0:
         return list(fits)
+    edges = np.array([f.polyline[0] for f in fits if f.model == "edge"]).reshape(-1, 2)
     cones = FreeCones.of(echoes.xy, echoes.heading, echoes.half_beam, echoes.range_m)
     out = list(fits)
     for i, f in enumerate(fits):
@@ -158,7 +162,7 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
             q = a + t * (0.0 if end_before else target)
             if float(np.hypot(*(q - p))) < MIN_STRETCH_M or _crosses(p, q, others):
                 continue
-            if _runs_along(p, q, others):
+            if _runs_along(p, q, others) or _runs_along(p, q, [edges]):
                 continue
             _, read, _ = free_feet(p[None, :], q[None, :], cones, margin=RANGE_TOL_M)
             if np.unique(cones.viewpoint[read]).size >= MIN_FREE_POSES or _hidden(p, q, cones):

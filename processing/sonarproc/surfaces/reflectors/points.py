@@ -13,7 +13,13 @@ The surface stage runs in two steps round the walls' echo refits:
    drops those in a row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples
    of a diffusely scattering surface), ends each wall fitted past a point at that point
    (:func:`~sonarproc.surfaces.reflectors.complete.trim_to_points`: the points are
-   checked against the walls so ended), gives each its kind
+   checked against the walls so ended), turns a plane fitted through the arcs of a corner
+   heard over a narrow spread of bearings into that corner
+   (:func:`~sonarproc.surfaces.reflectors.corner_planes.planes_as_corners`: the ranges
+   alone cannot tell them apart, the walls' lines can), looks on the walls' lines for the
+   corners such readings make when no plane was fitted through them
+   (:func:`~sonarproc.surfaces.reflectors.line_corners.corners_on_wall_lines`), gives
+   each its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
@@ -41,6 +47,8 @@ from sonarproc.surfaces.reflectors.confirm import (
     line_ends,
     on_circles,
 )
+from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
+from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
@@ -184,6 +192,14 @@ def refine_with_points(
         walls = line_ends(fits)
         kept = [(k, p) for k, p in kept if _still_a_point(p, echoes, fits, walls)]
     fits = trim_to_points(fits, _positions([p for _, p in kept]))
+    # a corner heard over a narrow spread of bearings was fitted as a plane through it
+    gone, corners = planes_as_corners(fits, echoes)
+    if gone:
+        fits = [f for k, f in enumerate(fits) if k not in gone]
+        cells = [c for k, c in enumerate(cells) if k not in gone]
+        kept += [(-1, p) for p in corners]
+    # a corner whose ranges a plane explains as well, and that no plane was fitted to
+    kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept])]
     out, out_cells = list(fits), list(cells)
     for _, p in kept:
         out.append(point_fit(p, point_kind(p, echoes, fits)))

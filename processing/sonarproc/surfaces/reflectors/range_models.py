@@ -25,13 +25,18 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special
 
+from sonarsim.transducer import PISTON_FIRST_NULL, TransducerParams
+
 __all__ = [
     "POINT_FALSE_ALARM",
     "RANGE_STEP_NOISE_M",
     "RANGE_TOL_M",
+    "THRESHOLD_MARGIN",
     "diffuse_residuals",
     "diffuse_rms",
     "distinct_poses",
+    "heard_plane",
+    "plane_beam_reach",
     "plane_residuals",
     "plane_rms",
     "plane_variances",
@@ -57,6 +62,11 @@ RANGE_STEP_NOISE_M = 0.0254 / math.sqrt(12.0)
 #: prefer a point (one-sided, Vuong's statistic is standard normal when both models fit
 #: equally well).
 POINT_FALSE_ALARM = 0.01
+#: Whether a plane could have been heard is judged with a receiver threshold this many
+#: times the transducer model's (6 dB more sensitive): the threshold and the beam pattern
+#: of a real sensor are known to a few dB, and a plane wrongly called unheard would make
+#: its readings a point (:func:`heard_plane`).
+THRESHOLD_MARGIN = 0.5
 
 # The directions :func:`plane_rms` and :func:`diffuse_rms` try (every half degree), and
 # the products of their cosines and sines, computed once.
@@ -127,6 +137,76 @@ def plane_residuals(xy: FloatArray, rng: FloatArray) -> FloatArray:
     m, var = _centred_variances(xy, rng)
     k = int(np.argmin(var))
     return np.asarray(m[:, 2] + _PLANE_CA[k] * m[:, 0] + _PLANE_SA[k] * m[:, 1], dtype=np.float64)
+
+
+def heard_plane(
+    xy: FloatArray, rng: FloatArray, heading: FloatArray, half_beam: FloatArray
+) -> tuple[FloatArray, FloatArray] | None:
+    """The best plane the readings could have heard: its unit normal and range residuals.
+
+    The planes of :func:`plane_rms` (``range = d - n . sensor``, ``n`` every half degree,
+    pointing from the sensors to the plane) whose echo every reading hears inside its
+    effective beam (``n`` within :func:`plane_beam_reach` of each heading); of those, the
+    one with the least RMS residual. None when no plane could be heard by all of them (a
+    plane is heard only near normal incidence; a point reflector from anywhere in the
+    beam).
+
+    Examples
+    --------
+    Sensors along y = 0 looking up at a wall y = 2; the same ranges from sensors looking
+    20 degrees to either side (no plane both could hear 2 m away):
+
+    >>> xy = np.c_[np.linspace(-1, 1, 9), np.zeros(9)]
+    >>> n, res = heard_plane(xy, np.full(9, 2.0), np.full(9, np.pi / 2), np.full(9, 0.22))
+    >>> np.round(n, 6).tolist(), float(np.abs(res).max()) < 1e-9
+    ([0.0, 1.0], True)
+    >>> aside = np.radians(np.where(np.arange(9) % 2, 70.0, 110.0))
+    >>> heard_plane(xy, np.full(9, 2.0), aside, np.full(9, 0.22)) is None
+    True
+    """
+    m, var = _centred_variances(xy, rng)
+    reach = plane_beam_reach(rng, half_beam)
+    off = np.abs((_PLANE_A[None, :] - heading[:, None] + np.pi) % (2 * np.pi) - np.pi)
+    heard = np.all(off <= reach[:, None], axis=0)
+    if not bool(heard.any()):
+        return None
+    k = int(np.flatnonzero(heard)[np.argmin(var[heard])])
+    n = np.array([_PLANE_CA[k], _PLANE_SA[k]])
+    return n, np.asarray(m[:, 2] + n[0] * m[:, 0] + n[1] * m[:, 1], dtype=np.float64)
+
+
+def plane_beam_reach(range_m: npt.ArrayLike, half_beam: npt.ArrayLike) -> FloatArray:
+    """Widest angle (rad) off a beam's axis at which a plane ``range_m`` away is heard.
+
+    A plane is heard only near normal incidence: its echo's amplitude, the Gaussian main
+    lobe squared times the spreading loss, ``exp(-(ka sin theta)^2 / 4) (r_ref / r)^2``
+    (:func:`sonarsim.transducer.main_lobe_amplitude` with the plane's reflectivity and
+    spreading of :class:`sonarsim.transducer.TransducerParams`), must clear the receiver
+    threshold, so ``ka sin theta <= 2 sqrt(ln((r_ref / r)^2 / threshold))``; ``ka`` from
+    the nominal half-width as the piston's first null (``ka sin(half width) = 3.8317``,
+    which puts the beam's edge where the sensor's own specification does), the threshold
+    :data:`THRESHOLD_MARGIN` times the model's (a ranging board's threshold, and the
+    transducer's beam, are known to a few dB only: a plane is called unheard only when a
+    more sensitive sensor would not hear it either). The effective beam is wider than
+    nominal close by and narrower far away; 0 where even head on the plane is too weak to
+    hear.
+
+    Examples
+    --------
+    A 15 degree nominal beam, at 1 m, 2.5 m and 4.8 m:
+
+    >>> np.degrees(plane_beam_reach([1.0, 2.5, 4.8], np.radians(15.0))).round(1).tolist()
+    [17.5, 13.8, 10.5]
+    """
+    tp = TransducerParams()
+    r = np.maximum(np.asarray(range_m, dtype=np.float64), 1e-3)
+    ka = PISTON_FIRST_NULL / np.sin(
+        np.clip(np.asarray(half_beam, dtype=np.float64), 1e-3, 0.5 * np.pi)
+    )
+    head_on = tp.plane_reflectivity * (tp.reference_range / r) ** 2
+    ratio = np.maximum(head_on / (THRESHOLD_MARGIN * tp.threshold), 1.0)
+    sin_t = np.minimum(2.0 * np.sqrt(np.log(ratio)) / ka, 1.0)
+    return np.asarray(np.arcsin(sin_t), dtype=np.float64)
 
 
 def point_beats_plane(point_res: FloatArray, plane_res: FloatArray) -> bool:

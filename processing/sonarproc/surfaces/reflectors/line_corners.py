@@ -1,0 +1,333 @@
+"""Corners placed by the walls' lines: a corner the ranges alone cannot tell from a plane.
+
+A concave corner heard over a small spread of bearings (one sensor on a straight stretch
+of track, through a doorway or from far along its bisector) gives ranges that a plane
+explains about as well as a point, so
+:func:`~sonarproc.surfaces.reflectors.rcd.point_feature` rightly does not accept it; when
+no plane is fitted through them either
+(:mod:`~sonarproc.surfaces.reflectors.corner_planes` handles those), its readings are
+left unexplained and the corner is missed.
+
+A corner is where its walls end, so its place is on a fitted wall's line, at or past its
+end (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`). On that line a point
+has one unknown instead of two, and the question changes: not "does a point explain the
+ranges better than a plane?" but "do the unexplained readings all meet at one place of
+the line?". :func:`corners_on_wall_lines` looks along each fitted plane's line, from
+:data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` inside each end to
+:data:`~sonarproc.surfaces.reflectors.walls.WALL_GAP_M` past it (the reach of a corner's
+echo), every :data:`STEP_M`, for the place the most unexplained readings pass through
+(range within :data:`~sonarproc.surfaces.reflectors.range_models.RANGE_TOL_M` of the
+distance, inside the beam: :func:`~sonarproc.surfaces.reflectors.gathering.gather`). It
+is a corner when:
+
+* at least :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` unexplained readings
+  (no fitted surface's specular echo, no reported point's; a corner's readings near
+  their beams' axes meet its walls' lines at their range, so a diffuse echo off a wall
+  is not ruled out here) from
+  :data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES` distinct sensor positions pass
+  through it, refitted along the line (one unknown, least squares on the ranges) and
+  gathered again there (a chance crossing of arcs of other surfaces meets the line at a
+  place a few times, not eight times within the range tolerance);
+* the sensors lie on the side of the line that the wall was seen from, and span no
+  more than a right angle and the retro-reflection tolerance round it (inside the
+  corner's opening; a corner is heard from its inside only);
+* their lines of sight to it cross no fitted plane short of it (the sound reached it),
+  and it answered most beams that held it near their axis
+  (:func:`~sonarproc.surfaces.reflectors.point_echoes.answers_its_beams`: a corner
+  retro-reflects from anywhere inside its opening, while the beams aimed at a chance
+  crossing of arcs range the surfaces behind or before it; a long log's many readings
+  cross at some place of a line eight times by chance);
+* it lies inside no fitted plane, and not within
+  :data:`~sonarproc.surfaces.reflectors.gathering.CANDIDATE_SPACING_M` of a point
+  reported already;
+* no plane explains the readings instead (:func:`_no_plane`): a plane is heard only near
+  normal incidence, so only a plane that every one of the readings could have heard
+  inside its effective beam is an alternative
+  (:func:`~sonarproc.surfaces.reflectors.range_models.heard_plane`, the transducer
+  model's beam); such a plane wins when it explains the ranges significantly better,
+  or when it meets the wall's line square or runs along it (within the retro-reflection
+  tolerance :data:`~sonarproc.surfaces.reflectors.point_echoes.CORNER_TOL_RAD`: then it
+  is likely the corner's other wall, or the wall itself, seen head on; an oblique plane
+  crossing the wall's line just where the readings' arcs meet is what
+  :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects).
+
+Its kind is then decided like every other point's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.gathering import (
+    BEAM_SLACK,
+    CANDIDATE_SPACING_M,
+    ArcIndex,
+    gather,
+    gather_all,
+)
+from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD, answers_its_beams
+from sonarproc.surfaces.reflectors.range_models import (
+    RANGE_TOL_M,
+    distinct_poses,
+    heard_plane,
+    plane_rms,
+    point_beats_plane,
+    sensor_span,
+)
+from sonarproc.surfaces.reflectors.rcd import MIN_POSES, MIN_READINGS, PointFeature
+from sonarproc.surfaces.reflectors.walls import (
+    END_REACH_M,
+    WALL_GAP_M,
+    inside_walls,
+    side_of_line,
+)
+
+__all__ = ["STEP_M", "corners_on_wall_lines"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
+
+#: Places along a wall's line are tried this often (m): half the range tolerance, so
+#: every reading through a corner passes through a place tried.
+STEP_M = 0.5 * RANGE_TOL_M
+#: Gauss-Newton steps of the position along the line (one unknown; the gather is within
+#: the range tolerance already, two steps settle it to a fraction of a millimetre).
+LINE_FIT_STEPS = 3
+
+
+def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t: float) -> float:
+    """Least-squares position ``t`` along the line ``a + t u`` of a point through the ranges."""
+    for _ in range(LINE_FIT_STEPS):
+        d = a + t * u - xy
+        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        res = dist - rng
+        jac = (d @ u) / dist
+        den = float(jac @ jac)
+        if den <= 1e-12:
+            break
+        t -= float(jac @ res) / den
+    return t
+
+
+def _crossing_counts(
+    echoes: EchoGeometry, idx: IntArray, a: FloatArray, u: FloatArray, t: FloatArray
+) -> IntArray:
+    """How many arcs of readings ``idx`` pass near each place ``a + t u`` (``t`` evenly spaced).
+
+    A reading's circle (its sensor, its range) meets the line at up to two places; those
+    inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
+    range tolerance of a place within that tolerance over the cosine ``c`` of its sight
+    line's angle to the line of the crossing. Sight lines within :data:`CORNER_TOL_RAD` of
+    square to the line do not count: such readings face the wall's line head on, where a
+    plane along the line explains them (:func:`_no_plane`), and their tolerance along the
+    line would be unbounded.
+    """
+    d = echoes.xy[idx] - a
+    along = d @ u
+    off = d[:, 0] * u[1] - d[:, 1] * u[0]
+    rng = echoes.range_m[idx]
+    reach = np.abs(off) <= rng + RANGE_TOL_M
+    half = np.sqrt(np.maximum(rng[reach] ** 2 - off[reach] ** 2, 0.0))
+    tc = np.concatenate((along[reach] - half, along[reach] + half))
+    rows = np.concatenate((idx[reach], idx[reach]))
+    v = a + tc[:, None] * u - echoes.xy[rows]
+    bearing = np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[rows]
+    off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
+    c = np.abs(v @ u) / np.maximum(echoes.range_m[rows], 1e-9)
+    ok = (off_axis <= BEAM_SLACK * echoes.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
+    tc, width = tc[ok], RANGE_TOL_M / c[ok]
+    step = float(t[1] - t[0]) if t.size > 1 else 1.0
+    lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
+    hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
+    diff = np.zeros(t.size + 1, dtype=np.intp)
+    np.add.at(diff, lo, 1)
+    np.add.at(diff, hi, -1)
+    return np.asarray(np.cumsum(diff)[:-1], dtype=np.intp)
+
+
+def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
+    """Which places ``t`` (ascending, m along a line) gather no fewer readings than every
+    place within :data:`CANDIDATE_SPACING_M` of them."""
+    lo = np.searchsorted(t, t - CANDIDATE_SPACING_M)
+    hi = np.searchsorted(t, t + CANDIDATE_SPACING_M, "right")
+    best = [sizes[a:b].max() for a, b in zip(lo.tolist(), hi.tolist(), strict=True)]
+    return np.asarray(sizes >= np.array(best, dtype=sizes.dtype).reshape(-1))
+
+
+def _occluded(
+    sensors: FloatArray, x: FloatArray, walls: list[tuple[FloatArray, FloatArray]]
+) -> bool:
+    """Whether any sight line from a sensor to ``x`` crosses a fitted plane short of it.
+
+    Short of it: by more than :data:`RANGE_TOL_M` (the walls meeting at ``x`` end there).
+    """
+    d = x - sensors
+    length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+    for a, b in walls:
+        v = b - a
+        den = d[:, 0] * v[1] - d[:, 1] * v[0]
+        w = a - sensors
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (w[:, 0] * v[1] - w[:, 1] * v[0]) / den
+            s = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / den
+        hit = (
+            (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
+        )
+        if bool(hit.any()):
+            return True
+    return False
+
+
+def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray) -> bool:
+    """Whether no plane explains the readings ``idx`` in place of a corner at ``x`` (module notes).
+
+    Only a plane every reading could have heard inside its effective beam is an
+    alternative (:func:`heard_plane`); none, and the corner stands. The best such plane is
+    preferred when it explains the ranges significantly better than the point
+    (:func:`point_beats_plane` the other way round), or when it meets the wall's line
+    (direction ``u``) square or runs along it (within :data:`CORNER_TOL_RAD`): then it
+    may be the corner's other wall, or more of this one, seen head on.
+    """
+    xy, rng = echoes.xy[idx], echoes.range_m[idx]
+    plane = heard_plane(xy, rng, echoes.heading[idx], echoes.half_beam[idx])
+    if plane is None:
+        return True
+    n, plane_res = plane
+    point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
+    if point_beats_plane(plane_res, point_res):
+        return False
+    cross = abs(float(n @ u))  # the sine of the angle between the plane and the line
+    return math.sin(CORNER_TOL_RAD) < cross < math.cos(CORNER_TOL_RAD)
+
+
+def corners_on_wall_lines(
+    fits: list[SurfaceFit], echoes: EchoGeometry, points: list[PointFeature]
+) -> list[PointFeature]:
+    """Corners on the fitted planes' lines that the unexplained readings meet at (module notes).
+
+    Parameters
+    ----------
+    fits : list of SurfaceFit
+        The fitted surfaces.
+    echoes : EchoGeometry
+        The readings they were fitted to.
+    points : list of PointFeature
+        The point reflectors reported already (their readings are explained).
+
+    Returns
+    -------
+    list of PointFeature
+        The corners found, most readings first; each reading belongs to at most one.
+
+    Examples
+    --------
+    A wall along y = 0 from x = 1 to 4, seen from above, and a corner at its line's
+    (0, 0) that one sensor driving along y = 3.8, looking back at 231 degrees, heard
+    eight times:
+
+    >>> xs = np.linspace(2.5, 3.2, 8)
+    >>> s = np.r_[np.c_[xs, np.full(8, 3.8)], np.c_[xs, np.ones(8)]]
+    >>> heading = np.radians(np.r_[np.full(8, -129.0), np.full(8, -90.0)])
+    >>> g = EchoGeometry(s, heading, np.full(16, np.radians(15.0)),
+    ...                  np.r_[np.hypot(xs, 3.8), np.ones(8)])
+    >>> wall = SurfaceFit("line", np.c_[np.linspace(1, 4, 301), np.zeros(301)], 3.0, 0.0, 8, 8)
+    >>> [np.round(p.xy, 3).tolist() for p in corners_on_wall_lines([wall], g, [])]
+    [[0.0, 0.0]]
+    """
+    polys = [k for k, s in enumerate(fits) if s.polyline.shape[0] >= 2]
+    got = echo_points([fits[k].polyline for k in polys], [fits[k].closed for k in polys],
+                      echoes, tol=RANGE_TOL_M)  # fmt: skip
+    explained = np.zeros(echoes.size, dtype=bool)
+    for g in got:
+        explained[g.readings] = True
+    for p in points:
+        explained[p.readings] = True
+    free = ~explained
+    lines = [(k, g) for k, g in zip(polys, got, strict=True)
+             if fits[k].model == "line" and not fits[k].closed]  # fmt: skip
+    if not lines or np.count_nonzero(free) < MIN_READINGS:
+        return []
+    walls = [(fits[k].polyline[0], fits[k].polyline[-1]) for k, _ in lines]
+    # the side each wall was seen from: the median side of its own readings
+    seen_side = [float(np.median(np.sign(side_of_line(a, b, echoes.xy[g.readings]))))
+                 if g.readings.size else 0.0
+                 for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
+    index = ArcIndex(echoes, free)
+    places, owner, along = [], [], []
+    for k, (a, b) in enumerate(walls):
+        length = float(np.hypot(*(b - a)))
+        if length <= 0 or seen_side[k] == 0.0:
+            continue
+        u = (b - a) / length
+        inner = min(END_REACH_M, 0.5 * length)
+        for t in (
+            np.arange(-WALL_GAP_M, inner, STEP_M),
+            np.arange(length - inner, length + WALL_GAP_M, STEP_M),
+        ):
+            # where the most arcs cross the line: a place within the candidate spacing of
+            # one with more is that one's (its arcs spread over the range tolerance round it)
+            counts = _crossing_counts(echoes, np.flatnonzero(free), a, u, t)
+            t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
+            if t.size:
+                places.append(a + t[:, None] * u)
+                owner.append(np.full(t.size, k))
+                along.append(t)
+    if not places:
+        return []
+    starts, which = np.concatenate(places), np.concatenate(owner)
+    gathers = gather_all(echoes, free, starts, index)
+    sizes = np.fromiter(map(len, gathers), dtype=np.intp, count=len(gathers))
+    # the places where the most readings meet along each line: a place within the
+    # candidate spacing of one with more is that one's (its arcs spread over the range
+    # tolerance round it)
+    cuts = np.cumsum([t.size for t in along])[:-1]
+    peak = np.concatenate([_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)])
+    found: list[PointFeature] = []
+    taken = [p.xy for p in points]
+    tried: list[tuple[int, FloatArray]] = []
+    for c in np.argsort(-sizes, kind="stable"):
+        if sizes[c] < MIN_READINGS:
+            break
+        k = int(which[c])
+        # a place whose readings settled, on this line, where others' had and failed
+        if not peak[c] or any(
+            j == k and float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for j, q in tried
+        ):
+            continue
+        a, b = walls[k]
+        u = (b - a) / float(np.hypot(*(b - a)))
+        idx = gathers[c][free[gathers[c]]]
+        if idx.size < MIN_READINGS:
+            continue
+        at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
+        x = a + at * u
+        tried.append((k, x))
+        idx = gather(echoes, free, x, index)
+        xy, rng = echoes.xy[idx], echoes.range_m[idx]
+        if idx.size < MIN_READINGS or distinct_poses(xy) < MIN_POSES:
+            continue
+        if any(float(np.hypot(*(x - q))) < CANDIDATE_SPACING_M for q in taken):
+            continue
+        if not bool(np.all(np.sign(side_of_line(a, b, xy)) == seen_side[k])):
+            continue
+        if bool(inside_walls(x, walls)[0]) or _occluded(xy, x, walls):
+            continue
+        # a corner is heard from inside its opening only: a right angle, and the tolerance
+        span = sensor_span(xy, x)
+        if span > 0.5 * math.pi + CORNER_TOL_RAD:
+            continue
+        res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
+        f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
+                         plane_rms(xy, rng), span)  # fmt: skip
+        # the retro-reflection test first: it turns down the chance crossings of a long log
+        if not answers_its_beams(f, echoes) or not _no_plane(echoes, idx, x, u):
+            continue
+        found.append(f)
+        taken.append(x)
+        free[idx] = False
+    return found
