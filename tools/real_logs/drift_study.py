@@ -18,7 +18,9 @@ as a whole from one whose walls disagree: the rigid motion (turn and shift) that
 moves the corrected positions onto the true ones, the pose error left after it, and the
 surface precision of a run (``--no-align``) on the corrected poses so moved. The
 correction can place the map only as well as the start of the log and its odometry tell:
-the echoes fix the map's shape, not where it lies as a whole::
+the echoes fix the map's shape, not where it lies as a whole. Precision is the mean over
+every fitted surface, so one spurious surface a few metres long moves it by centimetres
+whatever the poses: read it beside the pose error::
 
     python tools/real_logs/drift_study.py --work /tmp/drift-study [--case room-box:0 ...]
         [--held-out] [--placement]
