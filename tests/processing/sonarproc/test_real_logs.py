@@ -114,7 +114,8 @@ def test_the_odometry_correction_is_refused_or_plausible() -> None:
 def test_the_unexplained_readings_are_sorted_by_what_the_map_says(run_dir: Path) -> None:
     """Measured (docs/real-logs.md): the oblique sonars (±30°, ±50°), half the mapped
     readings, see the corridor walls beyond their half beam, so almost none of them has
-    a specular echo; most of their ranges reach beyond a mapped wall (doorways, jambs)."""
+    a specular echo: nearly all of their ranges end beyond a mapped wall (doorways,
+    jambs) or on one away from its specular point."""
     path = ROOT / "tools" / "real_logs" / "unexplained.py"
     spec = importlib.util.spec_from_file_location("unexplained", path)
     assert spec is not None and spec.loader is not None
@@ -133,4 +134,4 @@ def test_the_unexplained_readings_are_sorted_by_what_the_map_says(run_dir: Path)
                                                     abs=0.05)  # fmt: skip
     assert why["oblique"]["readings"] > 0.4 * why["all"]["readings"]
     assert why["side"]["explained"] > 0.5 > 0.15 > why["oblique"]["explained"]
-    assert why["oblique"]["beyond_a_surface"] > 0.3
+    assert why["oblique"]["beyond_a_surface"] + why["oblique"]["at_a_surface"] > 0.7
