@@ -13,21 +13,13 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from sonarproc.auto.beam_guard import (
-    GUARD_FIRINGS,
-    GUARD_LENGTH_CELLS,
-    GUARD_MAJORITY,
-    GUARD_READINGS,
-    GUARD_SIGMAS,
-)
 from sonarproc.auto.candidates import ORDERS, SMOOTHING_LENGTHS
 from sonarproc.auto.echo_refit import MAX_PAIRS, MIN_ECHO_POINTS
 from sonarproc.auto.holdout import MAX_SAMPLES
-from sonarproc.auto.hull import HULL_WINDOW_CELLS, SIDE_SHARE
+from sonarproc.auto.hull import HULL_READINGS, HULL_WINDOW_CELLS, SIDE_SHARE
 from sonarproc.auto.refit_rounds import (
     END_GAP_M,
     END_SHARE,
-    HULL_CELLS,
     HULL_NOISE_WIDTH,
     NOISE_MAX,
     NOISE_READINGS,
@@ -35,7 +27,7 @@ from sonarproc.auto.refit_rounds import (
     ROUNDS_M,
 )
 from sonarproc.auto.refit_ties import SPLINE_TIE_SE, TIE_SE
-from sonarproc.auto.score import CAP_CELLS, COVERAGE_MIN, SURFACES_MAX_CELLS, TRIM
+from sonarproc.auto.score import CAP_CELLS, COVERAGE_MIN, HULL_CELLS, SURFACES_MAX_CELLS, TRIM
 from sonarproc.auto.scoring import FIT_COLUMNS
 from sonarproc.auto.separation import SPLIT_GAP_M, STEP_M
 from sonarproc.methods.echo_model import MIN_PATH_GAIN
@@ -76,19 +68,14 @@ CONSTANTS: tuple[NamedConstant, ...] = (
        "the echo model's step stays below a range resolution on a profile of a few metres"),
     _c("FIT_COLUMNS", "scoring", FIT_COLUMNS, "columns",
        "merged columns stay far shorter than the shortest wave a candidate may follow"),
-    _c("GUARD_SIGMAS", "beam_guard", GUARD_SIGMAS, "range noise sigmas",
-       "a fit echoing earlier than a first echo by more than this would have been heard "
-       "first (sound does not pass through walls)"),
-    _c("GUARD_MAJORITY", "beam_guard", GUARD_MAJORITY, "share of the first echoes",
-       "a point is contradicted by most of the readings looking at it: spurious echoes "
-       "never are most"),
-    _c("GUARD_FIRINGS", "beam_guard", GUARD_FIRINGS, "firings",
-       "... from more than one firing: one firing's readings share a pose and its error"),
-    _c("GUARD_LENGTH_CELLS", "beam_guard", GUARD_LENGTH_CELLS, "cells",
-       "a fit with more of its profile contradicted is excluded: one sample may sit "
-       "across a lobe's edge"),
-    _c("GUARD_READINGS", "beam_guard", GUARD_READINGS, "first echoes",
-       "a few hundred per metre of surface are plenty to judge every cell of it"),
+    _c("HULL_CELLS", "score", HULL_CELLS, "cells",
+       "a fit may leave its points' hull by the map's own cell-scale scatter, no more"),
+    _c("HULL_WINDOW_CELLS", "hull", HULL_WINDOW_CELLS, "cells",
+       "the hull's bins: several cells, so a slope crossing a bin is not an excess"),
+    _c("HULL_READINGS", "hull", HULL_READINGS, "readings",
+       "a few hundred echo points per metre of surface are plenty to place a hull"),
+    _c("SIDE_SHARE", "hull", SIDE_SHARE, "share of the sensors",
+       "the sensors' side of a profile: nearly all of them below (or above) it"),
     _c("COVERAGE_MIN", "score", COVERAGE_MIN, "share of the implied columns",
        "a profile must reach at least half of the columns the readings look at"),
     _c("SURFACES_MAX_CELLS", "score", SURFACES_MAX_CELLS, "cells",
@@ -105,12 +92,6 @@ CONSTANTS: tuple[NamedConstant, ...] = (
        "a sonar's range noise is about 1 cm, 5 cm at worst: more says the profile is off"),
     _c("NOISE_READINGS", "refit_rounds", NOISE_READINGS, "readings",
        "the noise's median estimate is then good to a few per cent"),
-    _c("HULL_CELLS", "refit_rounds", HULL_CELLS, "cells",
-       "a refit may leave its echo points' hull by the map's own cell-scale scatter"),
-    _c("HULL_WINDOW_CELLS", "hull", HULL_WINDOW_CELLS, "cells",
-       "the hull's bins: several cells, so a slope crossing a bin is not an excess"),
-    _c("SIDE_SHARE", "hull", SIDE_SHARE, "share of the sensors",
-       "the sensors' side of a profile: nearly all of them below (or above) it"),
     _c("HULL_NOISE_WIDTH", "refit_rounds", HULL_NOISE_WIDTH, "range noise sigmas",
        "echo points scatter by the noise: a smooth refit passes outside a few of them"),
     _c("END_GAP_M", "refit_rounds", END_GAP_M, "m",

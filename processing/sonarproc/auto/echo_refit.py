@@ -396,9 +396,7 @@ def _settle_ties(
                 "agrees with it, nor a polynomial of a lower order, wherever readings echo"
             )
         return
-    # no tied spline (the refits' hull excluded them) and no tied polynomial agreeing
-    # with a reference: the best refit alone
-    out.averaged = tuple(k for k in out.tied if k.family == "spline") or (best,)
+    out.averaged = tuple(k for k in out.tied if k.family == "spline")
 
 
 def _score_settings(

@@ -42,6 +42,7 @@ import numpy.typing as npt
 
 from sonarproc.auto.candidates import ORDERS, SMOOTHING_LENGTHS, spline_lambda
 from sonarproc.auto.holdout import predicted_path
+from sonarproc.auto.score import HULL_CELLS
 from sonarproc.fit import Fit, FitFailure, PolyFit, SplineFit, fit_polynomial, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.echo_model import MIN_PATH_GAIN, curve_echo_points
@@ -49,7 +50,7 @@ from sonarproc.metrics import Bins, bin_stats
 from sonarproc.pipeline.selection import Beams
 
 __all__ = [
-    "END_GAP_M", "END_SHARE", "HULL_CELLS", "HULL_NOISE_WIDTH", "MIN_PATH_GAIN", "NOISE_MAX",
+    "END_GAP_M", "END_SHARE", "HULL_NOISE_WIDTH", "MIN_PATH_GAIN", "NOISE_MAX",
     "NOISE_READINGS", "NOISE_WIDTHS", "REFIT_SETTINGS", "ROUNDS_M", "Profile",
     "RefitSetting", "Span", "agreement_tolerance", "believable_noise", "echo_points",
     "fit_points", "fitted_points", "hull_tolerance", "main_body", "range_noise",
@@ -73,11 +74,8 @@ NOISE_WIDTHS = (5.0, 2.0)
 #: the best refit). (A Polaroid ranger's noise is about a centimetre; the paper's noisiest
 #: log, Fig. 13, has 5 cm, and the estimate includes the profile's own error.)
 NOISE_MAX = 0.10
-#: A refit may leave its echo points' local hull by this many cells (the map's own
-#: cell-scale scatter), or by :data:`HULL_NOISE_WIDTH` range noise sigmas if more.
-HULL_CELLS = 3.0
 #: On a noisy log a refit may leave its points' local hull by this many times the range
-#: noise (at least :data:`HULL_CELLS` cells): echo points scatter
+#: noise (at least :data:`~sonarproc.auto.score.HULL_CELLS` cells): echo points scatter
 #: by the noise about the surface, so a smooth refit passes outside a few of them by
 #: about that much (the second round keeps points within 2 sigma).
 HULL_NOISE_WIDTH = 2.0

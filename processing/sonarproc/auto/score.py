@@ -2,11 +2,9 @@
 
 A :class:`Score` gathers one candidate's held-out losses at each of its settings over
 the folds; :meth:`Score.finish` picks its best setting and says why the guard rails
-exclude it, if they do: a fit the first echoes contradict (the beam-range guard,
-:mod:`sonarproc.auto.beam_guard`: it lies where a reading's sound would have echoed
-before the echo it measured), one that reaches less than :data:`COVERAGE_MIN` of the
-columns the readings imply, or one that does no better than a constant or a straight
-line on its points.
+exclude it, if they do: a fit that leaves its points' local hull by more than
+:data:`HULL_CELLS` cells, reaches less than :data:`COVERAGE_MIN` of the columns the
+readings imply, or does no better than a constant or a straight line on its points.
 :class:`AutoChoice` ranks the scores and writes report.json's ``auto`` record.
 """
 
@@ -19,7 +17,6 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.auto.beam_guard import GUARD_LENGTH_CELLS
 from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import Split
 from sonarproc.fit import Fit
@@ -30,6 +27,7 @@ __all__ = [
     "CAP_CELLS",
     "COVERAGE_MIN",
     "CRITERION",
+    "HULL_CELLS",
     "SURFACES_MAX_CELLS",
     "TRIM",
     "AutoChoice",
@@ -39,6 +37,8 @@ __all__ = [
     "robust_residual",
 ]
 
+#: A fit may leave its points' local hull by at most this many cells.
+HULL_CELLS = 3.0
 #: A reading's loss is capped at this many cells (or 5 cm, if more).
 CAP_CELLS = 10.0
 #: The residual is the mean of this fraction of the held-out losses, the smallest ones: a
@@ -172,9 +172,8 @@ class Score:
 
     candidate: Candidate
     losses: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
-    #: each setting's length (m) the first echoes contradict (the beam-range guard), its
-    #: fit to the map of all the scored readings
-    guard: dict[float, float] = field(default_factory=dict)
+    #: each setting's hull excess (m), its fit to the map of all the scored readings
+    hull: dict[float, float] = field(default_factory=dict)
     #: each setting's fit to that map, and the map's points per column (the echo refit
     #: starts from a runner-up's without building its map again)
     whole_fits: dict[float, Fit] = field(default_factory=dict)
@@ -186,14 +185,14 @@ class Score:
     setting: float | None = None
     residual_m: float = np.inf
     baseline_m: float = np.inf
-    guard_m: float = 0.0
+    hull_m: float = 0.0
     coverage_frac: float = 1.0
     function_folds: int = 0
     #: folds whose map was empty (their held-out readings cost the cap)
     empty_folds: int = 0
     too_large: int = 0
     excluded: str | None = None
-    #: whether the guard rails' fits (beam range, coverage) were judged: only the candidates
+    #: whether the guard rails' fits (hull, coverage) were judged: only the candidates
     #: ranked at the top are (:class:`sonarproc.auto.scoring.WholeGuard`)
     guarded: bool = False
 
@@ -208,14 +207,13 @@ class Score:
         self.too_large = max(self.too_large, fold.too_large)
 
     def finish(self, cell: float) -> None:
-        """Best setting within the beam-range guard and the coverage; exclusion by the
-        guard rails."""
+        """Best setting within the hull and coverage; exclusion by the guard rails."""
         self.excluded = None
         res = {k: robust_residual(np.concatenate(v)) for k, v in self.losses.items() if v}
         self.baseline_m = (
             robust_residual(np.concatenate(self.base_losses)) if self.base_losses else np.inf
         )
-        inside = {k: r for k, r in res.items() if self._uncontradicted(k, cell)}
+        inside = {k: r for k, r in res.items() if self.hull.get(k, 0.0) <= HULL_CELLS * cell}
         covering = {k: r for k, r in inside.items() if k in self.allowed(cell)}
         if self.too_large:
             self.excluded = (
@@ -230,14 +228,12 @@ class Score:
         pool = covering or inside or res
         self.setting = min(pool, key=lambda k: pool[k])
         self.residual_m = pool[self.setting]
-        self.guard_m = self.guard.get(self.setting, 0.0)
+        self.hull_m = self.hull.get(self.setting, 0.0)
         self.coverage_frac = self.coverage.get(self.setting, 1.0)
         if self.function_folds:
             self.excluded = "the map is one function of x (the y(x) candidates cover it)"
         elif not inside:
-            self.excluded = (
-                f"the first echoes contradict every fit (this one over {100 * self.guard_m:.3g} cm)"
-            )
+            self.excluded = f"every fit leaves its points' hull (by {100 * self.hull_m:.3g} cm)"
         elif not covering:
             self.excluded = (
                 f"its fit reaches {self.coverage_frac:.0%} of the columns the readings imply "
@@ -249,16 +245,13 @@ class Score:
             )
 
     def allowed(self, cell: float) -> set[float]:
-        """Settings the guard rails allow: not contradicted by the first echoes (the fit
-        to all the scored readings' map) and covering the columns (that fit too)."""
+        """Settings the guard rails allow: inside the hull (the fit to all the scored
+        readings' map) and covering the columns (that fit too)."""
         return {
             k for k, v in self.losses.items()
-            if v and self._uncontradicted(k, cell)
+            if v and self.hull.get(k, 0.0) <= HULL_CELLS * cell
             and self.coverage.get(k, 1.0) >= COVERAGE_MIN
         }  # fmt: skip
-
-    def _uncontradicted(self, setting: float, cell: float) -> bool:
-        return self.guard.get(setting, 0.0) <= GUARD_LENGTH_CELLS * cell
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready row."""

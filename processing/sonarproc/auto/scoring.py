@@ -1,13 +1,13 @@
-"""Each ``--auto`` candidate's scores: its maps, fits, held-out losses and guard rails.
+"""Each ``--auto`` candidate's scores: its maps, fits, held-out losses and hull.
 
 :func:`fold_scores` scores every candidate on one fold: each method's map is built once
 on the fold's training readings (candidates share methods), every setting's fit
 predicts the held-out readings' paths, and the losses and baseline (a constant or a
 line on the same map) go into the candidate's :class:`~sonarproc.auto.score.Score`.
-:func:`whole_guards` fits every profile setting to its method's map of all the scored
-readings and records how much of it the first echoes contradict (the beam-range guard,
-:mod:`sonarproc.auto.beam_guard`) and how much of the columns the readings imply it
-reaches (the guard rails judge that fit: the one that would be chosen).
+:func:`whole_hulls` fits every profile setting to its method's map of all the scored
+readings and records how far it leaves the map points' local hull and how much of the
+columns the readings imply it reaches (the guard rails judge that fit: the one that
+would be chosen).
 Scoring fits merge adjacent columns down to :data:`FIT_COLUMNS` (:func:`fit_columns`).
 """
 
@@ -20,9 +20,9 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.arcs import rasterize
-from sonarproc.auto.beam_guard import fit_guard_excess
 from sonarproc.auto.candidates import Candidate, spline_lambda
 from sonarproc.auto.holdout import predicted_path, range_loss, subset_beams
+from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.multisurface import fitted_surfaces, surfaces_path
 from sonarproc.auto.score import SURFACES_MAX_CELLS, Score, robust_residual
 from sonarproc.auto.separation import profile_map
@@ -39,7 +39,7 @@ from sonarproc.pipeline.selection import Beams
 
 __all__ = [
     "FIT_COLUMNS", "CountMaps", "WholeGuard", "fit_columns", "fold_scores", "implied_span",
-    "mean_count", "whole_fit", "whole_guards",
+    "mean_count", "whole_fit", "whole_hulls",
 ]  # fmt: skip
 
 log = logging.getLogger(__name__)
@@ -324,8 +324,7 @@ class WholeGuard:
         self._implied: tuple[float, float] | None = None
 
     def __call__(self, s: Score) -> None:
-        """Judge ``s``: its whole fits, their coverage and beam-range guard; then
-        ``s.finish``."""
+        """Judge ``s``: its whole fits, their coverage and hull; then ``s.finish``."""
         if s.guarded:
             return
         s.guarded = True
@@ -342,10 +341,9 @@ def whole_fit(
     s: Score, entry: _MapEntry, implied: tuple[float, float], beams: Beams, grid: Grid
 ) -> None:
     """One profile candidate's settings fitted to its map of all the scored readings
-    (``entry``), their coverage of the ``implied`` columns and the length of them the
-    first echoes contradict."""
+    (``entry``), their coverage of the ``implied`` columns and their hull excess."""
     c = s.candidate
-    _, bins, _, _ = entry
+    _, bins, px, py = entry
     s.whole_bins = bins
     mc = mean_count(bins)
     for setting in c.settings:
@@ -353,11 +351,11 @@ def whole_fit(
         s.whole_fits[setting] = fit
         s.coverage[setting] = _coverage(fit, implied)
         if not isinstance(fit, FitFailure):
-            s.guard[setting] = fit_guard_excess(fit, beams, grid.cell)
+            s.hull[setting] = data_hull_excess(fit, px, py, beams, grid.cell)
 
 
-def whole_guards(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
-    """Each profile setting's beam-range guard and coverage of the implied columns
+def whole_hulls(scores: list[Score], beams: Beams, grid: Grid, base: RunParams) -> None:
+    """Each profile setting's hull excess and coverage of the implied columns
     (:func:`implied_span`), fitted to its method's map of all ``beams``: every candidate
     judged (:class:`WholeGuard` judges them one at a time)."""
     guard = WholeGuard(beams, grid, base)

@@ -2,16 +2,16 @@
 
 :func:`choose` scores :data:`~sonarproc.auto.candidates.CANDIDATES` by the held-out range
 residual (:mod:`sonarproc.auto.holdout`) and applies the guard rails of
-:mod:`sonarproc.auto.score` (a fit the first echoes contradict, one that misses most of
-the columns the readings imply, or one that does no better than a constant or a line,
-is never chosen). The beam-range guard (:mod:`sonarproc.auto.beam_guard`) is judged on
-each setting's fit to the map of all the scored readings (the fit that would be
-chosen), not on the folds' fits. A guard can only raise a
+:mod:`sonarproc.auto.score` (a fit that leaves its points' hull, misses most of the
+columns the readings imply, or does no better than a constant or a line, is never
+chosen). The hull is judged on each setting's fit to the map of all the scored readings
+(the fit that would be chosen), not on the folds' fits: a fold's fit sees part of the
+points and may leave their hull where the whole fit does not. A guard can only raise a
 candidate's residual or exclude it, so it is judged from the top of the ranking down
 until a judged candidate is on top (:meth:`AutoChoice.next_ranked`): the same choice as
 judging every candidate, for a few of them. :func:`run_auto` then runs the winner on
-every reading (the beam-range guard is checked again on that fit; a failure hands over
-to the runner-up).
+every reading (the hull is checked again on that fit; a failure hands over to the
+runner-up).
 
 Large logs are scored on a random subset of at most ``max_readings`` readings (whole
 firings), so ``--auto`` costs a few runs, whatever the log.
@@ -30,14 +30,15 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import SonarLog
-from sonarproc.auto.beam_guard import GUARD_LENGTH_CELLS, fit_guard_excess
 from sonarproc.auto.candidates import CANDIDATES, Candidate, spline_lambda
 from sonarproc.auto.constants import constants_record
 from sonarproc.auto.echo_refit import TIE_SE, RefitChoice, choose_refit, range_noise
 from sonarproc.auto.holdout import Split, firing_index, heldout_splits, subset_beams
+from sonarproc.auto.hull import data_hull_excess
 from sonarproc.auto.score import (
     CAP_CELLS,
     CRITERION,
+    HULL_CELLS,
     TRIM,
     AutoChoice,
     Score,
@@ -122,7 +123,7 @@ def choose(
         Threads the folds are scored on (:func:`sonarproc.auto.threads.in_threads`;
         default: the CPUs, at most 4). The outcome is the same for any number.
     judge_all : bool
-        Judge every candidate's guard rails (beam range, coverage of the fits to the map of all
+        Judge every candidate's guard rails (hull, coverage of the fits to the map of all
         the scored readings), not only those at the top of the ranking: the choice is
         the same, the record complete (:meth:`AutoChoice.next_ranked`).
 
@@ -281,17 +282,14 @@ def run_auto(
             last = (res, s)
         r = res.run
         if r.surfaces is not None and r.surfaces.surfaces:
-            return res, s, choice  # several surfaces: no profile to guard
+            return res, s, choice  # several surfaces: no profile hull to check
         if isinstance(r.fit, FitFailure):
             s.excluded = f"on every reading, the fit failed: {r.fit.reason}"
             continue
         if s.excluded is None:
-            against = fit_guard_excess(r.fit, choice.scored, r.grid.cell)
-            if against > GUARD_LENGTH_CELLS * r.grid.cell:
-                s.excluded = (
-                    "on every reading, the first echoes contradict "
-                    f"{100 * against:.3g} cm of the fit"
-                )
+            excess = data_hull_excess(r.fit, r.points_x, r.points_y, choice.scored, r.grid.cell)
+            if excess > HULL_CELLS * r.grid.cell:
+                s.excluded = f"on every reading, the fit leaves its hull by {100 * excess:.3g} cm"
                 continue
             return (
                 _refitted(log_, base, res, s, choice, max_readings, seed, workers),

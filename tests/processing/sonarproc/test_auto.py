@@ -11,8 +11,7 @@ import pytest
 from sonarlog.schema import empty_readings
 from sonarmorph_tools.auto_judge import auto_row
 from sonarproc.arcs import arcs_of, rasterize
-from sonarproc.auto import CANDIDATES, Score, choose, run_auto
-from sonarproc.auto.beam_guard import GUARD_LENGTH_CELLS, fit_guard_excess
+from sonarproc.auto import CANDIDATES, HULL_CELLS, Score, choose, run_auto
 from sonarproc.auto.candidates import Candidate
 from sonarproc.auto.holdout import firing_folds, hull_excess, range_loss, subset_beams
 from sonarproc.auto.score import COVERAGE_MIN, TRIM, robust_residual
@@ -119,10 +118,10 @@ def test_choose_scores_every_candidate_with_guard_rails(sparse: Path) -> None:
     assert best.guarded  # the guard rails are judged from the top of the ranking down
     for s in choice.scores:
         if s.excluded is None:
-            # never worse than a constant or a line, never contradicted by the first echoes
+            # never worse than a constant or a line, never out of its points' hull
             assert s.residual_m <= s.baseline_m + 0.25 * 0.01
-            assert s.guard_m <= GUARD_LENGTH_CELLS * 0.01 or not s.guarded
-    # the long wave defeats every polynomial of order <= 15: excluded, or far behind
+            assert s.hull_m <= HULL_CELLS * 0.01 or not s.guarded
+    # the long wave defeats every polynomial of order <= 15: out of the hull, or far behind
     for s in choice.scores:
         if s.candidate.family == "poly":
             assert s.excluded is not None or s.residual_m > 10 * best.residual_m
@@ -155,7 +154,7 @@ def test_the_choice_is_the_same_on_one_thread_or_several(sparse: Path) -> None:
     for a, b in zip(one.scores, two.scores, strict=True):
         assert a.candidate.name == b.candidate.name and a.excluded == b.excluded
         assert a.setting == b.setting and a.residual_m == b.residual_m
-        assert a.losses.keys() == b.losses.keys() and a.guard == b.guard
+        assert a.losses.keys() == b.losses.keys() and a.hull == b.hull
         for k in a.losses:
             np.testing.assert_array_equal(np.concatenate(a.losses[k]), np.concatenate(b.losses[k]))
         np.testing.assert_array_equal(np.concatenate(a.base_losses), np.concatenate(b.base_losses))
@@ -180,14 +179,14 @@ def test_judging_the_guard_rails_lazily_chooses_as_judging_every_candidate(spars
         assert s.residual_m <= t.residual_m or s.guarded
 
 
-def test_the_first_echoes_do_not_contradict_the_chosen_fit_on_every_reading(sparse: Path) -> None:
+def test_the_chosen_fit_on_every_reading_stays_in_its_points_hull(sparse: Path) -> None:
     lg = load_log(sparse)
     res, chosen, choice = run_auto(lg, RunParams())
     r = res.run
     assert chosen.excluded is None and chosen in choice.ranked
-    against = fit_guard_excess(r.fit, choice.scored, r.grid.cell)
-    assert against <= GUARD_LENGTH_CELLS * r.grid.cell
-    # every profile setting's guard and coverage are judged on its fit to all the scored
+    excess = hull_excess(r.fit.sample(r.grid.cell), r.points_x, r.points_y, window=10 * r.grid.cell)
+    assert excess <= HULL_CELLS * r.grid.cell
+    # every profile setting's hull and coverage are judged on its fit to all the scored
     # readings (a fold's map may be too sparse to fit; that fold costs the cap instead)
     beams, _ = select_beams(lg, RunParams())
     beams = subset_beams(beams, _sample_firings(beams.readings, 6_000, 0))
@@ -195,8 +194,8 @@ def test_the_first_echoes_do_not_contradict_the_chosen_fit_on_every_reading(spar
     assert chosen.guarded
     for s in choice.scores:
         if s.candidate.family != "surfaces" and s.guarded:
-            assert set(s.guard) <= set(s.candidate.settings) and s.guard
-            assert all(np.isfinite(v) and v >= 0 for v in s.guard.values())
+            assert set(s.hull) <= set(s.candidate.settings) and s.hull
+            assert all(np.isfinite(v) and v >= 0 for v in s.hull.values())
             assert set(s.coverage) == set(s.whole_fits) == set(s.candidate.settings)
             for k, fit in s.whole_fits.items():
                 lo, hi = fit.domain

@@ -1,4 +1,5 @@
-"""The echo refit's hull (the sensors' side), and ``--auto``'s paired errors over firings."""
+"""``--auto``'s guard-rail hull (the sensors' side, the readings' echo points), and its
+paired errors over firings."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ from hypothesis.extra.numpy import arrays
 import sonarproc.auto.echo_refit as echo_refit
 from sonarproc.auto.echo_refit import choose_refit
 from sonarproc.auto.holdout import hull_excess, local_hull
-from sonarproc.auto.hull import sensor_side
-from sonarproc.auto.score import clustered_paired_se, paired_se
+from sonarproc.auto.hull import data_hull_excess, sensor_side
+from sonarproc.auto.score import HULL_CELLS, clustered_paired_se, paired_se
 from sonarproc.fit import PolyFit, SplineFit, fit_spline
 from sonarproc.grid import Grid
 from sonarproc.methods.testing import beams_facing
@@ -84,6 +85,22 @@ def test_the_sensors_side_of_a_profile() -> None:
     # a curve between the sensors: half of them on each side
     assert sensor_side(_sensors_facing_wave(0, 40, 1.0), np.column_stack((xs, 0.65 + 0 * xs))) == 0
     assert sensor_side(None, curve) == 0
+
+
+def test_the_readings_echo_points_fill_a_stretch_the_map_misses() -> None:
+    """A map with no point across a trough of the wave (x = 2.2-3.05 m): the wave leaves
+    the hull its points draw across the gap by the trough's depth; the readings that
+    echo from the trough put it back. A fit that swings 20 cm about the wave stays
+    outside."""
+    beams = _sensors_facing_wave(1, 120, 1.0)
+    x = np.linspace(0.3, 4.2, 400)
+    mapped = x[(x < 2.2) | (x > 3.05)]
+    px, py = mapped, _wave(mapped)
+    wave_fit = fit_spline(x, _wave(x), np.ones(x.size), lam=1e-9)
+    assert data_hull_excess(wave_fit, px, py, None, CELL) > 0.08
+    assert data_hull_excess(wave_fit, px, py, beams, CELL) <= HULL_CELLS * CELL
+    swing = fit_spline(x, _wave(x) + 0.2 * np.sin(2 * np.pi * x / 0.7), np.ones(x.size), lam=1e-9)
+    assert data_hull_excess(swing, px, py, beams, CELL) > 0.1
 
 
 def test_a_refit_may_follow_the_crests_its_echo_points_miss(
