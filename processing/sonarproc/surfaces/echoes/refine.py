@@ -13,7 +13,9 @@ perpendicular from the sensor).
 The direction of the foot is the surface normal even when the estimate is displaced
 along it, so the echo points lie on the true surface: the refit removes the bias. Each
 surface is refitted (:func:`~sonarproc.surfaces.fitting.batch.fit_surfaces`, same criterion)
-through its echo points, twice, with the tolerances of :data:`ROUNDS_M` (a long log's
+through its echo points, twice, with the tolerances of :data:`ROUNDS_M` (a spline that
+is two straight walls meeting at an obtuse corner becomes their two lines:
+:mod:`sonarproc.surfaces.fitting.bends`; a long log's
 first round scores a fixed random subset of :data:`FIRST_ROUND_READINGS` readings, with
 the fewest echoes scaled down alike: that round only weeds out the chance ridges, a
 thousand of them in an hour's log of a room, and refits the rest roughly for the last
@@ -54,6 +56,7 @@ from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through,
 from sonarproc.surfaces.echoes.unseen import cut_unseen
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.batch import fit_surfaces
+from sonarproc.surfaces.fitting.bends import points_subset, straight_pieces
 from sonarproc.surfaces.fitting.merge import merge_collinear
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import FreeCones, viewpoint_ids
@@ -134,6 +137,18 @@ def _extend(fit: SurfaceFit, cells: SurfaceCells, tol: float, cell: float) -> Su
         return fit
     length = float(np.hypot(*np.diff(poly, axis=0).T).sum())
     return replace(fit, polyline=poly, length_m=length)
+
+
+def _pieces(
+    fit: SurfaceFit, points: SurfaceCells, rows: IntArray, cell: float, noise: float
+) -> list[tuple[SurfaceFit, SurfaceCells, IntArray]]:
+    """A refit, or the straight walls its spline rounds a corner of
+    (:func:`~sonarproc.surfaces.fitting.bends.straight_pieces`), with their echo points
+    and readings' indices."""
+    pieces = straight_pieces(points, cell=cell, scatter=noise) if fit.model == "spline" else None
+    if pieces is None:
+        return [(fit, points, rows)]
+    return [(piece, points_subset(points, idx), rows[idx]) for piece, idx in pieces]
 
 
 def _scored(echoes: EchoGeometry, r: int, rounds: int, min_echoes: int) -> tuple[EchoGeometry, int]:
@@ -337,12 +352,13 @@ def refine_fits(
         for k, ec, new in zip(todo, sets, refits, strict=True):
             if isinstance(new, SurfaceFailure):
                 continue
-            # stretched over its ridge before the next round: a fit through echo points
-            # ends at the outermost ones, whose feet would then fall on its ends
-            nxt.append(_extend(replace(new, arcs=int(got[k][0].size)), ridge[k], tol, cell))
-            nxt_ridge.append(ridge[k])
-            pts_cells.append(ec)
-            pts_idx.append(got[k][0])
+            for piece, sub, rows in _pieces(new, ec, got[k][0], cell, noise):
+                # stretched over its ridge before the next round: a fit through echo
+                # points ends at the outermost ones, whose feet would then fall on its ends
+                nxt.append(_extend(replace(piece, arcs=int(rows.size)), ridge[k], tol, cell))
+                nxt_ridge.append(ridge[k])
+                pts_cells.append(sub)
+                pts_idx.append(rows)
         cur, ridge = nxt, nxt_ridge
     if rounds:
         # openings: free space (readings that saw through a wall) cuts it
