@@ -57,8 +57,9 @@ SEEN = ("sparse10-door-corridor", "sparse10-junction", "sparse10-hall-loop",
         "sparse10-l-corridor", "sparse10-return-corridor", "sparse10-heldout-cross",
         "sparse10-heldout-office", "sparse10-heldout-dogleg", "sparse11-heldout-tee",
         "sparse11-heldout-room-door", "sparse11-heldout-wide-cross", "sparse12-heldout-lab",
-        "sparse12-heldout-side-rooms", "sparse12-heldout-alcove-hall", "sparse13-heldout-obtuse-room",
-        "sparse13-heldout-alcove-corridor", "sparse13-heldout-l-doors")  # fmt: skip
+        "sparse12-heldout-side-rooms", "sparse12-heldout-alcove-hall",
+        "sparse13-heldout-obtuse-room", "sparse13-heldout-alcove-corridor",
+        "sparse13-heldout-l-doors")  # fmt: skip
 #: Scenes held out from all tuning, run once after the last rule change.
 HELD_OUT = (
     "sparse14-heldout-storeroom",
