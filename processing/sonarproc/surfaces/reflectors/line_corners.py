@@ -70,7 +70,11 @@ from sonarproc.surfaces.reflectors.gathering import (
     gather,
     gather_all,
 )
-from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD, answers_its_beams
+from sonarproc.surfaces.reflectors.point_echoes import (
+    CORNER_TOL_RAD,
+    BeamAxes,
+    answers_its_beams,
+)
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     distinct_poses,
@@ -290,6 +294,7 @@ def corners_on_wall_lines(
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
     tried: list[tuple[int, FloatArray]] = []
+    axes: BeamAxes | None = None  # computed once, when the first place gets that far
     for c in np.argsort(-sizes, kind="stable"):
         if sizes[c] < MIN_READINGS:
             break
@@ -325,7 +330,8 @@ def corners_on_wall_lines(
         f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
                          plane_rms(xy, rng), span)  # fmt: skip
         # the retro-reflection test first: it turns down the chance crossings of a long log
-        if not answers_its_beams(f, echoes) or not _no_plane(echoes, idx, x, u):
+        axes = BeamAxes(echoes) if axes is None else axes
+        if not answers_its_beams(f, echoes, axes) or not _no_plane(echoes, idx, x, u):
             continue
         found.append(f)
         taken.append(x)

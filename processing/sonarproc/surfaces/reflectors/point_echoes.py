@@ -39,6 +39,7 @@ __all__ = [
     "EDGE_REACH_M",
     "MIN_CROSSINGS",
     "MIN_FAR_POSES",
+    "BeamAxes",
     "aimed_from_sector",
     "answers_its_beams",
     "echo_kind",
@@ -46,6 +47,7 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: Beams that say a place is free space before a point is an edge (one may be a stray
 #: echo).
@@ -69,6 +71,35 @@ AXIS_SHARE = 0.5
 #: Share of the beams holding a point near their axis that a retro-reflecting corner
 #: answers: all of them, less dropouts and the range step's rounding; more than half.
 ANSWER_SHARE = 0.5
+# :class:`BeamAxes` keeps the beams within this (rad) more than the aim of their axis:
+# far above the rounding of the exact test's angles (1e-15 rad), far below any aim.
+_AIM_MARGIN_RAD = 1e-6
+
+
+def _sector_start(point: PointFeature, rel: FloatArray) -> float | None:
+    """Bearing (rad) where the point's sector starts (just past its sensors' largest gap).
+
+    ``rel`` (N, 2) is every sensor's position less the point's; None when fewer than two
+    readings make the point (no sector).
+    """
+    mine = rel[point.readings]
+    own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
+    if own.size < 2:
+        return None
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    return float(own[(int(np.argmax(gaps)) + 1) % own.size])
+
+
+def _aimed(
+    point: PointFeature, echoes: EchoGeometry, rel: FloatArray, rows: IntArray, start: float
+) -> npt.NDArray[np.bool_]:
+    """Whether readings ``rows`` (``rel``: their sensors less the point) were aimed at the
+    point from inside its sector (:func:`aimed_from_sector`)."""
+    heading = echoes.heading[rows]
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - heading))))
+    return np.asarray(inside & (off <= AXIS_SHARE * echoes.half_beam[rows]))
 
 
 def aimed_from_sector(
@@ -99,23 +130,51 @@ def aimed_from_sector(
     """
     rel = echoes.xy - point.xy
     dist = np.hypot(rel[:, 0], rel[:, 1])
-    mine = rel[point.readings]
-    own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
-    if own.size < 2:
+    start = _sector_start(point, rel)
+    if start is None:
         return None
-    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
-    start = own[(int(np.argmax(gaps)) + 1) % own.size]
     rows = np.arange(dist.size) if among is None else np.flatnonzero(among(dist))
-    rel, heading = rel[rows], echoes.heading[rows]
-    bearing = np.arctan2(rel[:, 1], rel[:, 0])
-    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
-    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - heading))))
     aimed = np.zeros(dist.size, dtype=bool)
-    aimed[rows] = inside & (off <= AXIS_SHARE * echoes.half_beam[rows])
+    aimed[rows] = _aimed(point, echoes, rel[rows], rows, start)
     return dist, aimed
 
 
-def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
+class BeamAxes:
+    """Every reading's beam axis, to tell cheaply which beams cannot hold a point near it.
+
+    :func:`answers_its_beams`, asked of many points of one log, is given these, computed
+    once: each axis's unit vector, and the cosine of the widest angle off it at which a
+    point is near the axis (:data:`AXIS_SHARE` of the half beam) plus
+    :data:`_AIM_MARGIN_RAD`. A beam whose direction to the point makes a smaller cosine
+    with its axis holds the point farther off its axis than that, by far more than the
+    rounding of the exact test's angles, so it is not aimed at the point; the others are
+    tested exactly.
+
+    Examples
+    --------
+    >>> xy = np.array([[1.0, 0.0], [0.0, 1.0]])
+    >>> e = EchoGeometry(xy, np.array([np.pi, 0.0]), np.full(2, 0.2), np.ones(2))
+    >>> BeamAxes(e).may_aim(xy, np.ones(2), np.arange(2)).tolist()  # the origin
+    [True, False]
+    """
+
+    def __init__(self, echoes: EchoGeometry) -> None:
+        self.cos = np.cos(echoes.heading)
+        self.sin = np.sin(echoes.heading)
+        self.cos_aim = np.cos(np.minimum(AXIS_SHARE * echoes.half_beam + _AIM_MARGIN_RAD, np.pi))
+
+    def may_aim(self, rel: FloatArray, dist: FloatArray, rows: IntArray) -> npt.NDArray[np.bool_]:
+        """Whether beams ``rows`` may hold a point near their axis (all that do, and more).
+
+        ``rel`` (N, 2) is their sensors' positions less the point's, ``dist`` its length.
+        """
+        toward = -(rel[:, 0] * self.cos[rows] + rel[:, 1] * self.sin[rows])
+        return np.asarray(toward >= dist * self.cos_aim[rows])
+
+
+def answers_its_beams(
+    point: PointFeature, echoes: EchoGeometry, axes: BeamAxes | None = None
+) -> bool:
     """Whether the point answered most of the beams that held it near their axis.
 
     A retro-reflecting corner returns as much as a plane from anywhere inside its
@@ -125,17 +184,22 @@ def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
     Where several surfaces' arcs cross by chance, the beams aimed at the crossing range
     the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
     no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
+
+    ``axes`` (:class:`BeamAxes` of the same ``echoes``), for many points of one log,
+    leaves out cheaply the beams that cannot hold the point near their axis before the
+    exact test (the answer is the same).
     """
-
-    def near(dist: FloatArray) -> npt.NDArray[np.bool_]:
-        return np.asarray(dist <= float(dist[point.readings].max()) + RANGE_TOL_M)
-
-    sector = aimed_from_sector(point, echoes, near)
-    if sector is None:
+    rel = echoes.xy - point.xy
+    dist = np.hypot(rel[:, 0], rel[:, 1])
+    start = _sector_start(point, rel)
+    if start is None:
         return False
-    dist, aimed = sector
-    answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
-    return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
+    rows = np.flatnonzero(dist <= float(dist[point.readings].max()) + RANGE_TOL_M)
+    if axes is not None:
+        rows = rows[axes.may_aim(rel[rows], dist[rows], rows)]
+    rows = rows[_aimed(point, echoes, rel[rows], rows, start)]
+    answered = np.count_nonzero(np.abs(echoes.range_m[rows] - dist[rows]) <= RANGE_TOL_M)
+    return bool(answered > ANSWER_SHARE * rows.size)
 
 
 def far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
