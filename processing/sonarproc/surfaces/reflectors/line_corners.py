@@ -72,7 +72,7 @@ from sonarproc.surfaces.reflectors.gathering import (
 )
 from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
-    BeamAxes,
+    BeamIndex,
     answers_its_beams,
 )
 from sonarproc.surfaces.reflectors.range_models import (
@@ -294,7 +294,7 @@ def corners_on_wall_lines(
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
     tried: list[tuple[int, FloatArray]] = []
-    axes: BeamAxes | None = None  # computed once, when the first place gets that far
+    beams: BeamIndex | None = None  # made once, when the first place gets that far
     for c in np.argsort(-sizes, kind="stable"):
         if sizes[c] < MIN_READINGS:
             break
@@ -330,8 +330,8 @@ def corners_on_wall_lines(
         f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
                          plane_rms(xy, rng), span)  # fmt: skip
         # the retro-reflection test first: it turns down the chance crossings of a long log
-        axes = BeamAxes(echoes) if axes is None else axes
-        if not answers_its_beams(f, echoes, axes) or not _no_plane(echoes, idx, x, u):
+        beams = BeamIndex(echoes) if beams is None else beams
+        if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
             continue
         found.append(f)
         taken.append(x)

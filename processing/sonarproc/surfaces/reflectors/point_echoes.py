@@ -39,7 +39,7 @@ __all__ = [
     "EDGE_REACH_M",
     "MIN_CROSSINGS",
     "MIN_FAR_POSES",
-    "BeamAxes",
+    "BeamIndex",
     "aimed_from_sector",
     "answers_its_beams",
     "echo_kind",
@@ -71,18 +71,22 @@ AXIS_SHARE = 0.5
 #: Share of the beams holding a point near their axis that a retro-reflecting corner
 #: answers: all of them, less dropouts and the range step's rounding; more than half.
 ANSWER_SHARE = 0.5
-# :class:`BeamAxes` keeps the beams within this (rad) more than the aim of their axis:
-# far above the rounding of the exact test's angles (1e-15 rad), far below any aim.
+# :class:`BeamIndex` keeps the beams within this (rad) more than the aim of their axis,
+# and the sensors within this (m) more than the reach asked: far above the rounding of
+# the exact tests (1e-15 rad, 1e-15 m), far below any aim or reach.
 _AIM_MARGIN_RAD = 1e-6
+_REACH_MARGIN_M = 1e-6
+# :class:`BeamIndex` sorts the sensors by cells of this size (m), row by row: a point's
+# reach (metres) spans tens of rows, so the square round it is read in as many slices.
+_CELL_M = 0.5
 
 
-def _sector_start(point: PointFeature, rel: FloatArray) -> float | None:
-    """Bearing (rad) where the point's sector starts (just past its sensors' largest gap).
+def _sector_start(mine: FloatArray) -> float | None:
+    """Bearing (rad) where a point's sector starts (just past its sensors' largest gap).
 
-    ``rel`` (N, 2) is every sensor's position less the point's; None when fewer than two
-    readings make the point (no sector).
+    ``mine`` (N, 2) is its own readings' sensor positions less the point's; None when
+    fewer than two readings make the point (no sector).
     """
-    mine = rel[point.readings]
     own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
     if own.size < 2:
         return None
@@ -130,7 +134,7 @@ def aimed_from_sector(
     """
     rel = echoes.xy - point.xy
     dist = np.hypot(rel[:, 0], rel[:, 1])
-    start = _sector_start(point, rel)
+    start = _sector_start(rel[point.readings])
     if start is None:
         return None
     rows = np.arange(dist.size) if among is None else np.flatnonzero(among(dist))
@@ -139,41 +143,69 @@ def aimed_from_sector(
     return dist, aimed
 
 
-class BeamAxes:
-    """Every reading's beam axis, to tell cheaply which beams cannot hold a point near it.
+class BeamIndex:
+    """The readings' sensors and beam axes, sorted to find quickly the beams that may
+    hold a point near their axis within a reach of it.
 
-    :func:`answers_its_beams`, asked of many points of one log, is given these, computed
-    once: each axis's unit vector, and the cosine of the widest angle off it at which a
-    point is near the axis (:data:`AXIS_SHARE` of the half beam) plus
-    :data:`_AIM_MARGIN_RAD`. A beam whose direction to the point makes a smaller cosine
-    with its axis holds the point farther off its axis than that, by far more than the
-    rounding of the exact test's angles, so it is not aimed at the point; the others are
-    tested exactly.
+    :func:`answers_its_beams`, asked of many points of one log, is given this, made once:
+    the sensor positions sorted by cells of :data:`_CELL_M`, row by row (the sensors in
+    the square round a point are a slice of each row of cells), each axis's unit vector
+    and the cosine of the widest angle off it at which a point is near the axis
+    (:data:`AXIS_SHARE` of the half beam) plus :data:`_AIM_MARGIN_RAD`. :meth:`aiming`
+    keeps every reading the exact tests keep, and some more; those are then tested
+    exactly.
 
     Examples
     --------
-    >>> xy = np.array([[1.0, 0.0], [0.0, 1.0]])
-    >>> e = EchoGeometry(xy, np.array([np.pi, 0.0]), np.full(2, 0.2), np.ones(2))
-    >>> BeamAxes(e).may_aim(xy, np.ones(2), np.arange(2)).tolist()  # the origin
-    [True, False]
+    >>> xy = np.array([[1.0, 0.0], [0.0, 1.0], [3.0, 0.0]])
+    >>> e = EchoGeometry(xy, np.array([np.pi, 0.0, np.pi]), np.full(3, 0.2), np.ones(3))
+    >>> rows, rel, dist = BeamIndex(e).aiming(np.zeros(2), 1.5)  # the origin
+    >>> rows.tolist(), rel.tolist(), dist.tolist()
+    ([0], [[1.0, 0.0]], [1.0])
     """
 
     def __init__(self, echoes: EchoGeometry) -> None:
-        self.cos = np.cos(echoes.heading)
-        self.sin = np.sin(echoes.heading)
-        self.cos_aim = np.cos(np.minimum(AXIS_SHARE * echoes.half_beam + _AIM_MARGIN_RAD, np.pi))
+        x, y = echoes.xy[:, 0], echoes.xy[:, 1]
+        self._x0 = float(x.min()) if x.size else 0.0
+        self._y0 = float(y.min()) if y.size else 0.0
+        cx = np.floor((x - self._x0) / _CELL_M).astype(np.int64)
+        cy = np.floor((y - self._y0) / _CELL_M).astype(np.int64)
+        self._nx, self._ny = int(cx.max(initial=0)) + 1, int(cy.max(initial=0)) + 1
+        order = np.argsort(cy * self._nx + cx, kind="stable").astype(np.intp)
+        self._keys = (cy * self._nx + cx)[order]
+        aim = np.minimum(AXIS_SHARE * echoes.half_beam + _AIM_MARGIN_RAD, np.pi)
+        # every column in the cells' order, so that a row of cells is read as one slice
+        self._cols = (order, x[order], y[order], np.cos(echoes.heading[order]),
+                      np.sin(echoes.heading[order]), np.cos(aim[order]))  # fmt: skip
 
-    def may_aim(self, rel: FloatArray, dist: FloatArray, rows: IntArray) -> npt.NDArray[np.bool_]:
-        """Whether beams ``rows`` may hold a point near their axis (all that do, and more).
+    def aiming(self, p: FloatArray, reach: float) -> tuple[IntArray, FloatArray, FloatArray]:
+        """The readings whose sensors lie within ``reach`` (m) of ``p`` and whose beams
+        may hold it near their axis (all those that do, and some more).
 
-        ``rel`` (N, 2) is their sensors' positions less the point's, ``dist`` its length.
+        Returns their indices (in no particular order), their sensors' positions less
+        ``p`` (N, 2), and its length.
         """
-        toward = -(rel[:, 0] * self.cos[rows] + rel[:, 1] * self.sin[rows])
-        return np.asarray(toward >= dist * self.cos_aim[rows])
+        r = reach + _REACH_MARGIN_M
+        px, py = float(p[0]), float(p[1])
+        # the cells of the square round p: a slice of the sorted keys in each row of cells
+        x0, x1 = (min(max(math.floor((v - self._x0) / _CELL_M), 0), self._nx - 1)
+                  for v in (px - r, px + r))  # fmt: skip
+        y0 = max(math.floor((py - r - self._y0) / _CELL_M), 0)
+        rows = np.arange(y0, min(math.floor((py + r - self._y0) / _CELL_M), self._ny - 1) + 1)
+        lo = np.searchsorted(self._keys, rows * self._nx + x0).tolist()
+        hi = np.searchsorted(self._keys, rows * self._nx + x1, "right").tolist()
+        spans = list(zip(lo, hi, strict=True))
+        order, x, y, c, s, cos_aim = (np.concatenate([col[a:z] for a, z in spans] or [col[:0]])
+                                      for col in self._cols)  # fmt: skip
+        rx, ry = x - px, y - py
+        dist = np.hypot(rx, ry)
+        toward = -(rx * c + ry * s)
+        keep = np.flatnonzero((dist <= reach) & (toward >= dist * cos_aim))
+        return order[keep], np.column_stack((rx[keep], ry[keep])), dist[keep]
 
 
 def answers_its_beams(
-    point: PointFeature, echoes: EchoGeometry, axes: BeamAxes | None = None
+    point: PointFeature, echoes: EchoGeometry, index: BeamIndex | None = None
 ) -> bool:
     """Whether the point answered most of the beams that held it near their axis.
 
@@ -185,21 +217,25 @@ def answers_its_beams(
     the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
     no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
 
-    ``axes`` (:class:`BeamAxes` of the same ``echoes``), for many points of one log,
-    leaves out cheaply the beams that cannot hold the point near their axis before the
-    exact test (the answer is the same).
+    ``index`` (:class:`BeamIndex` of the same ``echoes``), for many points of one log,
+    leaves out cheaply the readings too far or aimed elsewhere before the exact tests
+    (the answer is the same).
     """
-    rel = echoes.xy - point.xy
-    dist = np.hypot(rel[:, 0], rel[:, 1])
-    start = _sector_start(point, rel)
+    mine = echoes.xy[point.readings] - point.xy
+    start = _sector_start(mine)
     if start is None:
         return False
-    rows = np.flatnonzero(dist <= float(dist[point.readings].max()) + RANGE_TOL_M)
-    if axes is not None:
-        rows = rows[axes.may_aim(rel[rows], dist[rows], rows)]
-    rows = rows[_aimed(point, echoes, rel[rows], rows, start)]
-    answered = np.count_nonzero(np.abs(echoes.range_m[rows] - dist[rows]) <= RANGE_TOL_M)
-    return bool(answered > ANSWER_SHARE * rows.size)
+    reach = float(np.hypot(mine[:, 0], mine[:, 1]).max()) + RANGE_TOL_M
+    if index is None:
+        rel = echoes.xy - point.xy
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        rows = np.flatnonzero(dist <= reach)
+        rel, dist = rel[rows], dist[rows]
+    else:
+        rows, rel, dist = index.aiming(point.xy, reach)
+    aimed = _aimed(point, echoes, rel, rows, start)
+    answered = np.count_nonzero(np.abs(echoes.range_m[rows[aimed]] - dist[aimed]) <= RANGE_TOL_M)
+    return bool(answered > ANSWER_SHARE * np.count_nonzero(aimed))
 
 
 def far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
