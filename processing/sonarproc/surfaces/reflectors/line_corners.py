@@ -118,10 +118,8 @@ def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t
     return t
 
 
-def _crossing_counts(
-    echoes: EchoGeometry, idx: IntArray, a: FloatArray, u: FloatArray, t: FloatArray
-) -> IntArray:
-    """How many arcs of readings ``idx`` pass near each place ``a + t u`` (``t`` evenly spaced).
+def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatArray) -> IntArray:
+    """How many arcs of readings ``pool`` pass near each place ``a + t u`` (``t`` evenly spaced).
 
     A reading's circle (its sensor, its range) meets the line at up to two places; those
     inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
@@ -131,36 +129,39 @@ def _crossing_counts(
     plane along the line explains them (:func:`_no_plane`), and their tolerance along the
     line would be unbounded.
     """
-    d = echoes.xy[idx] - a
+    d = pool.xy - a
     along = d @ u
     off = d[:, 0] * u[1] - d[:, 1] * u[0]
-    rng = echoes.range_m[idx]
-    reach = np.abs(off) <= rng + RANGE_TOL_M
+    rng = pool.range_m
+    reach = np.flatnonzero(np.abs(off) <= rng + RANGE_TOL_M)
     half = np.sqrt(np.maximum(rng[reach] ** 2 - off[reach] ** 2, 0.0))
     tc = np.concatenate((along[reach] - half, along[reach] + half))
-    rows = np.concatenate((idx[reach], idx[reach]))
-    v = a + tc[:, None] * u - echoes.xy[rows]
-    bearing = np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[rows]
+    rows = np.concatenate((reach, reach))
+    v = a + tc[:, None] * u - pool.xy[rows]
+    bearing = np.arctan2(v[:, 1], v[:, 0]) - pool.heading[rows]
     off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-    c = np.abs(v @ u) / np.maximum(echoes.range_m[rows], 1e-9)
-    ok = (off_axis <= BEAM_SLACK * echoes.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
+    c = np.abs(v @ u) / np.maximum(pool.range_m[rows], 1e-9)
+    ok = (off_axis <= BEAM_SLACK * pool.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
     tc, width = tc[ok], RANGE_TOL_M / c[ok]
     step = float(t[1] - t[0]) if t.size > 1 else 1.0
     lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
     hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
-    diff = np.zeros(t.size + 1, dtype=np.intp)
-    np.add.at(diff, lo, 1)
-    np.add.at(diff, hi, -1)
+    # each crossing adds one from its first place to its last (a difference array)
+    diff = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     return np.asarray(np.cumsum(diff)[:-1], dtype=np.intp)
 
 
 def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
     """Which places ``t`` (ascending, m along a line) gather no fewer readings than every
     place within :data:`CANDIDATE_SPACING_M` of them."""
+    if t.size == 0:
+        return np.zeros(0, dtype=bool)
     lo = np.searchsorted(t, t - CANDIDATE_SPACING_M)
     hi = np.searchsorted(t, t + CANDIDATE_SPACING_M, "right")
-    best = [sizes[a:b].max() for a, b in zip(lo.tolist(), hi.tolist(), strict=True)]
-    return np.asarray(sizes >= np.array(best, dtype=sizes.dtype).reshape(-1))
+    # the most of each window [lo, hi) (never empty: it holds its own place); a last
+    # element past the end lets a window end there
+    best = np.maximum.reduceat(np.r_[sizes, 0], np.column_stack((lo, hi)).ravel())[::2]
+    return np.asarray(sizes >= best.astype(sizes.dtype))
 
 
 def _occluded(
@@ -262,6 +263,7 @@ def corners_on_wall_lines(
                  if g.readings.size else 0.0
                  for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
     index = ArcIndex(echoes, free)
+    pool = echoes.subset(free)  # the free readings, gathered once for every line
     places, owner, along = [], [], []
     for k, (a, b) in enumerate(walls):
         length = float(np.hypot(*(b - a)))
@@ -275,7 +277,7 @@ def corners_on_wall_lines(
         ):
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
-            counts = _crossing_counts(echoes, np.flatnonzero(free), a, u, t)
+            counts = _crossing_counts(pool, a, u, t)
             t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
             if t.size:
                 places.append(a + t[:, None] * u)
