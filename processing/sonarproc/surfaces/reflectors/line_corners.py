@@ -295,7 +295,7 @@ def corners_on_wall_lines(
     peak = np.concatenate([_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)])
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
-    tried: list[tuple[int, FloatArray]] = []
+    tried: dict[int, list[FloatArray]] = {k: [] for k in range(len(walls))}
     beams: BeamIndex | None = None  # made once, when the first place gets that far
     for c in np.argsort(-sizes, kind="stable"):
         if sizes[c] < MIN_READINGS:
@@ -303,7 +303,7 @@ def corners_on_wall_lines(
         k = int(which[c])
         # a place whose readings settled, on this line, where others' had and failed
         if not peak[c] or any(
-            j == k and float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for j, q in tried
+            float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for q in tried[k]
         ):
             continue
         a, b = walls[k]
@@ -313,10 +313,13 @@ def corners_on_wall_lines(
             continue
         at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
         x = a + at * u
-        tried.append((k, x))
+        tried[k].append(x)
         idx = gather(echoes, free, x, index)
         xy, rng = echoes.xy[idx], echoes.range_m[idx]
-        if idx.size < MIN_READINGS or distinct_poses(xy) < MIN_POSES:
+        if idx.size < MIN_READINGS:
+            continue
+        poses = distinct_poses(xy)
+        if poses < MIN_POSES:
             continue
         if any(float(np.hypot(*(x - q))) < CANDIDATE_SPACING_M for q in taken):
             continue
@@ -329,8 +332,7 @@ def corners_on_wall_lines(
         if span > 0.5 * math.pi + CORNER_TOL_RAD:
             continue
         res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-        f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
-                         plane_rms(xy, rng), span)  # fmt: skip
+        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
         if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
