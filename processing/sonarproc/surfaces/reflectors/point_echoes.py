@@ -188,12 +188,13 @@ class BeamIndex:
         r = reach + _REACH_MARGIN_M
         px, py = float(p[0]), float(p[1])
         # the cells of the square round p: a slice of the sorted keys in each row of cells
-        x0, x1 = (min(max(math.floor((v - self._x0) / _CELL_M), 0), self._nx - 1)
-                  for v in (px - r, px + r))  # fmt: skip
-        y0 = max(math.floor((py - r - self._y0) / _CELL_M), 0)
-        rows = np.arange(y0, min(math.floor((py + r - self._y0) / _CELL_M), self._ny - 1) + 1)
-        lo = np.searchsorted(self._keys, rows * self._nx + x0).tolist()
-        hi = np.searchsorted(self._keys, rows * self._nx + x1, "right").tolist()
+        left, right = (min(max(math.floor((v - self._x0) / _CELL_M), 0), self._nx - 1)
+                       for v in (px - r, px + r))  # fmt: skip
+        bottom = max(math.floor((py - r - self._y0) / _CELL_M), 0)
+        top = min(math.floor((py + r - self._y0) / _CELL_M), self._ny - 1)
+        rows = np.arange(bottom, top + 1)
+        lo = np.searchsorted(self._keys, rows * self._nx + left).tolist()
+        hi = np.searchsorted(self._keys, rows * self._nx + right, "right").tolist()
         spans = list(zip(lo, hi, strict=True))
         order, x, y, c, s, cos_aim = (np.concatenate([col[a:z] for a, z in spans] or [col[:0]])
                                       for col in self._cols)  # fmt: skip
