@@ -70,7 +70,11 @@ from sonarproc.surfaces.reflectors.gathering import (
     gather,
     gather_all,
 )
-from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD, answers_its_beams
+from sonarproc.surfaces.reflectors.point_echoes import (
+    CORNER_TOL_RAD,
+    BeamIndex,
+    answers_its_beams,
+)
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     distinct_poses,
@@ -114,10 +118,8 @@ def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t
     return t
 
 
-def _crossing_counts(
-    echoes: EchoGeometry, idx: IntArray, a: FloatArray, u: FloatArray, t: FloatArray
-) -> IntArray:
-    """How many arcs of readings ``idx`` pass near each place ``a + t u`` (``t`` evenly spaced).
+def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatArray) -> IntArray:
+    """How many arcs of readings ``pool`` pass near each place ``a + t u`` (``t`` evenly spaced).
 
     A reading's circle (its sensor, its range) meets the line at up to two places; those
     inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
@@ -127,36 +129,39 @@ def _crossing_counts(
     plane along the line explains them (:func:`_no_plane`), and their tolerance along the
     line would be unbounded.
     """
-    d = echoes.xy[idx] - a
+    d = pool.xy - a
     along = d @ u
     off = d[:, 0] * u[1] - d[:, 1] * u[0]
-    rng = echoes.range_m[idx]
-    reach = np.abs(off) <= rng + RANGE_TOL_M
+    rng = pool.range_m
+    reach = np.flatnonzero(np.abs(off) <= rng + RANGE_TOL_M)
     half = np.sqrt(np.maximum(rng[reach] ** 2 - off[reach] ** 2, 0.0))
     tc = np.concatenate((along[reach] - half, along[reach] + half))
-    rows = np.concatenate((idx[reach], idx[reach]))
-    v = a + tc[:, None] * u - echoes.xy[rows]
-    bearing = np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[rows]
+    rows = np.concatenate((reach, reach))
+    v = a + tc[:, None] * u - pool.xy[rows]
+    bearing = np.arctan2(v[:, 1], v[:, 0]) - pool.heading[rows]
     off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-    c = np.abs(v @ u) / np.maximum(echoes.range_m[rows], 1e-9)
-    ok = (off_axis <= BEAM_SLACK * echoes.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
+    c = np.abs(v @ u) / np.maximum(pool.range_m[rows], 1e-9)
+    ok = (off_axis <= BEAM_SLACK * pool.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
     tc, width = tc[ok], RANGE_TOL_M / c[ok]
     step = float(t[1] - t[0]) if t.size > 1 else 1.0
     lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
     hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
-    diff = np.zeros(t.size + 1, dtype=np.intp)
-    np.add.at(diff, lo, 1)
-    np.add.at(diff, hi, -1)
+    # each crossing adds one from its first place to its last (a difference array)
+    diff = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
     return np.asarray(np.cumsum(diff)[:-1], dtype=np.intp)
 
 
 def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
     """Which places ``t`` (ascending, m along a line) gather no fewer readings than every
     place within :data:`CANDIDATE_SPACING_M` of them."""
+    if t.size == 0:
+        return np.zeros(0, dtype=bool)
     lo = np.searchsorted(t, t - CANDIDATE_SPACING_M)
     hi = np.searchsorted(t, t + CANDIDATE_SPACING_M, "right")
-    best = [sizes[a:b].max() for a, b in zip(lo.tolist(), hi.tolist(), strict=True)]
-    return np.asarray(sizes >= np.array(best, dtype=sizes.dtype).reshape(-1))
+    # the most of each window [lo, hi) (never empty: it holds its own place); a last
+    # element past the end lets a window end there
+    best = np.maximum.reduceat(np.r_[sizes, 0], np.column_stack((lo, hi)).ravel())[::2]
+    return np.asarray(sizes >= best.astype(sizes.dtype))
 
 
 def _occluded(
@@ -258,6 +263,7 @@ def corners_on_wall_lines(
                  if g.readings.size else 0.0
                  for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
     index = ArcIndex(echoes, free)
+    pool = echoes.subset(free)  # the free readings, gathered once for every line
     places, owner, along = [], [], []
     for k, (a, b) in enumerate(walls):
         length = float(np.hypot(*(b - a)))
@@ -271,7 +277,7 @@ def corners_on_wall_lines(
         ):
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
-            counts = _crossing_counts(echoes, np.flatnonzero(free), a, u, t)
+            counts = _crossing_counts(pool, a, u, t)
             t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
             if t.size:
                 places.append(a + t[:, None] * u)
@@ -289,14 +295,15 @@ def corners_on_wall_lines(
     peak = np.concatenate([_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)])
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
-    tried: list[tuple[int, FloatArray]] = []
+    tried: dict[int, list[FloatArray]] = {k: [] for k in range(len(walls))}
+    beams: BeamIndex | None = None  # made once, when the first place gets that far
     for c in np.argsort(-sizes, kind="stable"):
         if sizes[c] < MIN_READINGS:
             break
         k = int(which[c])
         # a place whose readings settled, on this line, where others' had and failed
         if not peak[c] or any(
-            j == k and float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for j, q in tried
+            float(np.hypot(*(starts[c] - q))) < CANDIDATE_SPACING_M for q in tried[k]
         ):
             continue
         a, b = walls[k]
@@ -306,10 +313,13 @@ def corners_on_wall_lines(
             continue
         at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
         x = a + at * u
-        tried.append((k, x))
+        tried[k].append(x)
         idx = gather(echoes, free, x, index)
         xy, rng = echoes.xy[idx], echoes.range_m[idx]
-        if idx.size < MIN_READINGS or distinct_poses(xy) < MIN_POSES:
+        if idx.size < MIN_READINGS:
+            continue
+        poses = distinct_poses(xy)
+        if poses < MIN_POSES:
             continue
         if any(float(np.hypot(*(x - q))) < CANDIDATE_SPACING_M for q in taken):
             continue
@@ -322,10 +332,10 @@ def corners_on_wall_lines(
         if span > 0.5 * math.pi + CORNER_TOL_RAD:
             continue
         res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-        f = PointFeature(x, idx, distinct_poses(xy), float(np.sqrt(np.mean(res**2))),
-                         plane_rms(xy, rng), span)  # fmt: skip
+        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
         # the retro-reflection test first: it turns down the chance crossings of a long log
-        if not answers_its_beams(f, echoes) or not _no_plane(echoes, idx, x, u):
+        beams = BeamIndex(echoes) if beams is None else beams
+        if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
             continue
         found.append(f)
         taken.append(x)

@@ -39,6 +39,7 @@ __all__ = [
     "EDGE_REACH_M",
     "MIN_CROSSINGS",
     "MIN_FAR_POSES",
+    "BeamIndex",
     "aimed_from_sector",
     "answers_its_beams",
     "echo_kind",
@@ -46,6 +47,7 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: Beams that say a place is free space before a point is an edge (one may be a stray
 #: echo).
@@ -69,6 +71,39 @@ AXIS_SHARE = 0.5
 #: Share of the beams holding a point near their axis that a retro-reflecting corner
 #: answers: all of them, less dropouts and the range step's rounding; more than half.
 ANSWER_SHARE = 0.5
+# :class:`BeamIndex` keeps the beams within this (rad) more than the aim of their axis,
+# and the sensors within this (m) more than the reach asked: far above the rounding of
+# the exact tests (1e-15 rad, 1e-15 m), far below any aim or reach.
+_AIM_MARGIN_RAD = 1e-6
+_REACH_MARGIN_M = 1e-6
+# :class:`BeamIndex` sorts the sensors by cells of this size (m), row by row: a point's
+# reach (metres) spans tens of rows, so the square round it is read in as many slices.
+_CELL_M = 0.5
+
+
+def _sector_start(mine: FloatArray) -> float | None:
+    """Bearing (rad) where a point's sector starts (just past its sensors' largest gap).
+
+    ``mine`` (N, 2) is its own readings' sensor positions less the point's; None when
+    fewer than two readings make the point (no sector).
+    """
+    own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
+    if own.size < 2:
+        return None
+    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
+    return float(own[(int(np.argmax(gaps)) + 1) % own.size])
+
+
+def _aimed(
+    point: PointFeature, echoes: EchoGeometry, rel: FloatArray, rows: IntArray, start: float
+) -> npt.NDArray[np.bool_]:
+    """Whether readings ``rows`` (``rel``: their sensors less the point) were aimed at the
+    point from inside its sector (:func:`aimed_from_sector`)."""
+    heading = echoes.heading[rows]
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
+    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - heading))))
+    return np.asarray(inside & (off <= AXIS_SHARE * echoes.half_beam[rows]))
 
 
 def aimed_from_sector(
@@ -99,23 +134,80 @@ def aimed_from_sector(
     """
     rel = echoes.xy - point.xy
     dist = np.hypot(rel[:, 0], rel[:, 1])
-    mine = rel[point.readings]
-    own = np.sort(np.arctan2(mine[:, 1], mine[:, 0]))
-    if own.size < 2:
+    start = _sector_start(rel[point.readings])
+    if start is None:
         return None
-    gaps = np.diff(np.r_[own, own[0] + 2 * np.pi])
-    start = own[(int(np.argmax(gaps)) + 1) % own.size]
     rows = np.arange(dist.size) if among is None else np.flatnonzero(among(dist))
-    rel, heading = rel[rows], echoes.heading[rows]
-    bearing = np.arctan2(rel[:, 1], rel[:, 0])
-    inside = np.mod(bearing - start, 2 * np.pi) <= point.span_rad
-    off = np.abs(np.angle(np.exp(1j * (np.arctan2(-rel[:, 1], -rel[:, 0]) - heading))))
     aimed = np.zeros(dist.size, dtype=bool)
-    aimed[rows] = inside & (off <= AXIS_SHARE * echoes.half_beam[rows])
+    aimed[rows] = _aimed(point, echoes, rel[rows], rows, start)
     return dist, aimed
 
 
-def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
+class BeamIndex:
+    """The readings' sensors and beam axes, sorted to find quickly the beams that may
+    hold a point near their axis within a reach of it.
+
+    :func:`answers_its_beams`, asked of many points of one log, is given this, made once:
+    the sensor positions sorted by cells of :data:`_CELL_M`, row by row (the sensors in
+    the square round a point are a slice of each row of cells), each axis's unit vector
+    and the cosine of the widest angle off it at which a point is near the axis
+    (:data:`AXIS_SHARE` of the half beam) plus :data:`_AIM_MARGIN_RAD`. :meth:`aiming`
+    keeps every reading the exact tests keep, and some more; those are then tested
+    exactly.
+
+    Examples
+    --------
+    >>> xy = np.array([[1.0, 0.0], [0.0, 1.0], [3.0, 0.0]])
+    >>> e = EchoGeometry(xy, np.array([np.pi, 0.0, np.pi]), np.full(3, 0.2), np.ones(3))
+    >>> rows, rel, dist = BeamIndex(e).aiming(np.zeros(2), 1.5)  # the origin
+    >>> rows.tolist(), rel.tolist(), dist.tolist()
+    ([0], [[1.0, 0.0]], [1.0])
+    """
+
+    def __init__(self, echoes: EchoGeometry) -> None:
+        x, y = echoes.xy[:, 0], echoes.xy[:, 1]
+        self._x0 = float(x.min()) if x.size else 0.0
+        self._y0 = float(y.min()) if y.size else 0.0
+        cx = np.floor((x - self._x0) / _CELL_M).astype(np.int64)
+        cy = np.floor((y - self._y0) / _CELL_M).astype(np.int64)
+        self._nx, self._ny = int(cx.max(initial=0)) + 1, int(cy.max(initial=0)) + 1
+        order = np.argsort(cy * self._nx + cx, kind="stable").astype(np.intp)
+        self._keys = (cy * self._nx + cx)[order]
+        aim = np.minimum(AXIS_SHARE * echoes.half_beam + _AIM_MARGIN_RAD, np.pi)
+        # every column in the cells' order, so that a row of cells is read as one slice
+        self._cols = (order, x[order], y[order], np.cos(echoes.heading[order]),
+                      np.sin(echoes.heading[order]), np.cos(aim[order]))  # fmt: skip
+
+    def aiming(self, p: FloatArray, reach: float) -> tuple[IntArray, FloatArray, FloatArray]:
+        """The readings whose sensors lie within ``reach`` (m) of ``p`` and whose beams
+        may hold it near their axis (all those that do, and some more).
+
+        Returns their indices (in no particular order), their sensors' positions less
+        ``p`` (N, 2), and its length.
+        """
+        r = reach + _REACH_MARGIN_M
+        px, py = float(p[0]), float(p[1])
+        # the cells of the square round p: a slice of the sorted keys in each row of cells
+        left, right = (min(max(math.floor((v - self._x0) / _CELL_M), 0), self._nx - 1)
+                       for v in (px - r, px + r))  # fmt: skip
+        bottom = max(math.floor((py - r - self._y0) / _CELL_M), 0)
+        top = min(math.floor((py + r - self._y0) / _CELL_M), self._ny - 1)
+        rows = np.arange(bottom, top + 1)
+        lo = np.searchsorted(self._keys, rows * self._nx + left).tolist()
+        hi = np.searchsorted(self._keys, rows * self._nx + right, "right").tolist()
+        spans = list(zip(lo, hi, strict=True))
+        order, x, y, c, s, cos_aim = (np.concatenate([col[a:z] for a, z in spans] or [col[:0]])
+                                      for col in self._cols)  # fmt: skip
+        rx, ry = x - px, y - py
+        dist = np.hypot(rx, ry)
+        toward = -(rx * c + ry * s)
+        keep = np.flatnonzero((dist <= reach) & (toward >= dist * cos_aim))
+        return order[keep], np.column_stack((rx[keep], ry[keep])), dist[keep]
+
+
+def answers_its_beams(
+    point: PointFeature, echoes: EchoGeometry, index: BeamIndex | None = None
+) -> bool:
     """Whether the point answered most of the beams that held it near their axis.
 
     A retro-reflecting corner returns as much as a plane from anywhere inside its
@@ -125,17 +217,26 @@ def answers_its_beams(point: PointFeature, echoes: EchoGeometry) -> bool:
     Where several surfaces' arcs cross by chance, the beams aimed at the crossing range
     the surfaces behind it, or a surface in front of it (a crossing behind a wall, which
     no sound reached): more than :data:`ANSWER_SHARE` of them must range the point.
+
+    ``index`` (:class:`BeamIndex` of the same ``echoes``), for many points of one log,
+    leaves out cheaply the readings too far or aimed elsewhere before the exact tests
+    (the answer is the same).
     """
-
-    def near(dist: FloatArray) -> npt.NDArray[np.bool_]:
-        return np.asarray(dist <= float(dist[point.readings].max()) + RANGE_TOL_M)
-
-    sector = aimed_from_sector(point, echoes, near)
-    if sector is None:
+    mine = echoes.xy[point.readings] - point.xy
+    start = _sector_start(mine)
+    if start is None:
         return False
-    dist, aimed = sector
-    answered = aimed & (np.abs(echoes.range_m - dist) <= RANGE_TOL_M)
-    return bool(np.count_nonzero(answered) > ANSWER_SHARE * np.count_nonzero(aimed))
+    reach = float(np.hypot(mine[:, 0], mine[:, 1]).max()) + RANGE_TOL_M
+    if index is None:
+        rel = echoes.xy - point.xy
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        rows = np.flatnonzero(dist <= reach)
+        rel, dist = rel[rows], dist[rows]
+    else:
+        rows, rel, dist = index.aiming(point.xy, reach)
+    aimed = _aimed(point, echoes, rel, rows, start)
+    answered = np.count_nonzero(np.abs(echoes.range_m[rows[aimed]] - dist[aimed]) <= RANGE_TOL_M)
+    return bool(answered > ANSWER_SHARE * np.count_nonzero(aimed))
 
 
 def far_poses(point: PointFeature, echoes: EchoGeometry) -> int:
