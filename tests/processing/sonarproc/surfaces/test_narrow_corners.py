@@ -5,7 +5,8 @@ reads its distance to the corner (1-inch range steps, 5 mm noise, seeded). A pla
 the corner, normal to the line of sight, explains those ranges as well as the point.
 Handed the two walls and that diagonal plane, :func:`refine_with_points` drops the
 diagonal and reports a corner where the walls' lines meet; handed the two walls only, it
-finds the corner on their lines. A short plane that crosses a wall's line obliquely but
+finds the corner on their lines; heard 30 times, one reading a noise tail past the range
+tolerance, it is still the corner. A short plane that crosses a wall's line obliquely but
 whose readings do not all meet at one point, a plane meeting the wall square, and a
 wall's readings at the edge of the beam, heard along its normal, make no corner; a wall
 is not stretched to a corner past an edge on its line.
