@@ -24,10 +24,12 @@ The map decides (:func:`planes_as_corners`). A fitted plane ``P`` is a corner's 
   parallel and perpendicular (a real wall meeting ``W`` at a corner meets it square,
   one continuing it is parallel; a plane through a corner normal to the line of sight
   into its opening lies across it, near 45 degrees);
-* every reading of ``P`` passes through ``X``: its range is within the range tolerance
-  of its sensor's distance to ``X``, and ``X`` lies inside its beam (widened by
+* every reading of ``P`` passes through ``X`` but a few strays (at most
+  :data:`~sonarproc.surfaces.reflectors.range_models.STRAY_SHARE` of them: the noise's
+  tail): its range is within the range tolerance of its sensor's distance to ``X``, and
+  ``X`` lies inside its beam (widened by
   :data:`~sonarproc.surfaces.reflectors.gathering.BEAM_SLACK`). A point fixed by the
-  map, with no free parameter, explains every range: the arcs all meet where the walls
+  map, with no free parameter, explains the ranges: the arcs all meet where the walls
   end (a region of constant depth);
 * the sensors lie on the side of ``W``'s line that ``W`` was seen from (inside the
   corner's opening).
@@ -51,6 +53,7 @@ from sonarproc.surfaces.reflectors.gathering import BEAM_SLACK
 from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
+    STRAY_SHARE,
     distinct_poses,
     plane_rms,
     sensor_span,
@@ -86,13 +89,14 @@ def _oblique(p: Segment, w: Segment) -> bool:
 
 
 def _through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
-    """Whether every reading ``idx`` passes through ``x``: range and beam (module notes)."""
+    """Whether the readings ``idx`` pass through ``x``, but a few strays (module notes)."""
     v = x - echoes.xy[idx]
     dist = np.hypot(v[:, 0], v[:, 1])
     off = np.abs((np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[idx] + math.pi)
                  % (2 * math.pi) - math.pi)  # fmt: skip
     inside = off <= BEAM_SLACK * echoes.half_beam[idx]
-    return bool(np.all((np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M) & inside))
+    through = (np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M) & inside
+    return bool(np.count_nonzero(~through) <= STRAY_SHARE * idx.size)
 
 
 def planes_as_corners(

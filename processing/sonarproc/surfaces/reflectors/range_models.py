@@ -31,6 +31,7 @@ __all__ = [
     "POINT_FALSE_ALARM",
     "RANGE_STEP_NOISE_M",
     "RANGE_TOL_M",
+    "STRAY_SHARE",
     "THRESHOLD_MARGIN",
     "diffuse_residuals",
     "diffuse_rms",
@@ -53,6 +54,15 @@ FloatArray = npt.NDArray[np.float64]
 #: It is the last echo round's tolerance of the plane refits too
 #: (:data:`sonarproc.surfaces.echoes.refine.ROUNDS_M`).
 RANGE_TOL_M = 0.03
+#: The readings of one reflector pass through a point when all but this share of them
+#: do (each within :data:`RANGE_TOL_M`). The tolerance bounds the range steps and the
+#: time walk; a 1 cm Gaussian range noise on top of them (the noise the point fits
+#: weigh residuals by) puts about 4.5 % of a point's readings beyond it (uniform steps
+#: and walk), so demanding every reading rejects nine in ten points heard 50 times. One
+#: in ten keeps a point heard 10 to 50 times with a probability of 93 to 98 %
+#: (binomial); a plane crossing there misses the point with every reading whose echo
+#: lies more than ``sqrt(2 r RANGE_TOL_M)`` (0.3 m at 1.5 m, 0.5 m at 4 m) from it.
+STRAY_SHARE = 0.1
 #: The error (m) of the ranging board's 1-inch range steps alone (uniform over a step:
 #: 2.54 cm / sqrt(12)). Residuals below it are no evidence: a plane that explains the
 #: ranges to within it is not rejected, and a model's residual is floored at it in
