@@ -80,11 +80,18 @@ async def collect(
     seconds: float,
     until: Any = None,
     expect_topics: int = 0,
+    on_message: Any = None,
+    subscribe_last: str | None = None,
 ) -> Session:
     """Connect, subscribe to every channel, and decode messages for ``seconds``.
 
     ``until(session)`` returning True ends it earlier. Channels advertised later are
     subscribed to as they come; ``expect_topics`` waits (within ``seconds``) for that many.
+    ``on_message(message)`` is called with each message as it arrives (from the thread
+    running the client: a test collecting in a thread learns what arrived, and when).
+    ``subscribe_last`` names a topic subscribed to in a message of its own, after the
+    subscription to the rest of its advertisement: a server handles one client's messages
+    in order, so a message on that topic shows the other subscriptions are in place.
     """
     import websockets
     from websockets.exceptions import ConnectionClosed
@@ -107,14 +114,17 @@ async def collect(
                 if msg["op"] == "serverInfo":
                     session.server_info = msg
                 elif msg["op"] == "advertise":
-                    subs = []
+                    subs, last = [], []
                     for ch in msg["channels"]:
                         session.channels[ch["id"]] = ch
                         decoders[ch["id"]] = _decoder(ch)
                         sub_topic[next_sub] = ch["id"]
-                        subs.append({"id": next_sub, "channelId": ch["id"]})
+                        sub = {"id": next_sub, "channelId": ch["id"]}
+                        (last if ch["topic"] == subscribe_last else subs).append(sub)
                         next_sub += 1
-                    await ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                    for batch in (subs, last):
+                        if batch:
+                            await ws.send(json.dumps({"op": "subscribe", "subscriptions": batch}))
                 continue
             frame = bytes(frame)
             if frame[0] != OP_MESSAGE_DATA:
@@ -124,6 +134,8 @@ async def collect(
             topic = session.channels[channel_id]["topic"]
             received = Received(topic, log_time, time.time(), frame[13:], decoders[channel_id])
             session.messages.append(received)
+            if on_message is not None:
+                on_message(received)
             if until is not None and len(session.channels) >= expect_topics and until(session):
                 break
     return session

@@ -5,6 +5,12 @@ subprotocol header) subscribes to every channel ``watch`` advertises and decodes
 arrives with the advertised schemas; meanwhile a client that subscribes and then never
 reads, and a client process killed with SIGKILL, hang on both servers. Both programs
 must finish their run normally, with no traceback.
+
+A live view sends a reading only to the clients subscribed when it arrives, and in virtual
+time sonard's plan is over in about a second, less than ``watch`` may take to start on
+loaded cores. So sonard is held (SIGSTOP) once its log holds readings, and resumed once
+the client's subscriptions are in place: the client sees the rest of the run live,
+whatever the load.
 """
 
 from __future__ import annotations
@@ -119,7 +125,95 @@ def _plan(tmp: Path) -> Path:
     return path
 
 
+#: Where the plan's last translate step starts (m, half a step short of its end, for the
+#: odometry's noise): readings logged short of it leave that step and the last dwell to come.
+X_LAST = (
+    STEPS[0]["define_pose"]["x"]
+    + STEPS[2]["translate"]["distance"]
+    - STEPS[2]["translate"]["step"] / 2
+)
+#: A topic ``watch`` sends again to a client as its subscription reaches the server (the
+#: path of the readings it already published). The client subscribes to it last, in a
+#: message of its own: once it arrives, every other subscription is in place.
+SENTINEL = "/robot/path"
+
+
+def _stopped(pid: int) -> bool:
+    """Whether every thread of ``pid`` is stopped (or the process is gone)."""
+    try:
+        tasks = list(Path(f"/proc/{pid}/task").iterdir())
+        states = [(t / "stat").read_text().rsplit(")", 1)[1].split()[0] for t in tasks]
+    except (FileNotFoundError, ProcessLookupError):
+        return True
+    return all(state in "TtZX" for state in states)
+
+
+def _pause_before_the_end(proc: subprocess.Popen[str], log: Path, timeout: float) -> None:
+    """Stop ``proc`` (SIGSTOP) once its log holds readings, with its translate not over.
+
+    The log is read only while the writer is stopped, so what was read is what watch will
+    find; between two tries the writer runs for one short sleep. The emulated robot lives
+    inside sonard on a virtual clock that moves only with the link's bytes, so the robot
+    and the plan do not see the pause (the log is the same: readings, events).
+    """
+    from sonarlog import SonarLogError, read_log
+
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        os.kill(proc.pid, signal.SIGSTOP)
+        while not _stopped(proc.pid) and time.monotonic() < end:
+            time.sleep(0.001)
+        try:
+            rows = read_log(log).readings if log.exists() else []
+        except (SonarLogError, OSError):  # created but not yet readable: try again
+            rows = []
+        if len(rows):
+            assert proc.poll() is None and float(rows["x"][-1]) < X_LAST, (
+                f"sonard was paused too late: {len(rows)} readings, x = {rows['x'][-1]}"
+            )
+            print(f"sonard held after {len(rows)} readings, at x = {rows['x'][-1]:.3f} m")
+            return
+        os.kill(proc.pid, signal.SIGCONT)
+        time.sleep(0.02)
+    raise AssertionError(f"sonard logged no reading in {timeout} s")
+
+
+def _collect_subscribed(url: str, held: subprocess.Popen[str]) -> Session:
+    """Collect from ``url`` in a thread; resume ``held`` once the subscription is in place."""
+    subscribed = threading.Event()
+    result: dict[str, Any] = {}
+
+    def note(message: Any) -> None:
+        if message.topic == SENTINEL:
+            subscribed.set()
+
+    def run() -> None:
+        try:
+            result["session"] = collect_sync(
+                url, seconds=150, on_message=note, subscribe_last=SENTINEL
+            )
+        except BaseException as err:  # re-raised in the test's thread
+            result["error"] = err
+        finally:
+            subscribed.set()
+
+    client = threading.Thread(target=run, daemon=True)
+    client.start()
+    subscribed.wait(60)
+    os.kill(held.pid, signal.SIGCONT)
+    client.join(160)
+    if "error" in result:
+        raise result["error"]
+    assert "session" in result, "the client did not finish"
+    session: Session = result["session"]
+    assert session.on(SENTINEL), "the subscription was not confirmed"
+    return session
+
+
 def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
+    # h5py's import (seconds on loaded cores) before sonard starts, not in the pause loop
+    import sonarlog  # noqa: F401
+
     log = tmp_path / "run.h5"
     plan = _plan(tmp_path)
     url = f"nomad://e2e-live?world={WORLD}&fast=1"
@@ -135,9 +229,8 @@ def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
         # sonard's misbehaving clients at once: in virtual time its plan may be over before
         # watch, a second Python start-up on the shared cores, is listening
         extra += _misbehaving_clients(sonard_port)
-        end = time.monotonic() + 60
-        while not log.exists() and time.monotonic() < end:
-            time.sleep(0.05)
+        # held, with readings still to come, until watch's client below has subscribed
+        _pause_before_the_end(sonard, log, timeout=60)
         watch = subprocess.Popen(
             [*SONARPROC, "watch", str(log), "--foxglove", "127.0.0.1:0", "--idle", "3",
              "--out", str(tmp_path / "report")],
@@ -146,7 +239,7 @@ def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
         watch_out: list[str] = []
         watch_port = _port(_wait_for_line(watch.stdout, r"Foxglove live view", 60, watch_out))
         extra += _misbehaving_clients(watch_port)
-        session = collect_sync(f"ws://127.0.0.1:{watch_port}", seconds=150)
+        session = _collect_subscribed(f"ws://127.0.0.1:{watch_port}", sonard)
         sonard_rc = sonard.wait(60)
         watch_rc = watch.wait(60)
         assert watch.stderr is not None
@@ -157,6 +250,8 @@ def test_watch_and_sonard_serve_foxglove(tmp_path: Path) -> None:
                 stop_process(ws)
             else:
                 ws.close()
+        if sonard.poll() is None:
+            os.kill(sonard.pid, signal.SIGCONT)  # a held sonard must be able to act on SIGTERM
         for proc in (sonard, watch):
             if proc is not None:
                 stop_process(proc)
@@ -180,8 +275,8 @@ def _check_session(session: Session, log: Path) -> None:
     rows = read_log(log).readings
     readings = session.on("/sonar/readings")
     raw = session.on("/sonar/raw")
-    # a late-joining client misses the first readings (how many depends on how long its
-    # own start-up took on the shared cores); every one it got decodes and is a logged row
+    # the client missed the readings watch published before it subscribed (those sonard had
+    # logged before it was held); every one it got decodes and is a logged row
     assert 0 < len(readings) <= len(rows)
     logged_ns = set(np.round(rows["t"] * 1e9).astype(np.int64).tolist())
     assert {m.log_time_ns for m in readings} <= logged_ns
