@@ -11,7 +11,10 @@ those walls end: at the ``corner`` their lines run into.
 ``corner`` that lies on its line beyond that end
 (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`: within the ranges' tolerance
 of the line, up to :data:`~sonarproc.surfaces.reflectors.walls.WALL_GAP_M` past the end),
-the nearest such corner at each end. The stretch is not made where readings from
+the nearest such corner at each end. A corner farther past the end than
+:data:`MAX_REACH_PER_LENGTH` times the wall's length must lie on a second wall's line too
+(a corner is where two walls meet; a short wall's line, extended far, passes points that
+are not its corner, such as a pillar's echo). The stretch is not made where readings from
 :data:`~sonarproc.surfaces.freespace.MIN_FREE_POSES` distinct viewpoints saw through it
 (:func:`~sonarproc.surfaces.freespace.free_feet`: an opening between the wall's end and
 the corner stays open), nor where it would cross another fitted surface (the corner is
@@ -63,6 +66,14 @@ _OVERLAP_M = 1e-3
 #: The stretch's last part (m) next to the wall's end and to the corner is not tested for
 #: crossings: other walls meet it there.
 CROSS_END_M = 0.10
+#: A wall reaches a corner on its own line only (no other wall's line runs into it) at
+#: most this many times its own length past its end. Its line is known from its echoes
+#: only: with each end placed within the ranges' tolerance ``tol``, the line at a distance
+#: ``D`` past an end is placed within about ``tol (1 + 2 D / L)`` for a wall of length
+#: ``L``, three times the tolerance the corner is tested with at ``D = L``. Farther out a
+#: point found on that line alone is no evidence that the wall runs there (a short plane
+#: fitted on a pillar's echoes points anywhere); a second wall's line through it is.
+MAX_REACH_PER_LENGTH = 1.0
 
 
 def _crosses(p: FloatArray, q: FloatArray, others: list[FloatArray]) -> bool:
@@ -142,6 +153,10 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
     edges = np.array([f.polyline[0] for f in fits if f.model == "edge"]).reshape(-1, 2)
     cones = FreeCones.of(echoes.xy, echoes.heading, echoes.half_beam, echoes.range_m)
     out = list(fits)
+    # each straight surface's ends (a zero-length stand-in for the others keeps the indices)
+    walls = [(np.asarray(g.polyline[0], dtype=np.float64), np.asarray(g.polyline[-1]))
+             if g.model == "line" and not g.closed and len(g.polyline) >= 2
+             else (np.zeros(2), np.zeros(2)) for g in fits]  # fmt: skip
     for i, f in enumerate(fits):
         if f.model != "line" or f.closed or len(f.polyline) < 2:
             continue
@@ -158,6 +173,10 @@ def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[Su
             if s.size == 0:
                 continue
             target = float(s.max() if end_before else s.min())
+            # far past a short wall: the corner needs a second wall's line through it
+            far = (-target if end_before else target - length) > MAX_REACH_PER_LENGTH * length
+            if far and not bool(on_wall_lines(a + t * target, walls[:i] + walls[i + 1 :])[0]):
+                continue
             p = a + t * (target if end_before else length)
             q = a + t * (0.0 if end_before else target)
             if float(np.hypot(*(q - p))) < MIN_STRETCH_M or _crosses(p, q, others):

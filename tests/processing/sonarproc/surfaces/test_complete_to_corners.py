@@ -62,7 +62,8 @@ def test_a_stretch_hidden_behind_another_wall_is_not_completed() -> None:
     # two door recesses' back walls on y = -0.25 behind a corridor wall y = 0: the first
     # recess's back wall ends at x = 0.9, the second's corner is at (4.0, -0.25); sensors in
     # the corridor facing the stretch squarely all ranged the corridor wall (0.75 m short)
-    wall = _wall((0.0, -0.25), (0.9, -0.25))
+    # (the back wall is longer than the stretch: a shorter one would not reach that far)
+    wall = _wall((-2.3, -0.25), (0.9, -0.25))
     x = np.repeat(np.arange(1.0, 3.95, 0.05), 2)
     hidden = EchoGeometry(np.c_[x, np.full(x.size, 1.0)], np.full(x.size, -np.pi / 2),
                           np.full(x.size, 0.2), np.full(x.size, 1.0))  # fmt: skip
@@ -71,6 +72,21 @@ def test_a_stretch_hidden_behind_another_wall_is_not_completed() -> None:
     reached = EchoGeometry(hidden.xy, hidden.heading, hidden.half_beam, np.full(x.size, 1.25))
     out = complete_to_corners([wall, _point("corner", (4.0, -0.25))], reached)
     np.testing.assert_allclose(out[0].polyline[-1], [4.0, -0.25], atol=1e-9)
+
+
+def test_a_short_plane_is_not_stretched_far_past_its_end() -> None:
+    # a 0.5 m plane (a box's side, or a plane fitted on a pillar's echoes) whose line passes
+    # a pillar's point 1.5 m past its end: the line is known too poorly there for the point
+    # to be its corner (nothing else stops the stretch: no reading saw through it)
+    short = _wall((0.0, 0.0), (0.5, 0.0))
+    assert complete_to_corners([short, _point("corner", (2.0, 0.01))], NONE)[0] is short
+    # a corner as far past its end as the plane is long is still reached
+    out = complete_to_corners([short, _point("corner", (1.0, 0.01))], NONE)
+    np.testing.assert_allclose(out[0].polyline[[0, -1]], [[0.0, 0.0], [1.0, 0.0]], atol=1e-9)
+    # and so is the far one when a second wall's line runs into it: two walls meet there
+    side = _wall((2.0, 3.0), (2.0, 0.8))
+    out = complete_to_corners([short, side, _point("corner", (2.0, 0.01))], NONE)
+    np.testing.assert_allclose(out[0].polyline[[0, -1]], [[0.0, 0.0], [2.0, 0.0]], atol=1e-9)
 
 
 def test_a_wall_fitted_past_a_point_on_its_line_ends_there() -> None:
@@ -104,7 +120,7 @@ def test_a_piece_is_not_stretched_along_another_piece_of_its_line() -> None:
     # two pieces of the wall y = 0, a gap between them left open: only the nearer one
     # reaches each corner, and no stretch runs along the other piece
     near, far = _wall((0.3, 0.0), (2.0, 0.0)), _wall((2.6, 0.0), (3.5, 0.0))
-    corners = [_point("corner", (0.0, 0.0)), _point("corner", (5.0, 0.0))]
+    corners = [_point("corner", (0.0, 0.0)), _point("corner", (4.3, 0.0))]
     out = complete_to_corners([near, far, *corners], NONE)
     np.testing.assert_allclose(out[0].polyline[[0, -1]], [[0.0, 0.0], [2.0, 0.0]], atol=1e-9)
-    np.testing.assert_allclose(out[1].polyline[[0, -1]], [[2.6, 0.0], [5.0, 0.0]], atol=1e-9)
+    np.testing.assert_allclose(out[1].polyline[[0, -1]], [[2.6, 0.0], [4.3, 0.0]], atol=1e-9)
