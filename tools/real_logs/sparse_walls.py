@@ -60,9 +60,11 @@ SEEN = ("sparse10-door-corridor", "sparse10-junction", "sparse10-hall-loop",
         "sparse12-heldout-side-rooms", "sparse12-heldout-alcove-hall",
         "sparse13-heldout-obtuse-room", "sparse13-heldout-alcove-corridor",
         "sparse13-heldout-l-doors", "sparse14-heldout-storeroom", "sparse14-heldout-lobby",
-        "sparse14-heldout-zigzag-corridor")  # fmt: skip
+        "sparse14-heldout-zigzag-corridor", "sparse15-heldout-niches",
+        "sparse15-heldout-bay-office", "sparse15-heldout-dead-ends")  # fmt: skip
 #: Scenes held out from all tuning, run once after the last rule change.
-HELD_OUT = ("sparse15-heldout-niches", "sparse15-heldout-bay-office", "sparse15-heldout-dead-ends")
+HELD_OUT = ("sparse16-heldout-bent-corridor", "sparse16-heldout-pillar-hall",
+            "sparse16-heldout-cluttered-office")  # fmt: skip
 
 LONG_WALL_M = 2.0
 COVER_TOL_M = 0.10
