@@ -401,8 +401,7 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     found = _tested_point(echoes, idx, start)
     if found is None:
         return None
-    xy, rng = echoes.xy[found.readings], echoes.range_m[found.readings]
-    wall = head_on_echoes(xy, echoes.heading[found.readings], rng, found.xy)
+    wall = head_on_echoes(echoes, found.readings, found.xy)
     if not wall.any():
         return found
     kept = _tested_point(echoes, found.readings[~wall], found.xy)
