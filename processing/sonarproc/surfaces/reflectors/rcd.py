@@ -380,10 +380,11 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     """The point through the readings ``idx`` if it passes every test (module notes), else None.
 
     A point that passes is tested once more without the head-on echoes of a plane among
-    its readings (:func:`~sonarproc.surfaces.reflectors.head_on.head_on_echoes`: near a
-    short wall's end they cross its arcs), which it leaves to the plane. Only a point found
-    with them may leave them: readings a plane explains are no evidence for a point, so
-    taking some away must not make a point of the rest.
+    its readings (:func:`~sonarproc.surfaces.reflectors.head_on.head_on_echoes`: near its
+    foot a plane's range is within the tolerance of the point's, judged on the plane's whole
+    pass), which it leaves to the plane. Only a point found with them may leave them:
+    readings a plane explains are no evidence for a point, so taking some away must not
+    make a point of the rest.
 
     Parameters
     ----------
