@@ -59,7 +59,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -76,6 +76,7 @@ from sonarproc.surfaces.reflectors.gathering import (
 from sonarproc.surfaces.reflectors.gathering import ArcIndex as _ArcIndex
 from sonarproc.surfaces.reflectors.gathering import gather as _gather
 from sonarproc.surfaces.reflectors.gathering import gather_all as _gather_all
+from sonarproc.surfaces.reflectors.head_on import head_on_echoes
 from sonarproc.surfaces.reflectors.range_models import (
     POINT_FALSE_ALARM,
     RANGE_STEP_NOISE_M,
@@ -148,6 +149,9 @@ class PointFeature:
         RMS range residual of the best plane through the same readings (m).
     span_rad : float
         Angle the sensors span as seen from the point (rad).
+    left : ndarray of int
+        The head-on echoes of a plane it gathered and left to the plane (no other point
+        takes them either).
     """
 
     xy: FloatArray
@@ -156,6 +160,7 @@ class PointFeature:
     rms_m: float
     plane_rms_m: float
     span_rad: float
+    left: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     @property
     def support(self) -> int:
@@ -281,6 +286,7 @@ def find_point_features(
         feature = _test_point(echoes, free, c, index, first)
         if feature is not None:
             free[feature.readings] = False
+            free[feature.left] = False
             found.append(feature)
             found_xy = np.vstack((found_xy, feature.xy))
     return found
@@ -373,6 +379,13 @@ def _test_point(
 def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> PointFeature | None:
     """The point through the readings ``idx`` if it passes every test (module notes), else None.
 
+    A point that passes is tested once more without the head-on echoes of a plane among
+    its readings (:func:`~sonarproc.surfaces.reflectors.head_on.head_on_echoes`: near its
+    foot a plane's range is within the tolerance of the point's, judged on the plane's whole
+    pass), which it leaves to the plane. Only a point found with them may leave them:
+    readings a plane explains are no evidence for a point, so taking some away must not
+    make a point of the rest.
+
     Parameters
     ----------
     echoes : EchoGeometry
@@ -386,6 +399,18 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     -------
     PointFeature or None
     """
+    found = _tested_point(echoes, idx, start)
+    if found is None:
+        return None
+    wall = head_on_echoes(echoes, found.readings, found.xy)
+    if not wall.any():
+        return found
+    kept = _tested_point(echoes, found.readings[~wall], found.xy)
+    return None if kept is None else replace(kept, left=found.readings[wall])
+
+
+def _tested_point(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> PointFeature | None:
+    """:func:`point_feature`'s tests on the readings ``idx`` (module notes), else None."""
     cheap = _cheap_tests(echoes, idx)
     if cheap is None:
         return None
