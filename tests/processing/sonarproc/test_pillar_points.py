@@ -24,7 +24,7 @@ from sonarsim import simulate as sim
 RING = {"type": "circular", "count": 16, "radius": 0.22, "step_deg": 22.5}
 
 
-@pytest.mark.parametrize(("radius", "offset"), [(0.15, 0.8), (0.15, 1.2), (0.2, 0.8)])
+@pytest.mark.parametrize(("radius", "offset"), [(0.15, 0.8), (0.15, 1.2), (0.2, 0.8), (0.25, 1.8)])
 def test_a_pillar_passed_by_a_line_of_poses_is_no_point(
     tmp_path: Path, radius: float, offset: float
 ) -> None:

@@ -21,9 +21,17 @@ radius is clear, by the test a point reflector's own readings are given
 :data:`~sonarproc.surfaces.reflectors.rcd.MAX_POINT_RADIUS_M`, more than two standard
 errors (range noise :data:`~sonarproc.surfaces.reflectors.rcd.RANGE_NOISE_M`) from zero,
 and with a sag over the sensors' span above the time walk
-(:data:`~sonarproc.surfaces.reflectors.time_walk.TIME_WALK_M`). A wall ending at a corner
-is no such circle: the wall's readings range its line and the corner's its end point,
-and a circle through both misses one or the other by more than the tolerance.
+(:data:`~sonarproc.surfaces.reflectors.time_walk.TIME_WALK_M`).
+
+:func:`pillar_pieces` asks it of a point and the planes that may end at it (passing
+within :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` of it): for a corner
+searched on a wall's line and for a point reflector checked against the fitted surfaces
+(:mod:`~sonarproc.surfaces.reflectors.confirm`). The pieces (each plane's readings
+ranging its line, the point's the point) must also not explain the readings
+significantly better than the circle
+(:func:`~sonarproc.surfaces.reflectors.range_models.point_beats_plane`): a wall that ends
+at an edge or a corner, whose readings a circle may follow to within the tolerance, is
+explained better by the wall and the point.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.optimize import leastsq
 
+from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     STRAY_SHARE,
@@ -42,10 +51,12 @@ from sonarproc.surfaces.reflectors.range_models import (
 )
 from sonarproc.surfaces.reflectors.rcd import MAX_POINT_RADIUS_M, RANGE_NOISE_M
 from sonarproc.surfaces.reflectors.time_walk import TIME_WALK_M
+from sonarproc.surfaces.reflectors.walls import END_REACH_M, side_of_line
 
-__all__ = ["fit_cylinder", "one_cylinder"]
+__all__ = ["fit_cylinder", "one_cylinder", "pillar_pieces", "segment_distance"]
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 
 def fit_cylinder(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> tuple[FloatArray, float]:
@@ -131,3 +142,36 @@ def one_cylinder(
     if radius <= 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0)):
         return False
     return pieces is None or not point_beats_plane(pieces, res)
+
+
+def pillar_pieces(
+    echoes: EchoGeometry,
+    idx: IntArray,
+    x: FloatArray,
+    walls: list[tuple[FloatArray, FloatArray]],
+    readings: list[IntArray],
+) -> bool:
+    """Whether a point at ``x`` (its readings ``idx``) and the planes that may end there are
+    one pillar's pieces (module notes).
+
+    The planes that may end there pass within
+    :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` of it; ``walls`` are the
+    planes' ends and ``readings`` their specular readings (indices into ``echoes``).
+    """
+    near = [(a, b, r) for (a, b), r in zip(walls, readings, strict=True)
+            if r.size and segment_distance(x, a, b) <= END_REACH_M]  # fmt: skip
+    if not near:
+        return False
+    both = np.concatenate([r for _, _, r in near] + [idx])
+    # the pieces' own residuals: each plane's readings range its line, the place's the place
+    pieces = [np.abs(side_of_line(a, b, echoes.xy[r])) / float(np.hypot(*(b - a)))
+              - echoes.range_m[r] for a, b, r in near]  # fmt: skip
+    pieces.append(np.hypot(*(echoes.xy[idx] - x).T) - echoes.range_m[idx])
+    return one_cylinder(echoes.xy[both], echoes.range_m[both], x, np.concatenate(pieces))
+
+
+def segment_distance(x: FloatArray, a: FloatArray, b: FloatArray) -> float:
+    """Distance (m) from ``x`` to the segment ``a``-``b``."""
+    v = b - a
+    t = float(np.clip((x - a) @ v / max(float(v @ v), 1e-12), 0.0, 1.0))
+    return float(np.hypot(*(a + t * v - x)))

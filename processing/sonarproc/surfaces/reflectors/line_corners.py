@@ -45,10 +45,10 @@ is a corner when:
   retro-reflects from anywhere inside its opening, while the beams aimed at a chance
   crossing of arcs range the surfaces behind or before it; a long log's many readings
   cross at some place of a line several times by chance);
-* it is not a pillar's surface where planes fitted to the pillar leave it
-  (:func:`_on_a_cylinder`): one cylinder of a clear radius does not explain its readings
-  together with those of the planes that may end there
-  (:func:`~sonarproc.surfaces.reflectors.cylinders.one_cylinder`);
+* it is not a pillar's surface where planes fitted to the pillar leave it: one cylinder
+  of a clear radius does not explain its readings together with those of the planes
+  that may end there
+  (:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`);
 * it lies inside no fitted plane, and not within
   :data:`~sonarproc.surfaces.reflectors.gathering.CANDIDATE_SPACING_M` of a point
   reported already;
@@ -75,7 +75,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.reflectors.cylinders import one_cylinder
+from sonarproc.surfaces.reflectors.cylinders import pillar_pieces
 from sonarproc.surfaces.reflectors.gathering import (
     BEAM_SLACK,
     CANDIDATE_SPACING_M,
@@ -211,35 +211,6 @@ def _occluded(
         if bool(hit.any()):
             return True
     return False
-
-
-def _on_a_cylinder(
-    echoes: EchoGeometry,
-    idx: IntArray,
-    x: FloatArray,
-    walls: list[tuple[FloatArray, FloatArray]],
-    readings: list[IntArray],
-) -> bool:
-    """Whether one cylinder explains the readings ``idx`` of a place ``x`` and those of the
-    planes that may end there (within :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M`
-    of it): :func:`~sonarproc.surfaces.reflectors.cylinders.one_cylinder`."""
-    near = [(a, b, r) for (a, b), r in zip(walls, readings, strict=True)
-            if r.size and _segment_distance(x, a, b) <= END_REACH_M]  # fmt: skip
-    if not near:
-        return False
-    both = np.concatenate([r for _, _, r in near] + [idx])
-    # the pieces' own residuals: each plane's readings range its line, the place's the place
-    pieces = [np.abs(side_of_line(a, b, echoes.xy[r])) / float(np.hypot(*(b - a)))
-              - echoes.range_m[r] for a, b, r in near]  # fmt: skip
-    pieces.append(np.hypot(*(echoes.xy[idx] - x).T) - echoes.range_m[idx])
-    return one_cylinder(echoes.xy[both], echoes.range_m[both], x, np.concatenate(pieces))
-
-
-def _segment_distance(x: FloatArray, a: FloatArray, b: FloatArray) -> float:
-    """Distance (m) from ``x`` to the segment ``a``-``b``."""
-    v = b - a
-    t = float(np.clip((x - a) @ v / max(float(v @ v), 1e-12), 0.0, 1.0))
-    return float(np.hypot(*(a + t * v - x)))
 
 
 def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray) -> bool:
@@ -392,7 +363,7 @@ def corners_on_wall_lines(
         if weak and far_poses(f, echoes) < MIN_LINE_POSES:
             continue
         # where planes fitted to a pillar leave its surface: one cylinder explains them all
-        if _on_a_cylinder(echoes, idx, x, walls, [g.readings for _, g in lines]):
+        if pillar_pieces(echoes, idx, x, walls, [g.readings for _, g in lines]):
             continue
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
