@@ -98,40 +98,39 @@ def confirm_points(
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if pillars.pieces(new):
-            continue
-        if _anchored(new, walls, boxes) or (
+        if not _anchored(new, walls, boxes) and not (
             heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
         ):
+            continue
+        # last: a circle fit (and the near planes' readings), for the points that stay
+        if not pillars.pieces(new):
             out.append((k, new))
     return out
 
 
 class _Pillars:
     """Whether a point and the planes that may end at it are one pillar's pieces
-    (:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`); each plane's
-    specular readings are found when a point near it first asks."""
+    (:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`); a plane's specular
+    readings are found when a point near it first asks."""
 
     def __init__(self, echoes: EchoGeometry, surfaces: list[SurfaceFit]) -> None:
         self.echoes = echoes
         self.planes = [s.polyline for s in surfaces if s.model == "line"
                        and not s.closed and s.polyline.shape[0] >= 2]  # fmt: skip
         self.walls = [(p[0], p[-1]) for p in self.planes]
-        self._readings: dict[int, npt.NDArray[np.intp]] = {}
+        self._got: dict[int, tuple[npt.NDArray[np.intp], FloatArray]] = {}
 
     def pieces(self, p: PointFeature) -> bool:
         """Whether ``p`` is the surface of a pillar that planes were fitted to in part."""
         near = [k for k, (a, b) in enumerate(self.walls)
                 if segment_distance(p.xy, a, b) <= END_REACH_M]  # fmt: skip
-        if not near:
-            return False
-        for k in near:
-            if k not in self._readings:
-                got = echo_points([self.planes[k]], [False], self.echoes, tol=RANGE_TOL_M)
-                self._readings[k] = got[0].readings
-        walls = [self.walls[k] for k in near]
-        return pillar_pieces(self.echoes, p.readings, p.xy, walls,
-                             [self._readings[k] for k in near])  # fmt: skip
+        todo = [k for k in near if k not in self._got]
+        if todo:
+            got = echo_points([self.planes[k] for k in todo], [False] * len(todo), self.echoes,
+                              tol=RANGE_TOL_M)  # fmt: skip
+            self._got.update((k, (g.readings, g.points)) for k, g in zip(todo, got, strict=True))
+        planes = [(*self.walls[k], *self._got[k]) for k in near]
+        return pillar_pieces(self.echoes, p.readings, p.xy, planes)
 
 
 class _WallBoxes:

@@ -93,7 +93,11 @@ def fit_cylinder(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> tuple
 
 
 def one_cylinder(
-    xy: FloatArray, rng: FloatArray, start: npt.ArrayLike, pieces: FloatArray | None = None
+    xy: FloatArray,
+    rng: FloatArray,
+    start: npt.ArrayLike,
+    pieces: FloatArray | None = None,
+    fit: npt.NDArray[np.bool_] | None = None,
 ) -> bool:
     """Whether one cylinder of a clear radius explains the ranges (module notes).
 
@@ -112,6 +116,8 @@ def one_cylinder(
         (:func:`~sonarproc.surfaces.reflectors.range_models.point_beats_plane`, the
         pieces in the point's place): a wall's end and its edge, explained by a circle to
         within the tolerance, are still explained better by the wall and the edge.
+    fit : ndarray of bool, shape (N,), optional
+        The readings the circle is fitted to (default: all); it is judged on all of them.
 
     Examples
     --------
@@ -124,7 +130,9 @@ def one_cylinder(
     >>> one_cylinder(s, np.ones(16), [0.0, 0.8])
     False
     """
-    centre, radius = fit_cylinder(xy, rng, start)
+    centre, radius = (
+        fit_cylinder(xy, rng, start) if fit is None else fit_cylinder(xy[fit], rng[fit], start)
+    )
     if not math.isfinite(radius) or radius <= MAX_POINT_RADIUS_M:
         return False
     res = np.hypot(xy[:, 0] - centre[0], xy[:, 1] - centre[1]) - radius - rng
@@ -148,26 +156,31 @@ def pillar_pieces(
     echoes: EchoGeometry,
     idx: IntArray,
     x: FloatArray,
-    walls: list[tuple[FloatArray, FloatArray]],
-    readings: list[IntArray],
+    planes: list[tuple[FloatArray, FloatArray, IntArray, FloatArray]],
 ) -> bool:
     """Whether a point at ``x`` (its readings ``idx``) and the planes that may end there are
     one pillar's pieces (module notes).
 
-    The planes that may end there pass within
-    :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` of it; ``walls`` are the
-    planes' ends and ``readings`` their specular readings (indices into ``echoes``).
+    ``planes``: each plane's two ends, its specular readings (indices into ``echoes``) and
+    their echo points (R, 2). Those passing within
+    :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` of ``x`` may end there. The
+    circle is fitted to their readings whose echo points lie within that reach of ``x``
+    and the point's (a long wall's far readings cost a circle fit, and a pillar's pieces
+    lie there), and judged on all their readings (a long wall is no pillar's piece).
     """
-    near = [(a, b, r) for (a, b), r in zip(walls, readings, strict=True)
+    near = [(a, b, r, pts) for a, b, r, pts in planes
             if r.size and segment_distance(x, a, b) <= END_REACH_M]  # fmt: skip
     if not near:
         return False
-    both = np.concatenate([r for _, _, r in near] + [idx])
+    both = np.concatenate([r for _, _, r, _ in near] + [idx])
+    close = [np.hypot(pts[:, 0] - x[0], pts[:, 1] - x[1]) <= END_REACH_M for *_, pts in near]
+    close.append(np.ones(idx.size, dtype=bool))
     # the pieces' own residuals: each plane's readings range its line, the place's the place
     pieces = [np.abs(side_of_line(a, b, echoes.xy[r])) / float(np.hypot(*(b - a)))
-              - echoes.range_m[r] for a, b, r in near]  # fmt: skip
+              - echoes.range_m[r] for a, b, r, _ in near]  # fmt: skip
     pieces.append(np.hypot(*(echoes.xy[idx] - x).T) - echoes.range_m[idx])
-    return one_cylinder(echoes.xy[both], echoes.range_m[both], x, np.concatenate(pieces))
+    xy, rng = echoes.xy[both], echoes.range_m[both]
+    return one_cylinder(xy, rng, x, np.concatenate(pieces), fit=np.concatenate(close))
 
 
 def segment_distance(x: FloatArray, a: FloatArray, b: FloatArray) -> float:

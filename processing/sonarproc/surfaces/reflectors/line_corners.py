@@ -287,6 +287,7 @@ def corners_on_wall_lines(
     seen_side = [float(np.median(np.sign(side_of_line(a, b, echoes.xy[g.readings]))))
                  if g.readings.size else 0.0
                  for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
+    planes = [(a, b, g.readings, g.points) for (a, b), (_, g) in zip(walls, lines, strict=True)]
     index = ArcIndex(echoes, free)
     pool = echoes.subset(free)  # the free readings, gathered once for every line
     places, owner, along = [], [], []
@@ -362,12 +363,13 @@ def corners_on_wall_lines(
         weak = idx.size < MIN_READINGS or poses < MIN_POSES
         if weak and far_poses(f, echoes) < MIN_LINE_POSES:
             continue
-        # where planes fitted to a pillar leave its surface: one cylinder explains them all
-        if pillar_pieces(echoes, idx, x, walls, [g.readings for _, g in lines]):
-            continue
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
         if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
+            continue
+        # where planes fitted to a pillar leave its surface: one cylinder explains them all
+        # (last: a circle fit, asked of the few places that passed every other test)
+        if pillar_pieces(echoes, idx, x, planes):
             continue
         found.append(f)
         taken.append(x)
