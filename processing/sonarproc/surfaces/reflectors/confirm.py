@@ -9,7 +9,9 @@ is a reading whose beam axis meets a fitted surface at its range (a diffuse echo
 The point is refitted on the rest and tested again
 (:func:`sonarproc.surfaces.reflectors.rcd.point_feature`). A point inside a fitted plane
 (:func:`sonarproc.surfaces.reflectors.walls.inside_walls`) is that plane's echo and goes;
-so does a point on a fitted arc's circle that the circle explains (:func:`on_circles`).
+so does a point on a fitted arc's circle that the circle explains (:func:`on_circles`),
+and one that is a pillar's surface with the planes fitted to parts of that pillar
+(:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`).
 A point stays where a fitted plane ends at it, or where its echoes say it is a
 retro-reflecting corner (:func:`heard_as_corner`) that answered its beams
 (:func:`~sonarproc.surfaces.reflectors.point_echoes.answers_its_beams`).
@@ -24,6 +26,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.cylinders import pillar_pieces, segment_distance
 from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
     MIN_FAR_POSES,
@@ -88,17 +91,46 @@ def confirm_points(
         coarse += [_decimated(s.polyline) for s in surfaces
                    if s.model != "line" and s.polyline.shape[0] >= 2]  # fmt: skip
         explained[rows[_axis_meets(echoes.subset(mine), coarse)]] = True
+    pillars = _Pillars(echoes, surfaces)
     out: list[tuple[int, PointFeature]] = []
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if _anchored(new, walls, boxes) or (
+        if not _anchored(new, walls, boxes) and not (
             heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
         ):
+            continue
+        # last: a circle fit (and the near planes' readings), for the points that stay
+        if not pillars.pieces(new):
             out.append((k, new))
     return out
+
+
+class _Pillars:
+    """Whether a point and the planes that may end at it are one pillar's pieces
+    (:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`); a plane's specular
+    readings are found when a point near it first asks."""
+
+    def __init__(self, echoes: EchoGeometry, surfaces: list[SurfaceFit]) -> None:
+        self.echoes = echoes
+        self.planes = [s.polyline for s in surfaces if s.model == "line"
+                       and not s.closed and s.polyline.shape[0] >= 2]  # fmt: skip
+        self.walls = [(p[0], p[-1]) for p in self.planes]
+        self._got: dict[int, tuple[npt.NDArray[np.intp], FloatArray]] = {}
+
+    def pieces(self, p: PointFeature) -> bool:
+        """Whether ``p`` is the surface of a pillar that planes were fitted to in part."""
+        near = [k for k, (a, b) in enumerate(self.walls)
+                if segment_distance(p.xy, a, b) <= END_REACH_M]  # fmt: skip
+        todo = [k for k in near if k not in self._got]
+        if todo:
+            got = echo_points([self.planes[k] for k in todo], [False] * len(todo), self.echoes,
+                              tol=RANGE_TOL_M)  # fmt: skip
+            self._got.update((k, (g.readings, g.points)) for k, g in zip(todo, got, strict=True))
+        planes = [(*self.walls[k], *self._got[k]) for k in near]
+        return pillar_pieces(self.echoes, p.readings, p.xy, planes)
 
 
 class _WallBoxes:

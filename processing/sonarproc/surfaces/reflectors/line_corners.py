@@ -20,14 +20,22 @@ echo), every :data:`STEP_M`, for the place the most unexplained readings pass th
 distance, inside the beam: :func:`~sonarproc.surfaces.reflectors.gathering.gather`). It
 is a corner when:
 
-* at least :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` unexplained readings
-  (no fitted surface's specular echo, no reported point's; a corner's readings near
-  their beams' axes meet its walls' lines at their range, so a diffuse echo off a wall
-  is not ruled out here) from
-  :data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES` distinct sensor positions pass
-  through it, refitted along the line (one unknown, least squares on the ranges) and
-  gathered again there (a chance crossing of arcs of other surfaces meets the line at a
-  place a few times, not eight times within the range tolerance);
+* at least :data:`MIN_LINE_POSES` unexplained readings (no fitted surface's specular
+  echo, no reported point's; a corner's readings near their beams' axes meet its walls'
+  lines at their range, so a diffuse echo off a wall is not ruled out here) from as many
+  distinct sensor positions pass through it, refitted along the line (one unknown, least
+  squares on the ranges) and gathered again there: one fewer than a point fitted freely
+  needs (:data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES`), since the line fixes one
+  of its two unknowns (see :data:`MIN_LINE_POSES`);
+* with less support than a free point needs (fewer than
+  :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` readings or
+  :data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES` poses), :data:`MIN_LINE_POSES` of
+  its poses heard it from beyond
+  :data:`~sonarproc.surfaces.reflectors.point_echoes.EDGE_REACH_M`
+  (:func:`~sonarproc.surfaces.reflectors.point_echoes.far_poses`): a convex edge on the
+  line (a door jamb, a wall's free end) is heard close by, where a few readings cannot
+  tell its weak diffracted echo from a corner's; beyond that reach only a corner's
+  retro-reflection returns, so its support there is a corner's alone;
 * the sensors lie on the side of the line that the wall was seen from, and span no
   more than a right angle and the retro-reflection tolerance round it (inside the
   corner's opening; a corner is heard from its inside only);
@@ -36,7 +44,11 @@ is a corner when:
   (:func:`~sonarproc.surfaces.reflectors.point_echoes.answers_its_beams`: a corner
   retro-reflects from anywhere inside its opening, while the beams aimed at a chance
   crossing of arcs range the surfaces behind or before it; a long log's many readings
-  cross at some place of a line eight times by chance);
+  cross at some place of a line several times by chance);
+* it is not a pillar's surface where planes fitted to the pillar leave it: one cylinder
+  of a clear radius does not explain its readings together with those of the planes
+  that may end there
+  (:func:`~sonarproc.surfaces.reflectors.cylinders.pillar_pieces`);
 * it lies inside no fitted plane, and not within
   :data:`~sonarproc.surfaces.reflectors.gathering.CANDIDATE_SPACING_M` of a point
   reported already;
@@ -63,6 +75,7 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
+from sonarproc.surfaces.reflectors.cylinders import pillar_pieces
 from sonarproc.surfaces.reflectors.gathering import (
     BEAM_SLACK,
     CANDIDATE_SPACING_M,
@@ -74,6 +87,7 @@ from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
     BeamIndex,
     answers_its_beams,
+    far_poses,
 )
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
@@ -91,11 +105,22 @@ from sonarproc.surfaces.reflectors.walls import (
     side_of_line,
 )
 
-__all__ = ["STEP_M", "corners_on_wall_lines"]
+__all__ = ["MIN_LINE_POSES", "STEP_M", "corners_on_wall_lines"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 
+#: Fewest distinct sensor positions (and readings) of a corner on a wall's line. A point
+#: fitted freely has two unknowns: the arcs of any two poses cross somewhere, and only
+#: each further pose's arc tests that they meet there; ``MIN_POSES`` leaves three such
+#: tests. On a known line a point has one unknown: any one arc crosses the line, and
+#: every further pose's arc is a test, passed by chance when an arc of another surface
+#: crosses the line within the range tolerance of the place (the same chance per arc as
+#: for the free point), so one pose fewer leaves the same three tests; the line itself,
+#: fitted to other readings, is independent evidence that a wall ends there. Readings
+#: count no more than poses: those of one pose repeat one arc (no geometry), and a sparse
+#: log hears a corner once per pose.
+MIN_LINE_POSES = MIN_POSES - 1
 #: Places along a wall's line are tried this often (m): half the range tolerance, so
 #: every reading through a corner passes through a place tried.
 STEP_M = 0.5 * RANGE_TOL_M
@@ -255,13 +280,14 @@ def corners_on_wall_lines(
     free = ~explained
     lines = [(k, g) for k, g in zip(polys, got, strict=True)
              if fits[k].model == "line" and not fits[k].closed]  # fmt: skip
-    if not lines or np.count_nonzero(free) < MIN_READINGS:
+    if not lines or np.count_nonzero(free) < MIN_LINE_POSES:
         return []
     walls = [(fits[k].polyline[0], fits[k].polyline[-1]) for k, _ in lines]
     # the side each wall was seen from: the median side of its own readings
     seen_side = [float(np.median(np.sign(side_of_line(a, b, echoes.xy[g.readings]))))
                  if g.readings.size else 0.0
                  for (a, b), (_, g) in zip(walls, lines, strict=True)]  # fmt: skip
+    planes = [(a, b, g.readings, g.points) for (a, b), (_, g) in zip(walls, lines, strict=True)]
     index = ArcIndex(echoes, free)
     pool = echoes.subset(free)  # the free readings, gathered once for every line
     places, owner, along = [], [], []
@@ -278,7 +304,7 @@ def corners_on_wall_lines(
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
             counts = _crossing_counts(pool, a, u, t)
-            t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
+            t = t[_peaks(t, counts) & (counts >= MIN_LINE_POSES)]
             if t.size:
                 places.append(a + t[:, None] * u)
                 owner.append(np.full(t.size, k))
@@ -298,7 +324,7 @@ def corners_on_wall_lines(
     tried: dict[int, list[FloatArray]] = {k: [] for k in range(len(walls))}
     beams: BeamIndex | None = None  # made once, when the first place gets that far
     for c in np.argsort(-sizes, kind="stable"):
-        if sizes[c] < MIN_READINGS:
+        if sizes[c] < MIN_LINE_POSES:
             break
         k = int(which[c])
         # a place whose readings settled, on this line, where others' had and failed
@@ -309,17 +335,17 @@ def corners_on_wall_lines(
         a, b = walls[k]
         u = (b - a) / float(np.hypot(*(b - a)))
         idx = gathers[c][free[gathers[c]]]
-        if idx.size < MIN_READINGS:
+        if idx.size < MIN_LINE_POSES:
             continue
         at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
         x = a + at * u
         tried[k].append(x)
         idx = gather(echoes, free, x, index)
         xy, rng = echoes.xy[idx], echoes.range_m[idx]
-        if idx.size < MIN_READINGS:
+        if idx.size < MIN_LINE_POSES:
             continue
         poses = distinct_poses(xy)
-        if poses < MIN_POSES:
+        if poses < MIN_LINE_POSES:
             continue
         if any(float(np.hypot(*(x - q))) < CANDIDATE_SPACING_M for q in taken):
             continue
@@ -333,9 +359,17 @@ def corners_on_wall_lines(
             continue
         res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
         f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
+        # less support than a free point needs: a corner's echo alone, heard from far
+        weak = idx.size < MIN_READINGS or poses < MIN_POSES
+        if weak and far_poses(f, echoes) < MIN_LINE_POSES:
+            continue
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
         if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
+            continue
+        # where planes fitted to a pillar leave its surface: one cylinder explains them all
+        # (last: a circle fit, asked of the few places that passed every other test)
+        if pillar_pieces(echoes, idx, x, planes):
             continue
         found.append(f)
         taken.append(x)
