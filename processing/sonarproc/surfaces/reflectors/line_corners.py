@@ -61,7 +61,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.gathering import (
     BEAM_SLACK,
@@ -211,7 +211,11 @@ def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray)
 
 
 def corners_on_wall_lines(
-    fits: list[SurfaceFit], echoes: EchoGeometry, points: list[PointFeature]
+    fits: list[SurfaceFit],
+    echoes: EchoGeometry,
+    points: list[PointFeature],
+    *,
+    got: list[SurfaceEchoes] | None = None,
 ) -> list[PointFeature]:
     """Corners on the fitted planes' lines that the unexplained readings meet at (module notes).
 
@@ -223,6 +227,9 @@ def corners_on_wall_lines(
         The readings they were fitted to.
     points : list of PointFeature
         The point reflectors reported already (their readings are explained).
+    got : list of SurfaceEchoes, optional
+        ``echo_points`` of the ``fits`` at :data:`RANGE_TOL_M`, when the caller has it
+        (every fit a polyline of two vertices or more).
 
     Returns
     -------
@@ -245,8 +252,9 @@ def corners_on_wall_lines(
     [[0.0, 0.0]]
     """
     polys = [k for k, s in enumerate(fits) if s.polyline.shape[0] >= 2]
-    got = echo_points([fits[k].polyline for k in polys], [fits[k].closed for k in polys],
-                      echoes, tol=RANGE_TOL_M)  # fmt: skip
+    if got is None or len(polys) < len(fits):
+        got = echo_points([fits[k].polyline for k in polys], [fits[k].closed for k in polys],
+                          echoes, tol=RANGE_TOL_M)  # fmt: skip
     explained = np.zeros(echoes.size, dtype=bool)
     for g in got:
         explained[g.readings] = True
