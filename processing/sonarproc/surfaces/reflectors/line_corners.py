@@ -118,8 +118,8 @@ def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t
     return t
 
 
-def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatArray) -> IntArray:
-    """How many arcs of readings ``pool`` pass near each place ``a + t u`` (``t`` evenly spaced).
+def _crossings(pool: EchoGeometry, a: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Where the arcs of readings ``pool`` cross the line ``a + t u``, and how far round.
 
     A reading's circle (its sensor, its range) meets the line at up to two places; those
     inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
@@ -128,6 +128,9 @@ def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatA
     square to the line do not count: such readings face the wall's line head on, where a
     plane along the line explains them (:func:`_no_plane`), and their tolerance along the
     line would be unbounded.
+
+    Returns each counted crossing's ``t`` (m along the line) and its reach along it (m).
+    Both ends of a line are searched with the same crossings (:func:`_crossing_counts`).
     """
     d = pool.xy - a
     along = d @ u
@@ -142,7 +145,13 @@ def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatA
     off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
     c = np.abs(v @ u) / np.maximum(pool.range_m[rows], 1e-9)
     ok = (off_axis <= BEAM_SLACK * pool.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
-    tc, width = tc[ok], RANGE_TOL_M / c[ok]
+    return tc[ok], RANGE_TOL_M / c[ok]
+
+
+def _crossing_counts(crossings: tuple[FloatArray, FloatArray], t: FloatArray) -> IntArray:
+    """How many arcs pass near each place ``t`` (evenly spaced, m along the line), given
+    their crossings of the line (:func:`_crossings`)."""
+    tc, width = crossings
     step = float(t[1] - t[0]) if t.size > 1 else 1.0
     lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
     hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
@@ -279,13 +288,14 @@ def corners_on_wall_lines(
             continue
         u = (b - a) / length
         inner = min(END_REACH_M, 0.5 * length)
+        crossings = _crossings(pool, a, u)
         for t in (
             np.arange(-WALL_GAP_M, inner, STEP_M),
             np.arange(length - inner, length + WALL_GAP_M, STEP_M),
         ):
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
-            counts = _crossing_counts(pool, a, u, t)
+            counts = _crossing_counts(crossings, t)
             t = t[_peaks(t, counts) & (counts >= MIN_READINGS)]
             if t.size:
                 places.append(a + t[:, None] * u)
