@@ -180,21 +180,21 @@ def _occluded(
 
     Short of it: by more than :data:`RANGE_TOL_M` (the walls meeting at ``x`` end there).
     """
+    if not walls:
+        return False
     d = x - sensors
-    length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
-    for a, b in walls:
-        v = b - a
-        den = d[:, 0] * v[1] - d[:, 1] * v[0]
-        w = a - sensors
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (w[:, 0] * v[1] - w[:, 1] * v[0]) / den
-            s = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / den
-        hit = (
-            (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
-        )
-        if bool(hit.any()):
-            return True
-    return False
+    length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+    # every sight line against every wall at once (sensors down, walls across)
+    ends = np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
+    v = ends[:, 1] - ends[:, 0]
+    den = d[:, 0, None] * v[:, 1] - d[:, 1, None] * v[:, 0]
+    w0 = ends[:, 0, 0] - sensors[:, 0, None]
+    w1 = ends[:, 0, 1] - sensors[:, 1, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w0 * v[:, 1] - w1 * v[:, 0]) / den
+        s = (w0 * d[:, 1, None] - w1 * d[:, 0, None]) / den
+    hit = (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
+    return bool(hit.any())
 
 
 def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray) -> bool:
