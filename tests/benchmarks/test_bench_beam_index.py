@@ -9,7 +9,8 @@ makes (``sonarproc.pipeline.process``, fit ``auto``), recorded from that run. Bo
 the sensors within the reach whose beams may hold the point near their axis (the same
 readings, checked), the tree's build and every query timed together, in turns, best of
 seven, in CPU seconds of this process. The ratio, the tree's time over ours, is what
-keeps our index (at least 2, issue 34's rule for a kernel of our own).
+keeps our index (at least 2: the project keeps a kernel of its own where a library has
+one only when it is at least twice as fast on the real workload).
 """
 
 from __future__ import annotations
