@@ -1,11 +1,11 @@
-"""The run without issue 36's stages, for the benchmarks that measure what those stages cost.
+"""The run without reflector classes or free space, for the benchmarks of what they cost.
 
 :func:`without_free_space` is the run as it was before free space: no silent readings
 selected, no cut of walls at openings, no join of pieces, no cut of unseen stretches, the
 merge's fixed gap. :func:`without_point_reflectors` is the run without the point
-reflectors: no search (every reading left to the walls), no corner fitted as a plane, no
-corner on the walls' lines. Each replaces the functions where the run looks them up and
-restores them on leaving.
+reflectors: no search (every reading left to the walls; on a long log, no coarse count
+map made for it either), no corner fitted as a plane, no corner on the walls' lines.
+Each replaces the functions where the run looks them up and restores them on leaving.
 """
 
 from __future__ import annotations
@@ -61,10 +61,13 @@ def without_point_reflectors() -> Iterator[None]:
 
     saved = (
         surfacefit_module.claim_points,
+        surfacefit_module._claim_at_wall_ends,
         points_module.planes_as_corners,
         points_module.corners_on_wall_lines,
     )
     surfacefit_module.claim_points = no_points  # type: ignore[assignment]
+    # a long log's search, with the coarse map made for it alone
+    surfacefit_module._claim_at_wall_ends = no_points  # type: ignore[assignment]
     points_module.planes_as_corners = lambda *a, **k: ([], [])  # type: ignore[assignment]
     points_module.corners_on_wall_lines = lambda *a, **k: []  # type: ignore[assignment]
     try:
@@ -72,6 +75,7 @@ def without_point_reflectors() -> Iterator[None]:
     finally:
         (
             surfacefit_module.claim_points,
+            surfacefit_module._claim_at_wall_ends,
             points_module.planes_as_corners,
             points_module.corners_on_wall_lines,
         ) = saved  # type: ignore[assignment]
