@@ -27,6 +27,7 @@ from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
     MIN_FAR_POSES,
+    BeamIndex,
     answers_its_beams,
     far_poses,
 )
@@ -89,15 +90,18 @@ def confirm_points(
                    if s.model != "line" and s.polyline.shape[0] >= 2]  # fmt: skip
         explained[rows[_axis_meets(echoes.subset(mine), coarse)]] = True
     out: list[tuple[int, PointFeature]] = []
+    beams: BeamIndex | None = None  # made once, when the first point gets that far
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if _anchored(new, walls, boxes) or (
-            heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
-        ):
+        if _anchored(new, walls, boxes):
             out.append((k, new))
+        elif heard_as_corner(new, echoes, walls):
+            beams = BeamIndex(echoes) if beams is None else beams
+            if answers_its_beams(new, echoes, beams):
+                out.append((k, new))
     return out
 
 
