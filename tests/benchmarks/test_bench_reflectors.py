@@ -3,8 +3,9 @@
 The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wandering in a
 20 m x 20 m room, mapped at 1 cm. ``sonarproc.pipeline.process`` with the default fit
 (``auto``: surfaces) runs with the point reflectors and without them (their search, the
-corners fitted as planes and the corners on the walls' lines each replaced by one that
-finds none), the runs interleaved, best of three CPU times each.
+corners fitted as planes, the corners on the walls' lines and the corners where two
+walls meet each replaced by one that finds none), the runs interleaved, best of three CPU
+times each.
 The ratio (with - without) / without is the stage's added cost; the target, with the
 free-space cut of the openings, is at most 25 %.
 """
@@ -40,9 +41,11 @@ def test_bench_reflectors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> No
     params = RunParams(cell=0.01, bbox=(0.0, ROOM, 0.0, ROOM), fit="auto")
     search = surfacefit_module.claim_points
     stages = {"planes_as_corners": points_module.planes_as_corners,
-              "corners_on_wall_lines": points_module.corners_on_wall_lines}  # fmt: skip
+              "corners_on_wall_lines": points_module.corners_on_wall_lines,
+              "corners_where_walls_meet": points_module.corners_where_walls_meet}  # fmt: skip
     nothing = {"planes_as_corners": lambda *a, **k: ([], []),
-               "corners_on_wall_lines": lambda *a, **k: []}  # fmt: skip
+               "corners_on_wall_lines": lambda *a, **k: [],
+               "corners_where_walls_meet": lambda *a, **k: []}  # fmt: skip
     best = {"with": float("inf"), "without": float("inf")}
     points = 0
     for _ in range(3):

@@ -191,8 +191,13 @@ def corners_where_walls_meet(
     def seen(k: int, n: FloatArray, f: FloatArray) -> float:
         """The side of line ``n -> f`` (fit ``k``'s) its echoes came from (+1, -1; 0 none)."""
         if k not in heard_by:
-            got = echo_points([fits[k].polyline], [False], echoes, tol=RANGE_TOL_M)[0].readings
-            heard_by[k] = echoes.xy[got]
+            # only a reading ranging the line's distance can echo from it: asked first, cheaply
+            a, b = fits[k].polyline[0], fits[k].polyline[-1]
+            d = np.abs(side_of_line(a, b, echoes.xy)) / float(np.hypot(*(b - a)))
+            near = np.abs(d - echoes.range_m) <= RANGE_TOL_M
+            sub = echoes.subset(near)
+            got = echo_points([fits[k].polyline], [False], sub, tol=RANGE_TOL_M)[0].readings
+            heard_by[k] = sub.xy[got]
         sensors = heard_by[k]
         return float(np.median(np.sign(side_of_line(n, f, sensors)))) if sensors.size else 0.0
 
