@@ -27,6 +27,7 @@ from typing import Any
 
 import pytest
 from benchroom import ROOM, write_room_log
+from benchstages import without_free_space
 
 from sonarlog import read_log
 from sonarproc.params import RunParams
@@ -36,32 +37,6 @@ from sonarproc.surfaces.echoes import refine
 from sonarproc.surfaces.fitting import merge as merge_module
 
 TARGET = 0.25
-
-
-@contextmanager
-def _without_free_space() -> Iterator[None]:
-    """The run as it was before free space: no silent readings, no cut, no join, the
-    merge's fixed gap."""
-    saved = (refine.cut_openings, refine.join_pieces, refine.merge_collinear)
-    saved_unseen = refine.cut_unseen
-    saved_silent = selection._silent
-
-    def passthrough(fits: Any, points: Any, readings: Any, cones: Any, **_: Any) -> Any:
-        return list(fits), list(points), list(readings)
-
-    def merge(fits: Any, cells: Any, *, cell: float, **_: Any) -> Any:
-        return saved[2](fits, cells, cell=cell)
-
-    refine.cut_openings, refine.join_pieces = passthrough, passthrough  # type: ignore[assignment]
-    refine.cut_unseen = passthrough  # type: ignore[assignment]
-    refine.merge_collinear = merge  # type: ignore[assignment]
-    selection._silent = lambda log_: None  # type: ignore[assignment]
-    try:
-        yield
-    finally:
-        refine.cut_openings, refine.join_pieces, refine.merge_collinear = saved  # type: ignore[assignment]
-        refine.cut_unseen = saved_unseen  # type: ignore[assignment]
-        selection._silent = saved_silent  # type: ignore[assignment]
 
 
 #: The free-space functions a run calls (module, name), timed where they are looked up.
@@ -111,7 +86,7 @@ def test_bench_free_space_stages(tmp_path: Path) -> None:
     for _ in range(5):
         for key in ("without", "with"):
             if key == "without":
-                with _without_free_space():
+                with without_free_space():
                     t0 = time.process_time()
                     res = process(lg, params)
                     t = time.process_time() - t0

@@ -47,7 +47,11 @@ from sonarproc.surfaces.echoes.refine import MIN_ECHOES, MIN_SPREAD_M, ROUNDS_M
 from sonarproc.surfaces.echoes.tangents import tangent_lines
 from sonarproc.surfaces.evaluation.writers import kind_of
 from sonarproc.surfaces.extraction.coarse import coarse_counts
-from sonarproc.surfaces.reflectors.points import claim_points, refine_with_points
+from sonarproc.surfaces.reflectors.points import (
+    ClaimedPoints,
+    claim_points,
+    refine_with_points,
+)
 
 __all__ = [
     "EXTRACT_CELL_M",
@@ -315,8 +319,7 @@ def _lines_first(
     for g in segs:
         own[g.readings] = True
     walls = [(g.points[0], g.points[-1]) for g in segs]
-    points = claim_points(echoes, *coarse_counts(counts, grid, EXTRACT_CELL_M), free=~own,
-                          walls=walls, ends_only=True)  # fmt: skip
+    points = _claim_at_wall_ends(echoes, counts, grid, ~own, walls)
     claimed |= points.claimed
     sets = [SurfaceCells(g.points[:, 0], g.points[:, 1], g.along, np.ones(g.along.size), False)
             for g in segs]  # fmt: skip
@@ -356,6 +359,19 @@ def _lines_first(
     detail = {**spread, "surfaces": len(refined), "tangent_lines": len(segs),
               "readings_left_to_the_map": left}  # fmt: skip
     return AutoFit("surfaces", criterion, found, detail)
+
+
+def _claim_at_wall_ends(
+    echoes: EchoGeometry,
+    counts: npt.NDArray[Any],
+    grid: Grid,
+    free: npt.NDArray[np.bool_],
+    walls: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]],
+) -> ClaimedPoints:
+    """A long log's point reflectors: near its walls' ends, from the ``free`` readings,
+    found on the arc counts summed to :data:`EXTRACT_CELL_M` cells (made for them alone)."""
+    return claim_points(echoes, *coarse_counts(counts, grid, EXTRACT_CELL_M), free=free,
+                        walls=walls, ends_only=True)  # fmt: skip
 
 
 def refine_surfaces(

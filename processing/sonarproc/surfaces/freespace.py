@@ -145,9 +145,6 @@ def free_feet(
     length = np.hypot(*chord.T)
     t = chord / np.maximum(length, 1e-300)[:, None]
     cone = FREE_BEAM_FRACTION * cones.half_beam
-    # the range must reach past every point of the line in the (whole) beam
-    reach = cones.range_m * np.cos(np.minimum(cones.half_beam, 0.5 * math.pi - 1e-9))
-    slack = margin * np.cos(np.minimum(cones.half_beam, 0.5 * math.pi - 1e-9))
     # the foot's direction from a sensor is the line's normal (-ty, tx) or its opposite:
     # the beam test needs only the headings, and leaves few pairs for the rest
     normal = np.arctan2(t[:, 0], -t[:, 1])
@@ -170,7 +167,10 @@ def free_feet(
         d = np.abs(side)
         ok = (along >= 0.0) & (along <= length[s]) & (d > 1e-9)
         ok &= np.where(toward, side < 0, side > 0)
-        ok &= reach[jj] > d + slack[jj]
+        # the range must reach past every point of the line in the (whole) beam (of the
+        # pairs left only: the same values elementwise, not the cosines of every reading)
+        cos_beam = np.cos(np.minimum(cones.half_beam[jj], 0.5 * math.pi - 1e-9))
+        ok &= cones.range_m[jj] * cos_beam > d + margin * cos_beam
         segs.append(s[ok])
         reads.append(jj[ok])
         alongs.append(along[ok])

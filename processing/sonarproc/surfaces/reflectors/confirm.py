@@ -30,6 +30,7 @@ from sonarproc.surfaces.reflectors.cylinders import pillar_pieces, segment_dista
 from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
     MIN_FAR_POSES,
+    BeamIndex,
     answers_its_beams,
     far_poses,
 )
@@ -93,15 +94,18 @@ def confirm_points(
         explained[rows[_axis_meets(echoes.subset(mine), coarse)]] = True
     pillars = _Pillars(echoes, surfaces)
     out: list[tuple[int, PointFeature]] = []
+    beams: BeamIndex | None = None  # made once, when the first point gets that far
     for k in todo:
         f = points[k]
         new = point_feature(echoes, f.readings[~explained[f.readings]], f.xy)
         if new is None or on_circles(new.xy, surfaces, _heard(new, echoes)):
             continue
-        if not _anchored(new, walls, boxes) and not (
-            heard_as_corner(new, echoes, walls) and answers_its_beams(new, echoes)
-        ):
-            continue
+        if not _anchored(new, walls, boxes):
+            if not heard_as_corner(new, echoes, walls):
+                continue
+            beams = BeamIndex(echoes) if beams is None else beams
+            if not answers_its_beams(new, echoes, beams):
+                continue
         # last: a circle fit (and the near planes' readings), for the points that stay
         if not pillars.pieces(new):
             out.append((k, new))

@@ -47,7 +47,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.gathering import BEAM_SLACK
 from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD
@@ -100,7 +100,7 @@ def _through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
 
 
 def planes_as_corners(
-    fits: list[SurfaceFit], echoes: EchoGeometry
+    fits: list[SurfaceFit], echoes: EchoGeometry, *, got: list[SurfaceEchoes] | None = None
 ) -> tuple[list[int], list[PointFeature]]:
     """The fitted planes that are a corner's echoes, and their corners (module notes).
 
@@ -110,6 +110,8 @@ def planes_as_corners(
         The fitted surfaces.
     echoes : EchoGeometry
         The readings they were fitted to.
+    got : list of SurfaceEchoes, optional
+        ``echo_points`` of the ``fits`` at :data:`RANGE_TOL_M`, when the caller has it.
 
     Returns
     -------
@@ -142,8 +144,9 @@ def planes_as_corners(
              if s.model == "line" and not s.closed and s.polyline.shape[0] >= 2]  # fmt: skip
     if len(lines) < 2:
         return [], []
-    got = echo_points([s.polyline for s in fits], [s.closed for s in fits], echoes,
-                      tol=RANGE_TOL_M)  # fmt: skip
+    if got is None:
+        got = echo_points([s.polyline for s in fits], [s.closed for s in fits], echoes,
+                          tol=RANGE_TOL_M)  # fmt: skip
     ends = {k: (fits[k].polyline[0], fits[k].polyline[-1]) for k in lines}
     gone: set[int] = set()
     points: list[PointFeature] = []

@@ -66,6 +66,12 @@ class ArcIndex:
     Every point of a reading's arc (within :data:`BEAM_SLACK` times its half beam) lies
     within the arc's chord of its midpoint; readings are grouped by that reach (doubling
     classes), one tree per class, so a query asks each tree for its class's reach.
+
+    The trees split at the sliding midpoint, not the median, and keep their nodes' boxes
+    as built (``balanced_tree=False, compact_nodes=False``): a ball query answers the
+    same readings whatever the tree's shape, and a long log's trees (tens of thousands
+    of arcs, built twice a run and asked a few hundred times) are built several times
+    faster so; the gathers of the 90 000-reading room run cost about a third less.
     """
 
     def __init__(self, echoes: EchoGeometry, free: npt.NDArray[np.bool_]) -> None:
@@ -80,7 +86,8 @@ class ArcIndex:
         for k in np.unique(cls):
             sel = np.flatnonzero(cls == k)
             rows = idx[sel]
-            self.groups.append((rows, cKDTree(mid[sel]), float(reach[sel].max())))
+            tree = cKDTree(mid[sel], balanced_tree=False, compact_nodes=False)
+            self.groups.append((rows, tree, float(reach[sel].max())))
 
     def near(self, p: FloatArray) -> IntArray:
         """Readings whose arcs may pass within :data:`RANGE_TOL_M` of ``p``."""
@@ -90,10 +97,12 @@ class ArcIndex:
         return np.concatenate(parts).astype(np.intp) if parts else np.zeros(0, np.intp)
 
     def near_many(self, pts: FloatArray) -> tuple[IntArray, IntArray]:
-        """:meth:`near` of every point of ``pts`` (C, 2) at once: (point, reading) pairs."""
+        """:meth:`near` of every point of ``pts`` (C, 2) at once: (point, reading) pairs,
+        in no particular order."""
         which, rows_near = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
         for rows, tree, r in self.groups:
-            hits = tree.query_ball_point(pts, r)
+            # unsorted: the pairs come in no particular order (gather_all sorts them)
+            hits = tree.query_ball_point(pts, r, return_sorted=False)
             counts = np.fromiter(map(len, hits), dtype=np.intp, count=len(hits))
             if counts.sum() == 0:
                 continue

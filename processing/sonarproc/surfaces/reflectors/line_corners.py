@@ -73,7 +73,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.cylinders import pillar_pieces
 from sonarproc.surfaces.reflectors.gathering import (
@@ -143,8 +143,8 @@ def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t
     return t
 
 
-def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatArray) -> IntArray:
-    """How many arcs of readings ``pool`` pass near each place ``a + t u`` (``t`` evenly spaced).
+def _crossings(pool: EchoGeometry, a: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Where the arcs of readings ``pool`` cross the line ``a + t u``, and how far round.
 
     A reading's circle (its sensor, its range) meets the line at up to two places; those
     inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
@@ -153,6 +153,9 @@ def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatA
     square to the line do not count: such readings face the wall's line head on, where a
     plane along the line explains them (:func:`_no_plane`), and their tolerance along the
     line would be unbounded.
+
+    Returns each counted crossing's ``t`` (m along the line) and its reach along it (m).
+    Both ends of a line are searched with the same crossings (:func:`_crossing_counts`).
     """
     d = pool.xy - a
     along = d @ u
@@ -167,7 +170,13 @@ def _crossing_counts(pool: EchoGeometry, a: FloatArray, u: FloatArray, t: FloatA
     off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
     c = np.abs(v @ u) / np.maximum(pool.range_m[rows], 1e-9)
     ok = (off_axis <= BEAM_SLACK * pool.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
-    tc, width = tc[ok], RANGE_TOL_M / c[ok]
+    return tc[ok], RANGE_TOL_M / c[ok]
+
+
+def _crossing_counts(crossings: tuple[FloatArray, FloatArray], t: FloatArray) -> IntArray:
+    """How many arcs pass near each place ``t`` (evenly spaced, m along the line), given
+    their crossings of the line (:func:`_crossings`)."""
+    tc, width = crossings
     step = float(t[1] - t[0]) if t.size > 1 else 1.0
     lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
     hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
@@ -196,21 +205,21 @@ def _occluded(
 
     Short of it: by more than :data:`RANGE_TOL_M` (the walls meeting at ``x`` end there).
     """
+    if not walls:
+        return False
     d = x - sensors
-    length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
-    for a, b in walls:
-        v = b - a
-        den = d[:, 0] * v[1] - d[:, 1] * v[0]
-        w = a - sensors
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = (w[:, 0] * v[1] - w[:, 1] * v[0]) / den
-            s = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / den
-        hit = (
-            (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
-        )
-        if bool(hit.any()):
-            return True
-    return False
+    length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+    # every sight line against every wall at once (sensors down, walls across)
+    ends = np.asarray(walls, dtype=np.float64).reshape(-1, 2, 2)
+    v = ends[:, 1] - ends[:, 0]
+    den = d[:, 0, None] * v[:, 1] - d[:, 1, None] * v[:, 0]
+    w0 = ends[:, 0, 0] - sensors[:, 0, None]
+    w1 = ends[:, 0, 1] - sensors[:, 1, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (w0 * v[:, 1] - w1 * v[:, 0]) / den
+        s = (w0 * d[:, 1, None] - w1 * d[:, 0, None]) / den
+    hit = (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
+    return bool(hit.any())
 
 
 def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray) -> bool:
@@ -236,7 +245,11 @@ def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray)
 
 
 def corners_on_wall_lines(
-    fits: list[SurfaceFit], echoes: EchoGeometry, points: list[PointFeature]
+    fits: list[SurfaceFit],
+    echoes: EchoGeometry,
+    points: list[PointFeature],
+    *,
+    got: list[SurfaceEchoes] | None = None,
 ) -> list[PointFeature]:
     """Corners on the fitted planes' lines that the unexplained readings meet at (module notes).
 
@@ -248,6 +261,9 @@ def corners_on_wall_lines(
         The readings they were fitted to.
     points : list of PointFeature
         The point reflectors reported already (their readings are explained).
+    got : list of SurfaceEchoes, optional
+        ``echo_points`` of the ``fits`` at :data:`RANGE_TOL_M`, when the caller has it
+        (every fit a polyline of two vertices or more).
 
     Returns
     -------
@@ -270,8 +286,9 @@ def corners_on_wall_lines(
     [[0.0, 0.0]]
     """
     polys = [k for k, s in enumerate(fits) if s.polyline.shape[0] >= 2]
-    got = echo_points([fits[k].polyline for k in polys], [fits[k].closed for k in polys],
-                      echoes, tol=RANGE_TOL_M)  # fmt: skip
+    if got is None or len(polys) < len(fits):
+        got = echo_points([fits[k].polyline for k in polys], [fits[k].closed for k in polys],
+                          echoes, tol=RANGE_TOL_M)  # fmt: skip
     explained = np.zeros(echoes.size, dtype=bool)
     for g in got:
         explained[g.readings] = True
@@ -297,13 +314,14 @@ def corners_on_wall_lines(
             continue
         u = (b - a) / length
         inner = min(END_REACH_M, 0.5 * length)
+        crossings = _crossings(pool, a, u)
         for t in (
             np.arange(-WALL_GAP_M, inner, STEP_M),
             np.arange(length - inner, length + WALL_GAP_M, STEP_M),
         ):
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
-            counts = _crossing_counts(pool, a, u, t)
+            counts = _crossing_counts(crossings, t)
             t = t[_peaks(t, counts) & (counts >= MIN_LINE_POSES)]
             if t.size:
                 places.append(a + t[:, None] * u)

@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.grid import Grid
-from sonarproc.surfaces.echoes.specular import EchoGeometry
+from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.classify import point_kind
@@ -52,6 +52,7 @@ from sonarproc.surfaces.reflectors.confirm import (
 )
 from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
 from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
 from sonarproc.surfaces.reflectors.wall_meets import corners_where_walls_meet
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
@@ -196,14 +197,19 @@ def refine_with_points(
         walls = line_ends(fits)
         kept = [(k, p) for k, p in kept if _still_a_point(p, echoes, fits, walls)]
     fits = trim_to_points(fits, _positions([p for _, p in kept]))
+    # the readings each surface explains, which both next steps ask: found once (again
+    # only if a plane goes)
+    got = echo_points([f.polyline for f in fits], [f.closed for f in fits], echoes,
+                      tol=RANGE_TOL_M) if fits else None  # fmt: skip
     # a corner heard over a narrow spread of bearings was fitted as a plane through it
-    gone, corners = planes_as_corners(fits, echoes)
+    gone, corners = planes_as_corners(fits, echoes, got=got)
     if gone:
         fits = [f for k, f in enumerate(fits) if k not in gone]
         cells = [c for k, c in enumerate(cells) if k not in gone]
         kept += [(-1, p) for p in corners]
+        got = None
     # a corner whose ranges a plane explains as well, and that no plane was fitted to
-    kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept])]
+    kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept], got=got)]
     # a corner whose readings a head-on wall owns, where its other wall was fitted too
     met = corners_where_walls_meet(fits, echoes, [p for _, p in kept])
     kinds = [(p, point_kind(p, echoes, fits)) for _, p in kept] + [(p, "corner") for p in met]
