@@ -4,11 +4,11 @@ The log is the one of :mod:`test_bench_run`: an hour of a 16-sonar ring wanderin
 20 m x 20 m room, mapped at 1 cm. ``sonarproc.pipeline.process`` with the default fit
 (``auto``: surfaces) runs with every stage, and without both the point reflectors and
 free space (:mod:`benchstages`: no point search, no corner fitted as a plane, no corner
-on the walls' lines; no silent readings, no cut at openings, no join of pieces, no cut
-of unseen stretches, the merge's fixed gap), and without each of the two alone (their
-shares), the runs interleaved, five rounds, in CPU seconds of this process (the machine
-may be shared). The figure is (with - without) / without, the stages' added cost, for
-the best and the median of the five: the target is at most 25 %.
+on the walls' lines or where two walls meet; no silent readings, no cut at openings, no
+join of pieces, no cut of unseen stretches, the merge's fixed gap), and without each of
+the two alone (their shares), the runs interleaved, five rounds, in CPU seconds of this
+process (the machine may be shared). The figure is (with - without) / without, the
+stages' added cost, for the best and the median of the five: the target is at most 25 %.
 """
 
 from __future__ import annotations

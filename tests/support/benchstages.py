@@ -4,7 +4,8 @@
 selected, no cut of walls at openings, no join of pieces, no cut of unseen stretches, the
 merge's fixed gap. :func:`without_point_reflectors` is the run without the point
 reflectors: no search (every reading left to the walls; on a long log, no coarse count
-map made for it either), no corner fitted as a plane, no corner on the walls' lines.
+map made for it either), no corner fitted as a plane, no corner on the walls' lines, no
+corner where two walls meet.
 Each replaces the functions where the run looks them up and restores them on leaving.
 """
 
@@ -64,12 +65,14 @@ def without_point_reflectors() -> Iterator[None]:
         surfacefit_module._claim_at_wall_ends,
         points_module.planes_as_corners,
         points_module.corners_on_wall_lines,
+        points_module.corners_where_walls_meet,
     )
     surfacefit_module.claim_points = no_points  # type: ignore[assignment]
     # a long log's search, with the coarse map made for it alone
     surfacefit_module._claim_at_wall_ends = no_points  # type: ignore[assignment]
     points_module.planes_as_corners = lambda *a, **k: ([], [])  # type: ignore[assignment]
     points_module.corners_on_wall_lines = lambda *a, **k: []  # type: ignore[assignment]
+    points_module.corners_where_walls_meet = lambda *a, **k: []  # type: ignore[assignment]
     try:
         yield
     finally:
@@ -78,4 +81,5 @@ def without_point_reflectors() -> Iterator[None]:
             surfacefit_module._claim_at_wall_ends,
             points_module.planes_as_corners,
             points_module.corners_on_wall_lines,
+            points_module.corners_where_walls_meet,
         ) = saved  # type: ignore[assignment]

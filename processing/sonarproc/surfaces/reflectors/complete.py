@@ -55,7 +55,7 @@ from sonarproc.surfaces.planar.polylines import resample
 from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, LINE_REACH_M, on_wall_lines
 
-__all__ = ["complete_to_corners", "trim_to_points"]
+__all__ = ["complete_to_corners", "stretch_blocked", "trim_to_points"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -117,6 +117,24 @@ def _hidden(p: FloatArray, q: FloatArray, cones: FreeCones) -> bool:
     normal = np.array([-t[1], t[0]])
     return any(hidden_runs(0.0, length, p, t, side * normal, cones, RANGE_TOL_M)
                for side in (1.0, -1.0))  # fmt: skip
+
+
+def stretch_blocked(
+    p: FloatArray, q: FloatArray, others: list[FloatArray], cones: FreeCones
+) -> bool:
+    """Whether a wall may not run from ``p`` to ``q``: the stretch crosses another polyline
+    or runs along one, or holds a hidden run (module notes; free space is tested apart).
+
+    Examples
+    --------
+    >>> none = FreeCones.of(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0))
+    >>> p, q = np.array([0.0, 0.0]), np.array([2.0, 0.0])
+    >>> stretch_blocked(p, q, [np.array([[1.0, -1.0], [1.0, 1.0]])], none)
+    True
+    >>> stretch_blocked(p, q, [np.array([[1.0, 0.5], [1.0, 1.0]])], none)
+    False
+    """
+    return _crosses(p, q, others) or _runs_along(p, q, others) or _hidden(p, q, cones)
 
 
 def complete_to_corners(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[SurfaceFit]:

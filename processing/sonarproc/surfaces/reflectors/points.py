@@ -18,8 +18,11 @@ The surface stage runs in two steps round the walls' echo refits:
    (:func:`~sonarproc.surfaces.reflectors.corner_planes.planes_as_corners`: the ranges
    alone cannot tell them apart, the walls' lines can), looks on the walls' lines for the
    corners such readings make when no plane was fitted through them
-   (:func:`~sonarproc.surfaces.reflectors.line_corners.corners_on_wall_lines`), gives
-   each its kind
+   (:func:`~sonarproc.surfaces.reflectors.line_corners.corners_on_wall_lines`), places
+   the corners whose readings a wall seen head on explains where their two fitted walls
+   meet (:func:`~sonarproc.surfaces.reflectors.wall_meets.corners_where_walls_meet`:
+   ``corner`` by construction; the head-on wall fitted past one ends there), gives
+   each other point its kind
    (:mod:`sonarproc.surfaces.reflectors.classify`), then appends it to the surfaces
    as a :class:`~sonarproc.surfaces.fitting.models.SurfaceFit` of model ``corner`` or
    ``edge``: a polyline of one point, length 0, ``support`` its readings, ``arcs`` its
@@ -51,6 +54,7 @@ from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
 from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
+from sonarproc.surfaces.reflectors.wall_meets import corners_where_walls_meet
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, in_rows, inside_walls, on_wall_lines
 
 FloatArray = npt.NDArray[np.float64]
@@ -206,9 +210,13 @@ def refine_with_points(
         got = None
     # a corner whose ranges a plane explains as well, and that no plane was fitted to
     kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept], got=got)]
-    out, out_cells = list(fits), list(cells)
-    for _, p in kept:
-        out.append(point_fit(p, point_kind(p, echoes, fits)))
+    # a corner whose readings a head-on wall owns, where its other wall was fitted too
+    met = corners_where_walls_meet(fits, echoes, [p for _, p in kept])
+    kinds = [(p, point_kind(p, echoes, fits)) for _, p in kept] + [(p, "corner") for p in met]
+    # the head-on wall fitted past such a corner ends there
+    out, out_cells = trim_to_points(fits, _positions(met)), list(cells)
+    for p, kind in kinds:
+        out.append(point_fit(p, kind))
         one = np.ones(1)
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))
     # a wall found short of the corner it runs into ends there
