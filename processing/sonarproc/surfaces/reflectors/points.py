@@ -13,8 +13,10 @@ The surface stage runs in two steps round the walls' echo refits:
    drops those in a row (:func:`~sonarproc.surfaces.reflectors.walls.in_rows`: samples
    of a diffusely scattering surface), ends each wall fitted past a point at that point
    (:func:`~sonarproc.surfaces.reflectors.complete.trim_to_points`: the points are
-   checked against the walls so ended), turns a plane fitted through the arcs of a corner
-   heard over a narrow spread of bearings into that corner
+   checked against the walls so ended), turns an arc or a spline fitted through the arcs
+   of a point heard over a narrow spread of bearings, where a wall's line ends, into that
+   point (:func:`~sonarproc.surfaces.reflectors.curve_points.curves_as_points`), and a
+   plane fitted through a corner's arcs into that corner
    (:func:`~sonarproc.surfaces.reflectors.corner_planes.planes_as_corners`: the ranges
    alone cannot tell them apart, the walls' lines can), looks on the walls' lines for the
    corners such readings make when no plane was fitted through them
@@ -51,6 +53,7 @@ from sonarproc.surfaces.reflectors.confirm import (
     on_circles,
 )
 from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
+from sonarproc.surfaces.reflectors.curve_points import curves_as_points
 from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.rcd import PointFeature, find_point_features
@@ -201,6 +204,13 @@ def refine_with_points(
     # only if a plane goes)
     got = echo_points([f.polyline for f in fits], [f.closed for f in fits], echoes,
                       tol=RANGE_TOL_M) if fits else None  # fmt: skip
+    # a point heard over a narrow spread of bearings was fitted as an arc or a spline
+    gone, curve_pts = curves_as_points(fits, echoes, got=got)
+    if gone:
+        fits = [f for k, f in enumerate(fits) if k not in gone]
+        cells = [c for k, c in enumerate(cells) if k not in gone]
+        kept += [(-1, p) for p in curve_pts]
+        got = None
     # a corner heard over a narrow spread of bearings was fitted as a plane through it
     gone, corners = planes_as_corners(fits, echoes, got=got)
     if gone:
