@@ -40,7 +40,6 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import leastsq
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.reflectors.range_models import (
@@ -49,7 +48,7 @@ from sonarproc.surfaces.reflectors.range_models import (
     point_beats_plane,
     sensor_span,
 )
-from sonarproc.surfaces.reflectors.rcd import MAX_POINT_RADIUS_M, RANGE_NOISE_M
+from sonarproc.surfaces.reflectors.rcd import MAX_POINT_RADIUS_M, RANGE_NOISE_M, fit_circle
 from sonarproc.surfaces.reflectors.time_walk import TIME_WALK_M
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, side_of_line
 
@@ -79,16 +78,7 @@ def fit_cylinder(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> tuple
     (True, 0.2)
     """
 
-    def res(q: FloatArray) -> FloatArray:
-        return np.asarray(np.hypot(xy[:, 0] - q[0], xy[:, 1] - q[1]) - q[2] - rng, np.float64)
-
-    def jac(q: FloatArray) -> FloatArray:
-        d = q[:2] - xy
-        u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-        return np.column_stack((u, -np.ones(xy.shape[0])))
-
-    q0 = np.r_[np.asarray(start, dtype=np.float64).reshape(2), 0.0]
-    q = np.asarray(leastsq(res, q0, Dfun=jac, full_output=True)[0], dtype=np.float64)
+    q = fit_circle(xy, rng, start)
     return q[:2], float(q[2])
 
 

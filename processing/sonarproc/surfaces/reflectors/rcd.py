@@ -104,6 +104,7 @@ __all__ = [
     "diffuse_residuals",
     "distinct_poses",
     "find_point_features",
+    "fit_circle",
     "plane_residuals",
     "plane_rms",
     "point_beats_plane",
@@ -204,18 +205,46 @@ def _fit_point(xy: FloatArray, rng: FloatArray, p0: FloatArray) -> tuple[FloatAr
     return p, float(np.sqrt(np.mean(res(p) ** 2)))
 
 
-def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
-    """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
+def _circle_jacobian(xy: FloatArray, q: FloatArray) -> FloatArray:
+    """Jacobian of a circle's range residuals (:func:`fit_circle`) at ``q`` = (x, y, radius)."""
+    d = q[:2] - xy
+    u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
+    return np.column_stack((u, -np.ones(xy.shape[0])))
+
+
+def fit_circle(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> FloatArray:
+    """The least-squares circle through the ranges: (centre x, centre y, radius) in m.
+
+    A cylinder answers from the point of it facing the sensor, so a reading's range is its
+    distance to the centre less the radius.
+
+    Parameters
+    ----------
+    xy : ndarray, shape (N, 2)
+        Sensor positions (m).
+    rng : ndarray, shape (N,)
+        Their ranges (m).
+    start : array_like, shape (2,)
+        Where the centre's search starts (m); the radius starts at zero.
+
+    Examples
+    --------
+    >>> s = np.array([[1.0, 0.0], [0.0, 1.5], [-2.0, 0.0], [0.0, -1.0]])
+    >>> q = fit_circle(s, np.hypot(*s.T) - 0.2, [0.1, 0.1])
+    >>> bool(np.hypot(*q[:2]) < 1e-6), round(float(q[2]), 6)
+    (True, 0.2)
+    """
 
     def res(q: FloatArray) -> FloatArray:
         return np.asarray(np.hypot(xy[:, 0] - q[0], xy[:, 1] - q[1]) - q[2] - rng, np.float64)
 
-    def jac(q: FloatArray) -> FloatArray:
-        d = q[:2] - xy
-        u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-        return np.column_stack((u, -np.ones(xy.shape[0])))
+    q0 = np.r_[np.asarray(start, dtype=np.float64).reshape(2), 0.0]
+    return _levenberg_marquardt(res, lambda q: _circle_jacobian(xy, q), q0)
 
-    q = _levenberg_marquardt(res, jac, np.r_[p, 0.0])
+
+def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
+    """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
+    q = fit_circle(xy, rng, p)
     radius = float(q[2])
     if radius <= MAX_POINT_RADIUS_M:
         return False
@@ -223,7 +252,7 @@ def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> boo
     # (a retro-reflecting corner seen from inside its right angle is no cylinder)
     if radius * (1.0 - math.cos(0.5 * sensor_span(xy, q[:2]))) <= TIME_WALK_M:
         return False
-    j = jac(q)
+    j = _circle_jacobian(xy, q)
     jtj = j.T @ j
     try:
         cov = np.linalg.inv(jtj) * RANGE_NOISE_M**2
