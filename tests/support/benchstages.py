@@ -54,8 +54,9 @@ def without_free_space() -> Iterator[None]:
 
 @contextmanager
 def without_point_reflectors() -> Iterator[None]:
-    """The run without point reflectors: their search, the corners fitted as planes and
-    the corners on the walls' lines each replaced by one that finds none."""
+    """The run without point reflectors: their search, the points fitted as curves, the
+    corners fitted as planes, the corners on the walls' lines and where walls meet each
+    replaced by one that finds none."""
 
     def no_points(echoes: Any, *args: Any, **kwargs: Any) -> ClaimedPoints:
         return ClaimedPoints([], np.zeros(echoes.size, dtype=bool))
@@ -63,6 +64,7 @@ def without_point_reflectors() -> Iterator[None]:
     saved = (
         surfacefit_module.claim_points,
         surfacefit_module._claim_at_wall_ends,
+        points_module.curves_as_points,
         points_module.planes_as_corners,
         points_module.corners_on_wall_lines,
         points_module.corners_where_walls_meet,
@@ -70,6 +72,7 @@ def without_point_reflectors() -> Iterator[None]:
     surfacefit_module.claim_points = no_points  # type: ignore[assignment]
     # a long log's search, with the coarse map made for it alone
     surfacefit_module._claim_at_wall_ends = no_points  # type: ignore[assignment]
+    points_module.curves_as_points = lambda *a, **k: ([], [])  # type: ignore[assignment]
     points_module.planes_as_corners = lambda *a, **k: ([], [])  # type: ignore[assignment]
     points_module.corners_on_wall_lines = lambda *a, **k: []  # type: ignore[assignment]
     points_module.corners_where_walls_meet = lambda *a, **k: []  # type: ignore[assignment]
@@ -79,6 +82,7 @@ def without_point_reflectors() -> Iterator[None]:
         (
             surfacefit_module.claim_points,
             surfacefit_module._claim_at_wall_ends,
+            points_module.curves_as_points,
             points_module.planes_as_corners,
             points_module.corners_on_wall_lines,
             points_module.corners_where_walls_meet,

@@ -17,7 +17,7 @@ them but a few strays
 (:data:`~sonarproc.surfaces.reflectors.range_models.STRAY_SHARE`) within the range
 tolerance (:data:`~sonarproc.surfaces.reflectors.range_models.RANGE_TOL_M`) and its
 radius is clear, by the test a point reflector's own readings are given
-(:mod:`~sonarproc.surfaces.reflectors.rcd`): above
+(:func:`~sonarproc.surfaces.reflectors.rcd.clear_radius`): above
 :data:`~sonarproc.surfaces.reflectors.rcd.MAX_POINT_RADIUS_M`, more than two standard
 errors (range noise :data:`~sonarproc.surfaces.reflectors.rcd.RANGE_NOISE_M`) from zero,
 and with a sag over the sensors' span above the time walk
@@ -46,40 +46,14 @@ from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     STRAY_SHARE,
     point_beats_plane,
-    sensor_span,
 )
-from sonarproc.surfaces.reflectors.rcd import MAX_POINT_RADIUS_M, RANGE_NOISE_M, fit_circle
-from sonarproc.surfaces.reflectors.time_walk import TIME_WALK_M
+from sonarproc.surfaces.reflectors.rcd import MAX_POINT_RADIUS_M, clear_radius, fit_circle
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, side_of_line
 
-__all__ = ["fit_cylinder", "one_cylinder", "pillar_pieces", "segment_distance"]
+__all__ = ["one_cylinder", "pillar_pieces", "segment_distance"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
-
-
-def fit_cylinder(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> tuple[FloatArray, float]:
-    """The least-squares circle through the ranges: its centre (m) and radius (m).
-
-    Parameters
-    ----------
-    xy : ndarray, shape (N, 2)
-        Sensor positions (m).
-    rng : ndarray, shape (N,)
-        Their ranges (m).
-    start : array_like, shape (2,)
-        Where the centre's search starts (m); the radius starts at zero.
-
-    Examples
-    --------
-    >>> s = np.array([[1.0, 0.0], [0.0, 1.5], [-2.0, 0.0], [0.0, -1.0]])
-    >>> c, r = fit_cylinder(s, np.hypot(*s.T) - 0.2, [0.1, 0.1])
-    >>> bool(np.hypot(*c) < 1e-6), round(r, 6)
-    (True, 0.2)
-    """
-
-    q = fit_circle(xy, rng, start)
-    return q[:2], float(q[2])
 
 
 def one_cylinder(
@@ -120,24 +94,14 @@ def one_cylinder(
     >>> one_cylinder(s, np.ones(16), [0.0, 0.8])
     False
     """
-    centre, radius = (
-        fit_cylinder(xy, rng, start) if fit is None else fit_cylinder(xy[fit], rng[fit], start)
-    )
+    q = fit_circle(xy, rng, start) if fit is None else fit_circle(xy[fit], rng[fit], start)
+    centre, radius = q[:2], float(q[2])
     if not math.isfinite(radius) or radius <= MAX_POINT_RADIUS_M:
         return False
     res = np.hypot(xy[:, 0] - centre[0], xy[:, 1] - centre[1]) - radius - rng
     if np.count_nonzero(np.abs(res) > RANGE_TOL_M) > STRAY_SHARE * rng.size:
         return False
-    if radius * (1.0 - math.cos(0.5 * sensor_span(xy, centre))) <= TIME_WALK_M:
-        return False
-    d = centre - xy
-    u = d / np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
-    j = np.column_stack((u, -np.ones(xy.shape[0])))
-    try:
-        cov = np.linalg.inv(j.T @ j) * RANGE_NOISE_M**2
-    except np.linalg.LinAlgError:
-        return False
-    if radius <= 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0)):
+    if not clear_radius(xy, q):
         return False
     return pieces is None or not point_beats_plane(pieces, res)
 

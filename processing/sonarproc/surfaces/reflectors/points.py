@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.grid import Grid
-from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
+from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.classify import point_kind
@@ -200,24 +200,18 @@ def refine_with_points(
         walls = line_ends(fits)
         kept = [(k, p) for k, p in kept if _still_a_point(p, echoes, fits, walls)]
     fits = trim_to_points(fits, _positions([p for _, p in kept]))
-    # the readings each surface explains, which both next steps ask: found once (again
-    # only if a plane goes)
-    got = echo_points([f.polyline for f in fits], [f.closed for f in fits], echoes,
-                      tol=RANGE_TOL_M) if fits else None  # fmt: skip
-    # a point heard over a narrow spread of bearings was fitted as an arc or a spline
-    gone, curve_pts = curves_as_points(fits, echoes, got=got)
-    if gone:
-        fits = [f for k, f in enumerate(fits) if k not in gone]
-        cells = [c for k, c in enumerate(cells) if k not in gone]
-        kept += [(-1, p) for p in curve_pts]
-        got = None
-    # a corner heard over a narrow spread of bearings was fitted as a plane through it
-    gone, corners = planes_as_corners(fits, echoes, got=got)
-    if gone:
-        fits = [f for k, f in enumerate(fits) if k not in gone]
-        cells = [c for k, c in enumerate(cells) if k not in gone]
-        kept += [(-1, p) for p in corners]
-        got = None
+    # the readings each surface explains, which the conversions and the line search ask:
+    # found once, and again only when a surface goes (a first echo depends on every one)
+    got = _echoes_of(fits, echoes)
+    # a point heard over a narrow spread of bearings was fitted as an arc or a spline, or
+    # (a corner) as a plane through it
+    for as_points in (curves_as_points, planes_as_corners):
+        gone, found_here = as_points(fits, echoes, got=got)
+        if gone:
+            fits = [f for k, f in enumerate(fits) if k not in gone]
+            cells = [c for k, c in enumerate(cells) if k not in gone]
+            kept += [(-1, p) for p in found_here]
+            got = _echoes_of(fits, echoes)
     # a corner whose ranges a plane explains as well, and that no plane was fitted to
     kept += [(-1, p) for p in corners_on_wall_lines(fits, echoes, [p for _, p in kept], got=got)]
     # a corner whose readings a head-on wall owns, where its other wall was fitted too
@@ -231,6 +225,14 @@ def refine_with_points(
         out_cells.append(SurfaceCells(p.xy[:1].copy(), p.xy[1:].copy(), np.zeros(1), one, False))
     # a wall found short of the corner it runs into ends there
     return complete_to_corners(out, echoes), out_cells
+
+
+def _echoes_of(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[SurfaceEchoes] | None:
+    """``echo_points`` of the fitted surfaces at :data:`RANGE_TOL_M` (None: no surfaces)."""
+    if not fits:
+        return None
+    polylines, closed = [f.polyline for f in fits], [f.closed for f in fits]
+    return echo_points(polylines, closed, echoes, tol=RANGE_TOL_M)
 
 
 def _positions(points: list[PointFeature]) -> FloatArray:

@@ -101,6 +101,7 @@ __all__ = [
     "RANGE_TOL_M",
     "PointFeature",
     "candidates",
+    "clear_radius",
     "diffuse_residuals",
     "distinct_poses",
     "find_point_features",
@@ -242,23 +243,38 @@ def fit_circle(xy: FloatArray, rng: FloatArray, start: npt.ArrayLike) -> FloatAr
     return _levenberg_marquardt(res, lambda q: _circle_jacobian(xy, q), q0)
 
 
-def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
-    """Whether a circle (range = distance to a centre minus a radius) has a clear radius."""
-    q = fit_circle(xy, rng, p)
+def clear_radius(xy: FloatArray, q: FloatArray) -> bool:
+    """Whether a circle ``q`` = (x, y, radius) fitted to readings from ``xy`` has a clear radius.
+
+    Clear: above :data:`MAX_POINT_RADIUS_M`; its sag over the span the sensors see it from
+    above the time walk (seen from a narrow span a point and a small circle differ by less
+    than that: a retro-reflecting corner seen from inside its right angle is no
+    cylinder); and above two standard errors of the fit (range noise
+    :data:`RANGE_NOISE_M`).
+
+    Examples
+    --------
+    >>> s = np.c_[np.linspace(-1.5, 1.5, 16), np.zeros(16)]
+    >>> clear_radius(s, np.array([0.0, 1.0, 0.2])), clear_radius(s, np.array([0.0, 1.0, 0.0]))
+    (True, False)
+    """
     radius = float(q[2])
-    if radius <= MAX_POINT_RADIUS_M:
+    if not radius > MAX_POINT_RADIUS_M:
         return False
-    # seen from a narrow span a point and a small circle differ by less than the time walk
-    # (a retro-reflecting corner seen from inside its right angle is no cylinder)
     if radius * (1.0 - math.cos(0.5 * sensor_span(xy, q[:2]))) <= TIME_WALK_M:
         return False
     j = _circle_jacobian(xy, q)
-    jtj = j.T @ j
     try:
-        cov = np.linalg.inv(jtj) * RANGE_NOISE_M**2
+        cov = np.linalg.inv(j.T @ j) * RANGE_NOISE_M**2
     except np.linalg.LinAlgError:
         return False
     return radius > 2.0 * math.sqrt(max(float(cov[2, 2]), 0.0))
+
+
+def _radius_says_cylinder(xy: FloatArray, rng: FloatArray, p: FloatArray) -> bool:
+    """Whether a circle (range = distance to a centre minus a radius) fitted from the point
+    ``p`` has a clear radius (:func:`clear_radius`)."""
+    return clear_radius(xy, fit_circle(xy, rng, p))
 
 
 def find_point_features(
