@@ -19,7 +19,8 @@ measured against it).
    calibration prior), every wall's line and a common range delay together: a bundle
    adjustment whose residuals are each near-axis echo's first-echo range residual
    ``distance(sensor, wall) - range`` in range deviations (:data:`RANGE_SIGMA_M`;
-   ``soft_l1`` on them, squares on the ties);
+   ``soft_l1`` on them, squares on the ties), the range less the time walk of its echo
+   (:func:`sonarproc.align.bundle.wall_walk`);
 3. finds the walls again under the refined poses and solves once more;
 4. turns the refined track as a whole about its start to face as the accepted one did
    (the echoes cannot tell which way a whole map faces; see :func:`_placed_like`).
@@ -181,7 +182,7 @@ def refine_alignment(
     if walls.count < 2:
         # one wall fixes neither the position along it nor the scale
         return Refinement(alignment, False, walls.count, int(walls.ray.size))
-    first = WallProblem(nodes, ties, rays, track, walls)
+    first = WallProblem(nodes, ties, rays, track, walls, speed_of_sound=speed_of_sound)
     x_before, evals = solve_bundle(first, np.concatenate((start, lines_start(walls))),
                              free_pose=False, max_evaluations=max_evaluations)  # fmt: skip
     x, pose = x_before, start
@@ -192,7 +193,7 @@ def refine_alignment(
             found = find_walls(rays, blended_poses(track, nodes, off, float(pose[-NCAL])))
             if found.count < 2:
                 break
-            prob = WallProblem(nodes, ties, rays, track, found)
+            prob = WallProblem(nodes, ties, rays, track, found, speed_of_sound=speed_of_sound)
             lines = lines_start(found)
             lines[-1] = x[-1]  # the range delay found so far
             x, n = solve_bundle(prob, np.concatenate((pose, lines)), free_pose=False,

@@ -53,6 +53,9 @@ class Walls:
     wall: IntArray  # the wall of each (M,), 0 .. L - 1
     centre: FloatArray  # a point of each wall (L, 2): lines are placed relative to it
     phi: FloatArray  # direction of each wall's normal (L,), away from its sensors
+    #: angle (M,) between each ray's line of sight and its wall's normal (rad), under the
+    #: poses the walls were found at: how far off the beam's axis the echo came back
+    incidence: FloatArray
 
     @property
     def count(self) -> int:
@@ -68,7 +71,7 @@ def find_walls(rays: EchoRays, corrected: FloatArray) -> Walls:
                             bridge_m=WALL_BRIDGE_M, min_spread_m=WALL_MIN_SPREAD_M)  # fmt: skip
     if not segs:
         z = np.zeros(0, dtype=np.intp)
-        return Walls(z, z.copy(), np.zeros((0, 2)), np.zeros(0))
+        return Walls(z, z.copy(), np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     ray = np.concatenate([g.readings for g in segs]).astype(np.intp)
     wall = np.repeat(np.arange(len(segs)), [g.readings.size for g in segs]).astype(np.intp)
     centre = np.array([g.points.mean(axis=0) for g in segs])
@@ -76,4 +79,4 @@ def find_walls(rays: EchoRays, corrected: FloatArray) -> Walls:
     # near the axis only: an echo off the axis is weaker, and its range longer (time walk)
     incidence = np.abs(wrap(look[ray] - phi[wall]))
     near = incidence <= AXIS_FRACTION * rays.half_beam[ray]
-    return Walls(ray[near], wall[near], centre, phi)
+    return Walls(ray[near], wall[near], centre, phi, incidence[near])
