@@ -39,8 +39,12 @@ is a corner when:
 * the sensors lie on the side of the line that the wall was seen from, and span no
   more than a right angle and the retro-reflection tolerance round it (inside the
   corner's opening; a corner is heard from its inside only);
-* their lines of sight to it cross no fitted plane short of it (the sound reached it),
-  and it answered most beams that held it near their axis
+* the readings whose line of sight to it crosses a fitted plane short of it are left
+  out, and the rest must still meet every test: such a reading heard something else at
+  that range (the sound did not reach the corner), and one reading of that kind says
+  nothing of the others (a wall's end, fitted a few centimetres past the jamb of a
+  niche's mouth, crosses the sight line of a reading that grazed the jamb);
+* it answered most beams that held it near their axis
   (:func:`~sonarproc.surfaces.reflectors.point_echoes.answers_its_beams`: a corner
   retro-reflects from anywhere inside its opening, while the beams aimed at a chance
   crossing of arcs range the surfaces behind or before it; a long log's many readings
@@ -57,11 +61,17 @@ is a corner when:
   inside its effective beam is an alternative
   (:func:`~sonarproc.surfaces.reflectors.range_models.heard_plane`, the transducer
   model's beam); such a plane wins when it explains the ranges significantly better,
-  or when it meets the wall's line square or runs along it (within the retro-reflection
-  tolerance :data:`~sonarproc.surfaces.reflectors.point_echoes.CORNER_TOL_RAD`: then it
-  is likely the corner's other wall, or the wall itself, seen head on; an oblique plane
+  or when it meets the wall's line square (within the retro-reflection tolerance
+  :data:`~sonarproc.surfaces.reflectors.point_echoes.CORNER_TOL_RAD`: then it is likely
+  the corner's other wall, seen head on), or when it runs along the line within that
+  tolerance and on from the wall's nearer end (it passes the end within the range
+  tolerance and its own RMS misfit: more of the wall itself, seen head on). A plane a
+  few degrees off the wall's line that passes the wall's end far off is no more of that
+  wall: the wall was fitted along its own line, and a continuation bent by the angle
+  would leave a step at its end; it is the plane normal to the line of sight that
+  explains any point's ranges heard over a narrow spread of bearings. An oblique plane
   crossing the wall's line just where the readings' arcs meet is what
-  :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects).
+  :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects.
 
 Its kind is then decided like every other point's.
 """
@@ -200,13 +210,13 @@ def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
 
 def _occluded(
     sensors: FloatArray, x: FloatArray, walls: list[tuple[FloatArray, FloatArray]]
-) -> bool:
-    """Whether any sight line from a sensor to ``x`` crosses a fitted plane short of it.
+) -> npt.NDArray[np.bool_]:
+    """Which sensors' sight lines to ``x`` cross a fitted plane short of it.
 
     Short of it: by more than :data:`RANGE_TOL_M` (the walls meeting at ``x`` end there).
     """
     if not walls:
-        return False
+        return np.zeros(sensors.shape[0], dtype=bool)
     d = x - sensors
     length = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)[:, None]
     # every sight line against every wall at once (sensors down, walls across)
@@ -219,18 +229,38 @@ def _occluded(
         t = (w0 * v[:, 1] - w1 * v[:, 0]) / den
         s = (w0 * d[:, 1, None] - w1 * d[:, 0, None]) / den
     hit = (np.abs(den) > 1e-12) & (t > 0) & (t < 1.0 - RANGE_TOL_M / length) & (s >= 0) & (s <= 1)
-    return bool(hit.any())
+    return np.asarray(hit.any(axis=1))
 
 
-def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray) -> bool:
+def _no_plane(
+    echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray, end: FloatArray
+) -> bool:
     """Whether no plane explains the readings ``idx`` in place of a corner at ``x`` (module notes).
 
     Only a plane every reading could have heard inside its effective beam is an
     alternative (:func:`heard_plane`); none, and the corner stands. The best such plane is
     preferred when it explains the ranges significantly better than the point
     (:func:`point_beats_plane` the other way round), or when it meets the wall's line
-    (direction ``u``) square or runs along it (within :data:`CORNER_TOL_RAD`): then it
-    may be the corner's other wall, or more of this one, seen head on.
+    (direction ``u``) square (within :data:`CORNER_TOL_RAD`: it may be the corner's other
+    wall seen head on), or runs along it within that tolerance and passes the wall's
+    nearer ``end`` within :data:`RANGE_TOL_M` and its own RMS misfit (more of this wall,
+    seen head on; module notes).
+
+    Examples
+    --------
+    A wall along x = 0 fitted from y = 1.5 up, and a corner at (0, 0) that sensors along
+    x = -4 heard over a few degrees of bearing: the plane normal to their line of sight,
+    9 degrees off the wall's line, passes the wall's end 0.23 m off (a corner); had the
+    wall been fitted down to y = 0.05, that plane would run on from it.
+
+    >>> u = np.array([0.0, 1.0])
+    >>> xy = np.c_[np.full(7, -4.0), np.linspace(0.5, 0.8, 7)]
+    >>> toward = np.arctan2(-xy[:, 1], -xy[:, 0])
+    >>> g = EchoGeometry(xy, toward, np.full(7, np.radians(15.0)), np.hypot(*xy.T))
+    >>> _no_plane(g, np.arange(7), np.zeros(2), u, np.array([0.0, 1.5]))
+    True
+    >>> _no_plane(g, np.arange(7), np.zeros(2), u, np.array([0.0, 0.05]))
+    False
     """
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     plane = heard_plane(xy, rng, echoes.heading[idx], echoes.half_beam[idx])
@@ -241,7 +271,13 @@ def _no_plane(echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray)
     if point_beats_plane(plane_res, point_res):
         return False
     cross = abs(float(n @ u))  # the sine of the angle between the plane and the line
-    return math.sin(CORNER_TOL_RAD) < cross < math.cos(CORNER_TOL_RAD)
+    if cross <= math.sin(CORNER_TOL_RAD):
+        # along the line: more of this wall only if it runs on from the wall's end, within
+        # the ranges' tolerance and the plane's own misfit (it is placed no better)
+        reach = float(np.mean(rng + xy @ n))  # the plane is n . p = reach
+        misfit = float(np.sqrt(np.mean(plane_res**2)))
+        return abs(float(n @ end) - reach) > RANGE_TOL_M + misfit
+    return cross < math.cos(CORNER_TOL_RAD)
 
 
 def corners_on_wall_lines(
@@ -369,8 +405,17 @@ def corners_on_wall_lines(
             continue
         if not bool(np.all(np.sign(side_of_line(a, b, xy)) == seen_side[k])):
             continue
-        if bool(inside_walls(x, walls)[0]) or _occluded(xy, x, walls):
+        if bool(inside_walls(x, walls)[0]):
             continue
+        # a reading whose sight line to the corner a fitted plane crosses heard something
+        # else there: it is left out, and the corner stands or falls on the rest
+        mine = ~_occluded(xy, x, walls)
+        if not bool(mine.all()):
+            idx = idx[mine]
+            xy, rng = echoes.xy[idx], echoes.range_m[idx]
+            poses = distinct_poses(xy)
+            if poses < MIN_LINE_POSES:
+                continue
         # a corner is heard from inside its opening only: a right angle, and the tolerance
         span = sensor_span(xy, x)
         if span > 0.5 * math.pi + CORNER_TOL_RAD:
@@ -383,7 +428,8 @@ def corners_on_wall_lines(
             continue
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
-        if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u):
+        end = a if float(np.hypot(*(x - a))) <= float(np.hypot(*(x - b))) else b
+        if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u, end):
             continue
         # where planes fitted to a pillar leave its surface: one cylinder explains them all
         # (last: a circle fit, asked of the few places that passed every other test)
