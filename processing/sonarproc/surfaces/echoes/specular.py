@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -142,6 +143,12 @@ class EchoGeometry:
     def size(self) -> int:
         """Number of readings."""
         return int(self.range_m.size)
+
+    @cached_property
+    def axes(self) -> tuple[FloatArray, FloatArray]:
+        """The cosine and the sine of every heading, computed once: screens by dot
+        products ask them of every reading, many times a run."""
+        return np.cos(self.heading), np.sin(self.heading)
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> EchoGeometry:
         """The readings where ``keep`` is true."""
