@@ -190,9 +190,9 @@ class BeamIndex:
         screen = np.where(cos_aim > 0.0, cos_aim * cos_aim * (1.0 - _SCREEN_MARGIN), -2.0)
         # every column in the cells' order, one row each (the readings' indices exactly,
         # as floats), so that a row of cells is read as one slice of them all
-        self._cols = np.stack((order.astype(np.float64), x[order], y[order],
-                               np.cos(echoes.heading[order]), np.sin(echoes.heading[order]),
-                               cos_aim, screen))  # fmt: skip
+        cos_h, sin_h = echoes.axes  # made once per EchoGeometry
+        self._cols = np.stack((order.astype(np.float64), x[order], y[order], cos_h[order],
+                               sin_h[order], cos_aim, screen))  # fmt: skip
 
     def aiming(self, p: FloatArray, reach: float) -> tuple[IntArray, FloatArray, FloatArray]:
         """The readings whose sensors lie within ``reach`` (m) of ``p`` and whose beams
