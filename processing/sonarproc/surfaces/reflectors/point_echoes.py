@@ -160,7 +160,7 @@ class BeamIndex:
 
     A kernel of our own where scipy has one (``cKDTree.query_ball_point`` on the sensor
     positions, then the same aim test): kept because ``./scripts/bench``
-    (``test_bench_beam_index``) measures the tree at about 3.3 times its CPU time on the
+    (``test_bench_beam_index``) measures the tree at about 5 times its CPU time on the
     real workload, the index and the queries of the 90 000-reading room run (the ball
     of a point's reach holds thousands of sensors, which the tree hands back one Python
     integer each; the cells, as slices of sorted arrays).
