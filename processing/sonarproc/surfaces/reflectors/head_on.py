@@ -165,7 +165,8 @@ def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt
     pose = pose_keys(xy)
     order = np.lexsort((pose, group))
     g_sorted, pose = group[order], pose[order]
-    first = np.r_[True, (g_sorted[1:] != g_sorted[:-1]) | (pose[1:] != pose[:-1])]
+    first = np.ones(group.size, dtype=bool)
+    first[1:] = (g_sorted[1:] != g_sorted[:-1]) | (pose[1:] != pose[:-1])
     poses = np.bincount(g_sorted[first], minlength=int(group.max(initial=-1)) + 1)
     for g in np.flatnonzero(poses >= MIN_HEAD_ON_POSES):
         k = np.flatnonzero(group == g)
