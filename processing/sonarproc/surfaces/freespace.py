@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -101,6 +102,25 @@ class FreeCones:
     def size(self) -> int:
         """Number of readings."""
         return int(self.range_m.size)
+
+    @cached_property
+    def axes(self) -> tuple[FloatArray, FloatArray]:
+        """The cosine and the sine of every heading, computed once: the free-space tests
+        screen all the readings by them, once per line tried."""
+        return np.cos(self.heading), np.sin(self.heading)
+
+    @cached_property
+    def free_cones(self) -> tuple[FloatArray, FloatArray]:
+        """Each reading's free cone (:data:`FREE_BEAM_FRACTION` of its half beam, rad), and
+        a bound under the cosine of every direction inside it, computed once.
+
+        The bound, for a screen by dot products of unit vectors (:attr:`axes`): the cone's
+        cosine less 1e-9 (far above a dot product's rounding, a few 1e-16); -2 (every
+        direction) from a half turn on; +inf (none) for a reading without a finite range.
+        """
+        cone = FREE_BEAM_FRACTION * self.half_beam
+        bound = np.where(cone < np.pi, np.cos(np.minimum(cone, np.pi)) - 1e-9, -2.0)
+        return cone, np.where(np.isfinite(self.range_m), bound, np.inf)
 
 
 def free_feet(

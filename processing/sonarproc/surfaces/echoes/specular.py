@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -142,6 +143,21 @@ class EchoGeometry:
     def size(self) -> int:
         """Number of readings."""
         return int(self.range_m.size)
+
+    @cached_property
+    def axes(self) -> tuple[FloatArray, FloatArray]:
+        """The cosine and the sine of every heading, computed once: screens by dot
+        products ask them of every reading, many times a run."""
+        return np.cos(self.heading), np.sin(self.heading)
+
+    @cached_property
+    def arcs(self) -> tuple[FloatArray, FloatArray]:
+        """Each reading's arc: the chord of its beam (m; ``2 r sin(half / 2)``, the half
+        beam at most a half turn) and its midpoint on the axis (N, 2), computed once
+        (:func:`echo_points` asks them of every reading, many times a run)."""
+        chord = 2.0 * self.range_m * np.sin(0.5 * np.minimum(self.half_beam, math.pi))
+        mid = self.xy + self.range_m[:, None] * np.stack(self.axes, axis=1)
+        return chord, mid
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> EchoGeometry:
         """The readings where ``keep`` is true."""
@@ -345,11 +361,8 @@ def _candidate_pairs(
     # a surface (a box of half-diagonal h round c) can only echo readings whose midpoint
     # is within h + reach of c: one ball query per surface instead of a test of every
     # reading (rooms logged for an hour hold 10^5 readings).
-    half = np.minimum(echoes.half_beam, math.pi)
-    reach = 2.0 * echoes.range_m * np.sin(0.5 * half) + tol
-    mid = echoes.xy + echoes.range_m[:, None] * np.stack(
-        (np.cos(echoes.heading), np.sin(echoes.heading)), axis=1
-    )
+    chord, mid = echoes.arcs
+    reach = chord + tol
     idx = np.flatnonzero(usable)
     lo = np.array([polys[i].min(axis=0) for i in idx]).reshape(-1, 2)
     hi = np.array([polys[i].max(axis=0) for i in idx]).reshape(-1, 2)
@@ -418,13 +431,15 @@ def _straight_pairs(
     side = rel_y * tangent[:, None, 0] - rel_x * tangent[:, None, 1]
     keep = (along > half) & (along < length[:, None] - half)
     keep &= echoes.range_m[None, :] >= np.abs(side) - tol - 1e-9
-    # the foot lies along -side * normal: the normal's direction, turned by pi if side > 0
-    normal_dir = np.arctan2(tangent[:, 0], -tangent[:, 1])[:, None]
-    foot_dir = normal_dir + np.where(side > 0, math.pi, 0.0)
-    off = np.abs((foot_dir - echoes.heading[None, :] + math.pi) % (2 * math.pi) - math.pi)
-    keep &= (off <= echoes.half_beam[None, :] + 1e-9) | (np.abs(side) < 1e-9)
+    # the bearing test on the pairs left (the same arithmetic, pair by pair)
     surf, read = np.nonzero(keep)
-    return surf.astype(np.intp), read.astype(np.intp)
+    side = side[surf, read]
+    # the foot lies along -side * normal: the normal's direction, turned by pi if side > 0
+    normal_dir = np.arctan2(tangent[:, 0], -tangent[:, 1])
+    foot_dir = normal_dir[surf] + np.where(side > 0, math.pi, 0.0)
+    off = np.abs((foot_dir - echoes.heading[read] + math.pi) % (2 * math.pi) - math.pi)
+    faced = (off <= echoes.half_beam[read] + 1e-9) | (np.abs(side) < 1e-9)
+    return surf[faced].astype(np.intp), read[faced].astype(np.intp)
 
 
 def _ball_pairs(

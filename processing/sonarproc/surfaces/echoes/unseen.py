@@ -32,7 +32,7 @@ from sonarproc.surfaces.echoes.openings import split_line
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.merge import MERGE_GAP_M
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.freespace import FREE_BEAM_FRACTION, MIN_FREE_POSES, FreeCones
+from sonarproc.surfaces.freespace import MIN_FREE_POSES, FreeCones
 
 __all__ = ["SIGHT_STEP_M", "cut_unseen", "facing_views", "hidden_runs"]
 
@@ -43,9 +43,12 @@ IntArray = npt.NDArray[np.intp]
 SIGHT_STEP_M = 0.05
 #: Points x readings tested at once, at most (bounds the memory).
 _CHUNK = 2_000_000
-#: A wrapped angle (rad) within this of a beam's edge is tested exactly: a modulo and
-#: ``np.angle`` round differently, by about 1e-15 rad.
-_SCREEN_RAD = 1e-9
+#: The screen's margin on a squared cosine (relative): far above its rounding (a few
+#: 1e-16; then the exact test decides), far below any beam's edge.
+_SCREEN_COS = 1e-9
+#: A cosine under this keeps every offset in :func:`_square_bound` (its relative margin
+#: would no longer cover the rounding, about 1e-15 over the cosine).
+_MIN_COS = 1e-3
 
 
 def facing_views(
@@ -70,31 +73,53 @@ def facing_views(
     n = np.asarray(normal, dtype=np.float64)
     reached = np.zeros(p.shape[0], dtype=np.intp)
     short = np.zeros(p.shape[0], dtype=np.intp)
-    cone_all = FREE_BEAM_FRACTION * cones.half_beam
     toward = np.arctan2(-n[1], -n[0])  # the direction a sensor faces the line in
-    turn = cones.heading - toward
-    # the angle wrapped by a modulo differs from the exact one by rounding only: it leaves
-    # out the sensors facing well away, and the exact test decides the rest
-    rough = np.abs((turn + np.pi) % (2 * np.pi) - np.pi)
-    near = np.flatnonzero((rough <= cone_all + _SCREEN_RAD) & np.isfinite(cones.range_m))
-    facing = np.zeros(turn.size, dtype=bool)
-    facing[near] = np.abs(np.angle(np.exp(1j * turn[near]))) <= cone_all[near]
-    if p.shape[0] == 0 or not facing.any():
+    # a screen by the cosine of each heading's angle to it (a dot product, rounding
+    # about 1e-16; the readings without a finite range left out) leaves out the sensors
+    # facing well away; the exact test decides the rest
+    cone_all, bound = cones.free_cones
+    c_all, s_all = cones.axes
+    near = np.flatnonzero(c_all * np.cos(toward) + s_all * np.sin(toward) >= bound)
+    exact = np.abs(np.angle(np.exp(1j * (cones.heading[near] - toward)))) <= cone_all[near]
+    facing = near[exact]
+    if p.shape[0] == 0 or facing.size == 0:
         return reached, short
     xy, heading, cone = cones.xy[facing], cones.heading[facing], cone_all[facing]
+    c, s = c_all[facing], s_all[facing]
     rng, view = cones.range_m[facing], cones.viewpoint[facing]
+    screen = _square_bound(cone)
     per = max(1, _CHUNK // xy.shape[0])
     for k0 in range(0, p.shape[0], per):
-        rel = p[k0 : k0 + per, None, :] - xy[None, :, :]
-        dist = np.hypot(rel[..., 0], rel[..., 1])
-        off = np.abs(np.angle(np.exp(1j * (np.arctan2(rel[..., 1], rel[..., 0]) - heading))))
-        inside = off <= cone
-        for out, hit in ((reached, rng >= dist - margin), (short, rng < dist - margin)):
-            ip, ir = np.nonzero(inside & hit)
-            if ip.size:
-                pairs = np.unique(np.stack((ip, view[ir]), axis=1), axis=0)
-                out[k0 : k0 + per] = np.bincount(pairs[:, 0], minlength=rel.shape[0])
+        part = p[k0 : k0 + per]
+        rx = part[:, 0, None] - xy[None, :, 0]
+        ry = part[:, 1, None] - xy[None, :, 1]
+        # the pairs whose beam may hold the point, screened without square roots or
+        # angles (along |along| >= dist^2 cos(cone)^2, within margins far above the
+        # rounding); the exact tests, as before, on the few left
+        along = rx * c + ry * s
+        ip, ir = np.nonzero(along * np.abs(along) >= (rx * rx + ry * ry) * screen)
+        rx, ry = rx[ip, ir], ry[ip, ir]
+        dist = np.hypot(rx, ry)
+        off = np.abs(np.angle(np.exp(1j * (np.arctan2(ry, rx) - heading[ir]))))
+        inside = off <= cone[ir]
+        for out, hit in ((reached, rng[ir] >= dist - margin), (short, rng[ir] < dist - margin)):
+            keep = np.flatnonzero(inside & hit)
+            if keep.size:
+                # the distinct (point, viewpoint) pairs, counted per point
+                pt, vp = ip[keep], view[ir[keep]]
+                order = np.lexsort((vp, pt))
+                pt, vp = pt[order], vp[order]
+                first = np.r_[True, (pt[1:] != pt[:-1]) | (vp[1:] != vp[:-1])]
+                out[k0 : k0 + per] = np.bincount(pt[first], minlength=part.shape[0])
     return reached, short
+
+
+def _square_bound(angle: FloatArray) -> FloatArray:
+    """A bound under ``along |along| / dist^2`` of any offset within ``angle`` (rad) of an
+    axis (``along`` its projection on the axis): the squared cosine less a relative
+    :data:`_SCREEN_COS`; -2 (every offset) where the cosine is under :data:`_MIN_COS`."""
+    cos = np.cos(np.minimum(angle, np.pi))
+    return np.where(cos > _MIN_COS, cos * cos * (1.0 - _SCREEN_COS), -2.0)
 
 
 def hidden_runs(

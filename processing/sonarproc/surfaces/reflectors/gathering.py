@@ -78,8 +78,7 @@ class ArcIndex:
         idx = np.flatnonzero(free)
         half = np.minimum(BEAM_SLACK * echoes.half_beam[idx], 0.5 * np.pi)
         rng = echoes.range_m[idx]
-        h = echoes.heading[idx]
-        mid = echoes.xy[idx] + rng[:, None] * np.column_stack((np.cos(h), np.sin(h)))
+        mid = echoes.arcs[1][idx]  # the arcs' midpoints, made once per EchoGeometry
         reach = 2.0 * rng * np.sin(0.5 * half) + RANGE_TOL_M
         cls = np.ceil(np.log2(np.maximum(reach, 0.05) / 0.05)).astype(np.int64)
         self.groups: list[tuple[IntArray, cKDTree, float]] = []

@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M, distinct_poses
+from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M, distinct_poses, pose_keys
 
 __all__ = ["HEADING_BIN_RAD", "MIN_HEAD_ON_POSES", "head_on_echoes", "hold_length_m"]
 
@@ -89,8 +89,10 @@ def _run(
     pass; ``r0``: the group's range; ``mine``: the group's readings (into ``echoes``).
     """
     a = b * HEADING_BIN_RAD
-    # a cheap screen first (heading within the bin), then exact
-    rows = np.flatnonzero(np.abs(np.angle(np.exp(1j * (echoes.heading - a)))) <= HEADING_BIN_RAD)
+    # a cheap screen first (heading within a whole bin of the bin's centre, by a dot
+    # product: the bin reaches half that far), then exact
+    c, s = echoes.axes
+    rows = np.flatnonzero(c * math.cos(a) + s * math.sin(a) >= math.cos(HEADING_BIN_RAD))
     rows = rows[_bins(echoes.heading[rows]) == b]
     rows = rows[np.floor(echoes.xy[rows] @ u / RANGE_TOL_M).astype(np.int64) == cell]
     across = echoes.xy[rows] @ np.array([-u[1], u[0]])
@@ -158,10 +160,16 @@ def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt
     depth = np.floor(np.einsum("ij,ij->i", xy, u) / RANGE_TOL_M).astype(np.int64)
     _, group = np.unique(np.column_stack((bins, depth)), axis=0, return_inverse=True)
     group = group.ravel()
-    for g in np.unique(group):
+    # the distinct poses of every group at once (its distinct pose cells, by one sort):
+    # only the groups with enough are followed
+    pose = pose_keys(xy)
+    order = np.lexsort((pose, group))
+    g_sorted, pose = group[order], pose[order]
+    first = np.ones(group.size, dtype=bool)
+    first[1:] = (g_sorted[1:] != g_sorted[:-1]) | (pose[1:] != pose[:-1])
+    poses = np.bincount(g_sorted[first], minlength=int(group.max(initial=-1)) + 1)
+    for g in np.flatnonzero(poses >= MIN_HEAD_ON_POSES):
         k = np.flatnonzero(group == g)
-        if distinct_poses(xy[k]) < MIN_HEAD_ON_POSES:
-            continue
         r0 = float(np.median(rng[k]))
         run = _run(echoes, u[k[0]], int(bins[k[0]]), int(depth[k[0]]), r0, idx[k])
         if distinct_poses(echoes.xy[run]) < MIN_HEAD_ON_POSES:
