@@ -372,7 +372,11 @@ def refine_fits(
     noise = STRAIGHT_SHARE * rounds[-1] if rounds else 0.0
     for r, tol in enumerate(rounds):
         scored, need = _scored(echoes, r, len(rounds), min_echoes)
-        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
+        # a surface of :data:`WEAK_ECHOES` (scaled as ``need``) is seen through only where
+        # its echoes are, as after the last round: its ridge may run on past them
+        strong = math.ceil(WEAK_ECHOES * scored.size / max(echoes.size, 1))
+        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol,
+                          spanned_from=strong)  # fmt: skip
         view = viewpoint_ids(scored.xy)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
