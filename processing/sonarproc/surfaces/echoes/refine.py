@@ -57,7 +57,7 @@ from sonarproc.surfaces.echoes.approach import (
     join_directed,
     spread_m,
 )
-from sonarproc.surfaces.echoes.occlusion import contradicted
+from sonarproc.surfaces.echoes.occlusion import contradicted, path_ends
 from sonarproc.surfaces.echoes.openings import STRAIGHT_SHARE, cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
@@ -68,7 +68,6 @@ from sonarproc.surfaces.fitting.bends import points_subset, straight_pieces
 from sonarproc.surfaces.fitting.merge import merge_collinear
 from sonarproc.surfaces.fitting.models import SurfaceFailure, SurfaceFit
 from sonarproc.surfaces.freespace import FreeCones, viewpoint_ids
-from sonarproc.surfaces.planar.feet import feet_on_polylines
 from sonarproc.surfaces.planar.polylines import resample
 
 __all__ = ["MAX_SEEN_THROUGH", "MIN_ECHOES", "MIN_VIEWPOINTS", "ROUNDS_M", "refine_fits"]
@@ -243,33 +242,6 @@ def _unsupported(
     ]
 
 
-def _echo_ends(
-    fits: list[SurfaceFit], readings: list[IntArray], echoes: EchoGeometry
-) -> list[FloatArray]:
-    """Each surface's echo points as it is reported: its readings' ranges along the feet
-    of their perpendiculars on it.
-
-    The last round gathered its echo points along the feet on the round before's
-    geometry (a ridge's arc, whose normals turn across the beams by up to their half
-    width); an echo's path runs to the foot on the surface refitted through them. Paths
-    tilted by the old geometry pass through what the sound did not (the jambs of the
-    doorway a wall behind it was heard through), and :func:`contradicted` tests the
-    paths.
-    """
-    out = []
-    for f, idx in zip(fits, readings, strict=True):
-        q = echoes.xy[idx]
-        if idx.size == 0 or len(f.polyline) < 2:
-            out.append(q.copy())
-            continue
-        _, foot, _, _ = feet_on_polylines(q, [f.polyline], np.zeros(idx.size, np.intp),
-                                          [f.closed])  # fmt: skip
-        v = foot - q
-        v /= np.maximum(np.hypot(v[:, 0], v[:, 1]), 1e-12)[:, None]
-        out.append(q + echoes.range_m[idx][:, None] * v)
-    return out
-
-
 def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
     """The readings of ``a``, then those of ``b`` (``a``'s rows keep their indices)."""
     return EchoGeometry(np.concatenate((a.xy, b.xy)), np.concatenate((a.heading, b.heading)),
@@ -442,7 +414,12 @@ def refine_fits(
         contradicted(
             [f.polyline for f in cur],
             [echoes.xy[i] for i in pts_idx],
-            _echo_ends(cur, pts_idx, echoes),
+            path_ends(
+                [f.polyline for f in cur],
+                [f.closed for f in cur],
+                [echoes.xy[i] for i in pts_idx],
+                [echoes.range_m[i] for i in pts_idx],
+            ),
             cell=cell,
         )
     )

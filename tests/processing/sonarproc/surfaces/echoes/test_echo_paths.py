@@ -15,8 +15,12 @@ import math
 
 import numpy as np
 
-from sonarproc.surfaces.echoes.occlusion import END_MARGIN_M, contradicted, segment_crossings
-from sonarproc.surfaces.echoes.refine import _echo_ends
+from sonarproc.surfaces.echoes.occlusion import (
+    END_MARGIN_M,
+    contradicted,
+    path_ends,
+    segment_crossings,
+)
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.batch import fit_surface
@@ -87,7 +91,8 @@ def test_paths_run_to_the_feet_on_the_refitted_wall_and_pass_the_jambs() -> None
     s = g.xy[through]
     v = ARC_CENTRE + ARC_RADIUS * (s - ARC_CENTRE) / np.hypot(*(s - ARC_CENTRE).T)[:, None] - s
     leaning = s + g.range_m[through][:, None] * v / np.hypot(*v.T)[:, None]
-    ends = _echo_ends(fits, readings, g)
+    ends = path_ends([f.polyline for f in fits], [False] * 3, [g.xy[r] for r in readings],
+                     [g.range_m[r] for r in readings])  # fmt: skip
     polys = [f.polyline for f in fits]
     sensors = [g.xy[r] for r in readings]
     assert contradicted(polys, sensors, [*ends[:2], leaning], cell=CELL) == [2]
