@@ -11,7 +11,8 @@ is dropped; the strongest contradictions are settled first. A path's last
 contradict each other. A surface's ends are uncertain (a fit is stretched over its ridge
 by up to :data:`~sonarproc.surfaces.echoes.refine.MAX_STRETCH_M`): crossings within
 :data:`END_ZONE_M` of its ends do not make it lose, though they still count against the
-surface whose paths they are (a phantom seen through a wall near a corner).
+surface whose paths they are (a phantom seen through a wall near a corner). The paths run
+to the feet on the surfaces as they stand (:func:`path_ends`).
 
 Walls seen from the middle of a room are found short of its corners: the readings near a
 corner echo from its double reflections, not from the walls. The late echoes of those
@@ -28,11 +29,11 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.planar.feet import straight_polylines
+from sonarproc.surfaces.planar.feet import feet_on_polylines, straight_polylines
 
 __all__ = [
     "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
-    "MIN_CROSSINGS", "contradicted", "corner_extensions", "segment_crossings",
+    "MIN_CROSSINGS", "contradicted", "corner_extensions", "path_ends", "segment_crossings",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -161,6 +162,42 @@ def segment_crossings(
     ab = a0[rows] - b0[cols]
     u = (ab[:, 0] * da[:, 1] - ab[:, 1] * da[:, 0]) / (db[:, 0] * da[:, 1] - db[:, 1] * da[:, 0])
     return rows, cols, u
+
+
+def path_ends(
+    polylines: list[FloatArray], closed: list[bool], sensors: list[FloatArray],
+    ranges: list[FloatArray],
+) -> list[FloatArray]:  # fmt: skip
+    """Each surface's echo points as it stands: its readings' ranges along the directions
+    of their feet on it (the paths :func:`contradicted` tests).
+
+    A refinement gathers its echo points along the feet on the geometry of the round
+    before (a ridge's arc, whose normals turn across the beams by up to their half
+    width); the sound went to the foot on the surface refitted through them. Paths
+    tilted by the old geometry pass through what the sound did not (the jambs of the
+    doorway a wall behind it was heard through).
+
+    Examples
+    --------
+    A wall y = 2 heard by a sensor at (0.3, 0), range 2 m: the path runs straight up.
+
+    >>> wall = np.column_stack((np.linspace(-1, 1, 201), np.full(201, 2.0)))
+    >>> ends = path_ends([wall], [False], [np.array([[0.3, 0.0]])], [np.array([2.0])])
+    >>> np.round(ends[0], 9).tolist()
+    [[0.3, 2.0]]
+    """
+    out = []
+    for p, cl, q, r in zip(polylines, closed, sensors, ranges, strict=True):
+        q = np.asarray(q, dtype=np.float64).reshape(-1, 2)
+        if q.shape[0] == 0 or len(p) < 2:
+            out.append(q.copy())
+            continue
+        _, foot, _, _ = feet_on_polylines(q, [np.asarray(p, dtype=np.float64)],
+                                          np.zeros(q.shape[0], np.intp), [bool(cl)])  # fmt: skip
+        v = foot - q
+        v /= np.maximum(np.hypot(v[:, 0], v[:, 1]), 1e-12)[:, None]
+        out.append(q + np.asarray(r, dtype=np.float64).reshape(-1, 1) * v)
+    return out
 
 
 def contradicted(

@@ -19,12 +19,14 @@ is two straight walls meeting at an obtuse corner becomes their two lines:
 first round scores a fixed random subset of :data:`FIRST_ROUND_READINGS` readings, with
 the fewest echoes scaled down alike: that round only weeds out the chance ridges, a
 thousand of them in an hour's log of a room, and refits the rest roughly for the last
-round, which scores every reading); a surface that
-fewer than :data:`MIN_ECHOES` readings echo from, or whose echo points span less than
-:data:`MIN_SPREAD_M`, is dropped (no reading reflected there, or only at one point); so
-is one that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through
-(their range reaches beyond it: a chance crossing of arcs in free space, which the
-sound crossed; a real surface is seen through only by a stray long echo). The rounds
+round, which scores every reading); a surface that fewer than :data:`MIN_ECHOES`
+readings echo from, or whose echo points span less than :data:`MIN_SPREAD_M`, is dropped
+(no reading reflected there, or only at one point), unless those readings came from
+depths along one pass far enough apart to fix its direction: a wall heard head on, which
+is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`); so is one
+that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through (their
+range reaches beyond it: a chance crossing of arcs in free space, which the sound
+crossed; a real surface is seen through only by a stray long echo). The rounds
 count the readings whose arcs end near a surface; after the last, a surface fewer than
 :data:`WEAK_ECHOES` readings echo from is tested against every reading, between its
 outermost echo points (the phantoms have few echoes, and the sound that crossed them may
@@ -49,7 +51,13 @@ from dataclasses import replace
 import numpy as np
 import numpy.typing as npt
 
-from sonarproc.surfaces.echoes.occlusion import contradicted
+from sonarproc.surfaces.echoes.approach import (
+    approach_line,
+    heard_head_on,
+    join_directed,
+    spread_m,
+)
+from sonarproc.surfaces.echoes.occlusion import contradicted, path_ends
 from sonarproc.surfaces.echoes.openings import STRAIGHT_SHARE, cut_openings, join_pieces
 from sonarproc.surfaces.echoes.screen import screen_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, count_seen_through, echo_points
@@ -77,7 +85,8 @@ MIN_ECHOES = 5
 #: checks them.
 MIN_VIEWPOINTS = 3
 #: Shortest stretch (m) its echo points must cover: echoes all at one point (a corner's
-#: double reflections, arriving at the corner's distance) say nothing of a direction.
+#: double reflections, arriving at the corner's distance) say nothing of a direction,
+#: unless their ranges do (:func:`~sonarproc.surfaces.echoes.approach.heard_head_on`).
 MIN_SPREAD_M = 0.10
 #: Largest share of the readings facing a surface (echoing from it or seeing through
 #: it) that may see through it; and fewer than :data:`MIN_SEEN_THROUGH` never count.
@@ -164,25 +173,27 @@ def _scored(echoes: EchoGeometry, r: int, rounds: int, min_echoes: int) -> tuple
     return echoes.subset(keep), max(2, math.ceil(min_echoes * frac))
 
 
-def _enough(idx: IntArray, pts: FloatArray, view: IntArray, need: int) -> bool:
+def _enough(idx: IntArray, pts: FloatArray, view: IntArray, need: int, range_m: FloatArray) -> bool:
     """Whether echoes ``idx`` (points ``pts``) are enough for a surface: as many as
-    ``need``, from :data:`MIN_VIEWPOINTS` viewpoints, spread over :data:`MIN_SPREAD_M`."""
+    ``need``, from :data:`MIN_VIEWPOINTS` viewpoints, spread over :data:`MIN_SPREAD_M`
+    or heard head on (:func:`~sonarproc.surfaces.echoes.approach.heard_head_on`, their
+    ranges ``range_m[idx]``)."""
     return (
         idx.size >= need
         and np.unique(view[idx]).size >= MIN_VIEWPOINTS
-        and float(np.hypot(*np.ptp(pts, axis=0))) >= MIN_SPREAD_M
+        and (float(np.hypot(*np.ptp(pts, axis=0))) >= MIN_SPREAD_M or heard_head_on(idx, range_m))
     )
 
 
 def _surfaces_left(
     fits: list[SurfaceFit], pts: list[SurfaceCells], idx: list[IntArray], cones: FreeCones,
-    min_echoes: int,
+    min_echoes: int, range_m: FloatArray,
 ) -> tuple[list[SurfaceFit], list[SurfaceCells], list[IntArray]]:  # fmt: skip
     """The pieces whose echoes still make a surface (:func:`_enough`)."""
     kept = [
         i
         for i, (r, c) in enumerate(zip(idx, pts, strict=True))
-        if _enough(r, np.stack((c.x, c.y), axis=1), cones.viewpoint, min_echoes)
+        if _enough(r, np.stack((c.x, c.y), axis=1), cones.viewpoint, min_echoes, range_m)
     ]
     return [fits[i] for i in kept], [pts[i] for i in kept], [idx[i] for i in kept]
 
@@ -333,7 +344,11 @@ def refine_fits(
     noise = STRAIGHT_SHARE * rounds[-1] if rounds else 0.0
     for r, tol in enumerate(rounds):
         scored, need = _scored(echoes, r, len(rounds), min_echoes)
-        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol)
+        # a surface of :data:`WEAK_ECHOES` (scaled as ``need``) is seen through only where
+        # its echoes are, as after the last round: its ridge may run on past them
+        strong = math.ceil(WEAK_ECHOES * scored.size / max(echoes.size, 1))
+        got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol,
+                          spanned_from=strong)  # fmt: skip
         view = viewpoint_ids(scored.xy)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []
@@ -341,7 +356,8 @@ def refine_fits(
         todo = [
             k
             for k, (idx, pts, _, through) in enumerate(got)
-            if _enough(idx, pts, view, need) and not _seen_through(idx.size, through)
+            if _enough(idx, pts, view, need, scored.range_m)
+            and not _seen_through(idx.size, through)
         ]
         sets = [
             SurfaceCells(got[k][1][:, 0], got[k][1][:, 1], got[k][2] - got[k][2][0],
@@ -349,6 +365,12 @@ def refine_fits(
             for k in todo
         ]  # fmt: skip
         refits = fit_surfaces(sets, cell=cell, scatter=noise)
+        # echo points at one spot, heard head on: the wall square to the pass (approach)
+        refits = [
+            approach_line(ec, scored.xy[got[k][0]], cell=cell)
+            if spread_m(ec) < MIN_SPREAD_M and not ec.closed else new
+            for k, ec, new in zip(todo, sets, refits, strict=True)
+        ]  # fmt: skip
         for k, ec, new in zip(todo, sets, refits, strict=True):
             if isinstance(new, SurfaceFailure):
                 continue
@@ -364,14 +386,21 @@ def refine_fits(
         # openings: free space (readings that saw through a wall) cuts it
         cur, pts_cells, pts_idx = cut_openings(cur, pts_cells, pts_idx, open_cones,
                                                margin=rounds[-1], cell=cell)  # fmt: skip
-        cur, pts_cells, pts_idx = _surfaces_left(cur, pts_cells, pts_idx, cones, min_echoes)
+        cur, pts_cells, pts_idx = _surfaces_left(
+            cur, pts_cells, pts_idx, cones, min_echoes, echoes.range_m
+        )
         # ... and joins the pieces of one wall where it did not see through the gap; a
         # stretch no sensor could see at all is not wall, though
-        cur, pts_cells, pts_idx = join_pieces(cur, pts_cells, pts_idx, open_cones,
-                                              margin=rounds[-1], cell=cell)  # fmt: skip
+        # (a piece heard only head on has no direction of its own to be collinear by)
+        cur, pts_cells, pts_idx = join_directed(
+            lambda f, p, i: join_pieces(f, p, i, open_cones, margin=rounds[-1], cell=cell),
+            cur, pts_cells, pts_idx, min_spread=MIN_SPREAD_M,
+        )  # fmt: skip
         cur, pts_cells, pts_idx = cut_unseen(cur, pts_cells, pts_idx, cones, margin=rounds[-1],
                                               cell=cell)  # fmt: skip
-        cur, pts_cells, pts_idx = _surfaces_left(cur, pts_cells, pts_idx, cones, min_echoes)
+        cur, pts_cells, pts_idx = _surfaces_left(
+            cur, pts_cells, pts_idx, cones, min_echoes, echoes.range_m
+        )
     weak = [i for i, idx in enumerate(pts_idx) if idx.size < WEAK_ECHOES]
     through = count_seen_through(
         [cur[i].polyline for i in weak],
@@ -385,7 +414,12 @@ def refine_fits(
         contradicted(
             [f.polyline for f in cur],
             [echoes.xy[i] for i in pts_idx],
-            [np.stack((c.x, c.y), axis=1) for c in pts_cells],
+            path_ends(
+                [f.polyline for f in cur],
+                [f.closed for f in cur],
+                [echoes.xy[i] for i in pts_idx],
+                [echoes.range_m[i] for i in pts_idx],
+            ),
             cell=cell,
         )
     )

@@ -185,6 +185,7 @@ def echo_points(
     echoes: EchoGeometry,
     *,
     tol: float,
+    spanned_from: int | None = None,
 ) -> list[SurfaceEchoes]:
     """The readings that echo from each surface, their echo points and the feet's arc length.
 
@@ -198,6 +199,13 @@ def echo_points(
         The readings.
     tol : float
         Range tolerance (m).
+    spanned_from : int, optional
+        An open surface that at least this many readings echo from (before each goes to
+        its best match) is seen through only by readings whose feet lie between the
+        feet of its outermost echoes (default: anywhere on it). A fit runs on past the
+        echoes over its ridge, and sound passing the end of a wall that many readings
+        heard says where the wall ends (:mod:`sonarproc.surfaces.echoes.openings` cuts
+        it there), not that it is not there; a phantom has few echoes.
 
     Returns
     -------
@@ -245,9 +253,17 @@ def echo_points(
     rng = echoes.range_m[read]
     facing = inside & (off <= echoes.half_beam[read])
     ok = facing & (np.abs(d - rng) <= tol)
-    through = np.bincount(
-        surf[facing & (rng > d / np.cos(echoes.half_beam[read]) + tol)], minlength=m
-    )
+    beyond = facing & (rng > d / np.cos(echoes.half_beam[read]) + tol)
+    if spanned_from is not None:
+        # a surface many readings echo from is seen through only between its outermost
+        # echoes' feet (module notes)
+        count = np.bincount(surf[ok], minlength=m)
+        lo, hi = np.full(m, np.inf), np.full(m, -np.inf)
+        np.minimum.at(lo, surf[ok], along[ok])
+        np.maximum.at(hi, surf[ok], along[ok])
+        whole = (count[surf] < spanned_from) | np.asarray(closed, dtype=bool)[surf]
+        beyond &= whole | ((along >= lo[surf]) & (along <= hi[surf]))
+    through = np.bincount(surf[beyond], minlength=m)
     resid = np.abs(d - rng)
     surf, read, resid, foot, along = surf[ok], read[ok], resid[ok], foot[ok], along[ok]
     # A first echo comes from one surface: each reading goes to its best match (the
