@@ -126,14 +126,15 @@ class Alignment:
         }
 
 
-def _unchanged(readings: np.ndarray, reason: str) -> Alignment:
+def _unchanged(readings: np.ndarray, reason: str, spacing: float = 1.0) -> Alignment:
     x = np.asarray(readings["x"], dtype=np.float64)
     y = np.asarray(readings["y"], dtype=np.float64)
     th = np.asarray(readings["theta"], dtype=np.float64)
     path = np.column_stack((x[:1], y[:1]))
     log.info("alignment: poses left unchanged: %s", reason)
     return Alignment(x.copy(), y.copy(), th.copy(), path, path.copy(), np.zeros((1, 3)),
-                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason)  # fmt: skip
+                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason,
+                     node_spacing_m=spacing)  # fmt: skip
 
 
 def align_poses(
@@ -298,6 +299,7 @@ def align_poses(
             readings,
             f"too few echoes match {which} of the track ({matched} for "
             f"{nodes.count} nodes {used:.3g} m apart; {MATCHES_PER_NODE} per node needed)",
+            used,
         )
     if np.any(np.abs(calibration) > PLAUSIBLE * CALIBRATION_PRIOR):
         # no working odometry errs this much: the echoes were matched to the wrong walls
