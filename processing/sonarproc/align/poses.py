@@ -10,24 +10,11 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
-from sonarproc.align.echoes import EchoRays, echo_rays
-from sonarproc.align.graph import (
-    CALIBRATION_PRIOR,
-    NCAL,
-    OdometryTies,
-    correction_costs,
-    odometry_ties,
-    solve_graph,
-)
-from sonarproc.align.matching import LineMatches, RayFrame, line_matches, match_lines
-from sonarproc.align.track import (
-    Nodes,
-    apply_offsets,
-    interpolate_offsets,
-    place_nodes,
-    travel,
-    wrap,
-)
+from sonarproc.align.echoes import echo_rays
+from sonarproc.align.graph import CALIBRATION_PRIOR, NCAL, correction_costs, odometry_ties
+from sonarproc.align.matching import RayFrame
+from sonarproc.align.rounds import RoundsContext, association_rounds
+from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
 
 __all__ = ["Alignment", "align_poses", "align_readings", "corrected_readings"]
 
@@ -275,8 +262,8 @@ def align_poses(
             drift_fraction=drift_fraction, heading_drift=heading_drift,
             turn_radius=turn_radius, position_floor=0.005, heading_floor=math.radians(0.1),
         )  # fmt: skip
-        context = _Context(nodes, ties, rays, track, ray_pose, raw, nodes.lo[rays.reading])
-        solved = _rounds(context, queries, MATCHES_PER_NODE * nodes.count,
+        context = RoundsContext(nodes, ties, rays, track, ray_pose, raw, nodes.lo[rays.reading])
+        solved = association_rounds(context, queries, MATCHES_PER_NODE * nodes.count,
                          far_only=spacing > node_spacing, rounds=rounds,
                          match_radius=match_radius, min_points=min_points,
                          min_places=min_places, echo_sigma=echo_sigma,
@@ -286,7 +273,7 @@ def align_poses(
         # Too few matches for this many nodes. Where echoes see a wall again from far
         # along the track (a loop, a corridor driven back), those matches do not depend
         # on the spacing, and coarser nodes observe the same drift with fewer unknowns.
-        # A coarser spacing counts only those (_far_matches): on a single pass, whose
+        # A coarser spacing counts only those (far_only): on a single pass, whose
         # matches join neighbouring stretches of one wall, the log stays refused.
     offsets, calibration, matched = solved.offsets, solved.calibration, solved.matched
     done, evaluations, first_matches = solved.rounds, solved.evaluations, solved.first_matches
@@ -340,96 +327,6 @@ def _spacings(node_spacing: float) -> list[float]:
     """
     top = max(MAX_NODE_SPACING, node_spacing)
     return [node_spacing * k for k in range(1, 4) if node_spacing * k <= top + 1e-9]
-
-
-@dataclass(frozen=True, eq=False)
-class _Context:
-    """What every association round of one log shares."""
-
-    nodes: Nodes
-    ties: OdometryTies
-    rays: EchoRays
-    track: FloatArray
-    ray_pose: FloatArray
-    raw: RayFrame
-    stretch: npt.NDArray[np.intp]
-
-
-@dataclass(frozen=True, eq=False)
-class _Rounds:
-    """The outcome of the association rounds: the correction and its matches."""
-
-    offsets: FloatArray
-    calibration: FloatArray
-    matched: int
-    short: bool  # whether a round found too few matches
-    rounds: int
-    evaluations: int
-    first_matches: LineMatches | None
-
-
-def _rounds(
-    c: _Context, queries: npt.NDArray[np.intp], need: int, *, far_only: bool, rounds: int,
-    match_radius: tuple[float, float], min_points: int, min_places: int, echo_sigma: float,
-    max_evaluations: int,
-) -> _Rounds:  # fmt: skip
-    """Match the ``queries`` rays and solve, ``rounds`` times at most (see
-    :func:`align_poses`); stops when a round finds fewer than ``need`` matches (only
-    those between stretches that are not neighbours when ``far_only``)."""
-    nodes, rays, ray_pose = c.nodes, c.rays, c.ray_pose
-    offsets = np.zeros((nodes.count, 3))
-    calibration = np.zeros(NCAL)
-    first, last = match_radius
-    done = evaluations = matched = 0
-    first_matches, short = None, False
-    for k in range(rounds):
-        radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
-        if k == 0:  # no correction yet: the raw frame (a long log is often declined here)
-            pts, look = c.raw.points, c.raw.look
-        else:
-            at = rays.reading
-            o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
-            now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
-            pts, look = rays.points(*now), rays.sensors(*now)[1]
-        query, nbrs = match_lines(pts, c.stretch, queries, radius=radius,
-                                  min_points=min_points, max_thickness=echo_sigma)  # fmt: skip
-        if query.size == 0:
-            break
-        matches = line_matches(
-            query, nbrs, c.raw, look[query], min_points=min_points, min_places=min_places
-        )
-        counted = _far_matches(matches, nodes, c.stretch) if far_only else matches.size
-        if counted < need:
-            # each node has three unknowns: with fewer echo constraints than a few per
-            # unknown, chance matches would decide the correction, not the walls
-            matched, short = counted, True
-            break
-        if first_matches is None:
-            first_matches = matches
-        sol = solve_graph(nodes, c.ties, rays, c.track, matches, offsets, calibration,
-                          echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
-        done, evaluations, matched = k + 1, evaluations + sol.evaluations, matches.size
-        moved = _largest_move(sol.offsets - offsets)
-        offsets, calibration = sol.offsets, sol.calibration
-        log.debug("alignment round %d: radius %.3f m, %d matches, moved %.4f m",
-                  k + 1, radius, matches.size, moved)  # fmt: skip
-        if moved < 1e-3 and radius <= last:
-            break
-    return _Rounds(offsets, calibration, matched, short, done, evaluations, first_matches)
-
-
-def _far_matches(matches: LineMatches, nodes: Nodes, stretch: npt.NDArray[np.intp]) -> int:
-    """Matches between stretches of track that are not neighbours: those observe the
-    drift accumulated between them, while a match into the next stretch along one wall
-    ties two consecutive nodes as odometry does, and observes only the drift over a
-    node spacing (a few centimetres at most, an echo's noise)."""
-    other = nodes.place(matches.anchor_u)[0]
-    return int(np.count_nonzero(np.abs(stretch[matches.query] - other) >= 2))
-
-
-def _largest_move(change: FloatArray) -> float:
-    """Largest move of a node by an offset change, its turn counted as at 1 m range."""
-    return float(np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(change[:, 2])))
 
 
 def corrected_readings(readings: np.ndarray, alignment: Alignment) -> np.ndarray:
