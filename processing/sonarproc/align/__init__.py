@@ -6,7 +6,8 @@ smooth correction of the logged poses so that echoes of the same wall seen at di
 times agree, before any surface is mapped:
 
 1. the track is parametrised by travel (distance plus turn) and correction nodes are
-   placed about every metre of it (:mod:`~sonarproc.align.track`); each reading's
+   placed about every metre of it (2 or 3 m where the echoes are too few for 1 m:
+   :func:`align_poses`; :mod:`~sonarproc.align.track`); each reading's
    correction interpolates its two nodes' (the heading by travel, the position by
    distance driven);
 2. every usable reading gives a line-of-sight echo point (:mod:`~sonarproc.align.echoes`);

@@ -11,14 +11,9 @@ import numpy.typing as npt
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import echo_rays
-from sonarproc.align.graph import (
-    CALIBRATION_PRIOR,
-    NCAL,
-    correction_costs,
-    odometry_ties,
-    solve_graph,
-)
-from sonarproc.align.matching import RayFrame, line_matches, match_lines
+from sonarproc.align.graph import CALIBRATION_PRIOR, NCAL, correction_costs, odometry_ties
+from sonarproc.align.matching import RayFrame
+from sonarproc.align.rounds import RoundsContext, association_rounds
 from sonarproc.align.track import apply_offsets, interpolate_offsets, place_nodes, travel, wrap
 
 __all__ = ["Alignment", "align_poses", "align_readings", "corrected_readings"]
@@ -32,6 +27,12 @@ FloatArray = npt.NDArray[np.float64]
 PLAUSIBLE = 3.0
 #: Fewest echo matches per correction node (three per unknown) for a correction.
 MATCHES_PER_NODE = 9
+#: Coarsest node spacing (m) tried when the echoes are too few for the default one. A
+#: correction interpolated linearly between nodes misses the bend a heading drift puts
+#: in the track between them, ``h s**2 / 8`` over a spacing ``s``: at the calibration
+#: prior's heading drift (5 degrees per 10 m) that is 1 cm, the sonar's range noise, at
+#: 3 m.
+MAX_NODE_SPACING = 3.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,6 +67,9 @@ class Alignment:
     echo_median_before_m, echo_median_after_m : float
         Median absolute echo residual (m) on the same matches as ``cost_before`` and
         ``cost_after``: how well the typical echo agrees with its wall.
+    node_spacing_m : float
+        Travel between the correction nodes solved for (m): the one asked for, or a
+        coarser one when the echoes were too few for it (see :func:`align_poses`).
     """
 
     x: FloatArray
@@ -86,11 +90,13 @@ class Alignment:
     reason: str = ""
     echo_median_before_m: float = 0.0
     echo_median_after_m: float = 0.0
+    node_spacing_m: float = 1.0
 
     def summary(self) -> dict[str, float | int | str]:
         """The scalar figures, for a report."""
         return {
             "nodes": int(self.node_offsets.shape[0]),
+            "node_spacing_m": self.node_spacing_m,
             "path_difference_max_m": self.path_difference_max_m,
             "path_difference_mean_m": self.path_difference_mean_m,
             "heading_difference_max_rad": self.heading_difference_max_rad,
@@ -107,14 +113,15 @@ class Alignment:
         }
 
 
-def _unchanged(readings: np.ndarray, reason: str) -> Alignment:
+def _unchanged(readings: np.ndarray, reason: str, spacing: float = 1.0) -> Alignment:
     x = np.asarray(readings["x"], dtype=np.float64)
     y = np.asarray(readings["y"], dtype=np.float64)
     th = np.asarray(readings["theta"], dtype=np.float64)
     path = np.column_stack((x[:1], y[:1]))
     log.info("alignment: poses left unchanged: %s", reason)
     return Alignment(x.copy(), y.copy(), th.copy(), path, path.copy(), np.zeros((1, 3)),
-                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason)  # fmt: skip
+                     0.0, 0.0, 0.0, 0, 0, 0, 0.0, 0.0, np.zeros(NCAL), reason,
+                     node_spacing_m=spacing)  # fmt: skip
 
 
 def align_poses(
@@ -155,7 +162,11 @@ def align_poses(
     node_spacing : float
         Travel between correction nodes (m). At 2 % drift the pose errs by 2 cm over
         1 m, less than an echo's noise: a correction interpolated linearly over 1 m
-        follows the drift closely enough.
+        follows the drift closely enough. Where fewer than 9 echoes per node match
+        another stretch, twice and three times this spacing are tried in turn (up to
+        :data:`MAX_NODE_SPACING`): echoes that see a wall again from far along the
+        track (a loop, a corridor driven back) match as often whatever the spacing,
+        and then observe the same drift with fewer unknowns.
     turn_radius : float
         Travel counted per radian turned (m): the arc a wheel runs while a differential
         drive of about 0.5 m wheel base turns on the spot, where odometry errs too.
@@ -179,9 +190,10 @@ def align_poses(
         Fewest distinct places (1 cm of travel apart) those points must be seen from:
         the echoes of one place pair into chance lines (two walls, a corner).
     queries_per_node : int
-        Most echo points matched per round, per node, spread evenly along the track: a
-        few times the 9 per node a correction needs (a long log's walls are seen many
-        times over; the cost then grows with the track, not with the readings).
+        Most echo points matched per round, per ``node_spacing`` of travel, spread
+        evenly along the track: a few times the 9 per node a correction needs (a long
+        log's walls are seen many times over; the cost then grows with the track, not
+        with the readings).
     rounds : int
         Most association rounds.
     max_evaluations : int
@@ -192,7 +204,7 @@ def align_poses(
     Alignment
         Corrected poses per reading; unchanged, with ``reason``, when the track is
         shorter than a node spacing, fewer than 9 echoes per node (three per unknown)
-        match another stretch, or the correction
+        match another stretch even at the coarsest spacing tried, or the correction
         needs an odometry calibration no robot has (a distance scale off by more than
         15 % or a heading drift beyond 15 degrees per 10 m: the echoes were then matched
         to the wrong walls).
@@ -230,64 +242,51 @@ def align_poses(
         return _unchanged(readings, "the track is shorter than half a node spacing")
     rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
     turned = np.concatenate(([0.0], np.cumsum(np.abs(wrap(np.diff(track[:, 2]))))))
-    ties = odometry_ties(
-        track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
-        drift_fraction=drift_fraction, heading_drift=heading_drift, turn_radius=turn_radius,
-        position_floor=0.005, heading_floor=math.radians(0.1),
-    )  # fmt: skip
     ray_pose = track[rays.reading]
     raw_xy, raw_look = rays.sensors(ray_pose[:, 0], ray_pose[:, 1], ray_pose[:, 2])
     raw_points = rays.points(ray_pose[:, 0], ray_pose[:, 1], ray_pose[:, 2])
     raw = RayFrame(raw_points, raw_xy, raw_look, rays.range_m, rays.half_beam,
                    u[rays.reading], ray_pose[:, :2])  # fmt: skip
-    stretch = nodes.lo[rays.reading]
+    # the sample of queries is set by the track's length (per node_spacing of travel),
+    # not by the nodes solved for: coarser nodes then get more queries each
     wanted = min(queries_per_node * nodes.count, rays.size)
     queries = np.unique(np.linspace(0, rays.size - 1, wanted).astype(np.intp))
-    offsets = np.zeros((nodes.count, 3))
-    calibration = np.zeros(NCAL)
-    first, last = match_radius
-    done = evaluations = matched = 0
+    used = node_spacing
+    for spacing in _spacings(node_spacing):
+        coarser = place_nodes(u, spacing=spacing, driven=driven)
+        if coarser.count < 2:
+            break
+        nodes, used = coarser, spacing
+        ties = odometry_ties(
+            track[nodes.at], np.diff(driven[nodes.at]), np.diff(turned[nodes.at]),
+            drift_fraction=drift_fraction, heading_drift=heading_drift,
+            turn_radius=turn_radius, position_floor=0.005, heading_floor=math.radians(0.1),
+        )  # fmt: skip
+        context = RoundsContext(nodes, ties, rays, track, ray_pose, raw, nodes.lo[rays.reading])
+        solved = association_rounds(context, queries, MATCHES_PER_NODE * nodes.count,
+                         far_only=spacing > node_spacing, rounds=rounds,
+                         match_radius=match_radius, min_points=min_points,
+                         min_places=min_places, echo_sigma=echo_sigma,
+                         max_evaluations=max_evaluations)  # fmt: skip
+        if not solved.short or (solved.matched == 0 and spacing == node_spacing):
+            break
+        # Too few matches for this many nodes. Where echoes see a wall again from far
+        # along the track (a loop, a corridor driven back), those matches do not depend
+        # on the spacing, and coarser nodes observe the same drift with fewer unknowns.
+        # A coarser spacing counts only those (far_only): on a single pass, whose
+        # matches join neighbouring stretches of one wall, the log stays refused.
+    offsets, calibration, matched = solved.offsets, solved.calibration, solved.matched
+    done, evaluations, first_matches = solved.rounds, solved.evaluations, solved.first_matches
     cost_before = cost_after = med_before = med_after = 0.0
-    first_matches = None
-    for k in range(rounds):
-        radius = max(last, first * (last / first) ** (k / max(rounds // 2, 1)))
-        if k == 0:  # no correction yet: the raw frame (a long log is often declined here)
-            pts, look = raw_points, raw_look
-        else:
-            at = rays.reading
-            o = interpolate_offsets(offsets, nodes.lo[at], nodes.w[at], nodes.w_xy[at])
-            now = (ray_pose[:, 0] + o[:, 0], ray_pose[:, 1] + o[:, 1], ray_pose[:, 2] + o[:, 2])
-            pts, look = rays.points(*now), rays.sensors(*now)[1]
-        query, nbrs = match_lines(pts, stretch, queries, radius=radius, min_points=min_points,
-                                  max_thickness=echo_sigma)  # fmt: skip
-        if query.size == 0:
-            break
-        matches = line_matches(
-            query, nbrs, raw, look[query], min_points=min_points, min_places=min_places
-        )
-        if matches.size < MATCHES_PER_NODE * nodes.count:
-            # each node has three unknowns: with fewer echo constraints than a few per
-            # unknown, chance matches would decide the correction, not the walls
-            matched = matches.size
-            break
-        if first_matches is None:
-            first_matches = matches
-        sol = solve_graph(nodes, ties, rays, track, matches, offsets, calibration,
-                          echo_sigma=echo_sigma, max_evaluations=max_evaluations)  # fmt: skip
-        done, evaluations, matched = k + 1, evaluations + sol.evaluations, matches.size
-        moved = _largest_move(sol.offsets - offsets)
-        offsets, calibration = sol.offsets, sol.calibration
-        log.debug("alignment round %d: radius %.3f m, %d matches, moved %.4f m",
-                  k + 1, radius, matches.size, moved)  # fmt: skip
-        if moved < 1e-3 and radius <= last:
-            break
-    if matched == 0:
+    if matched == 0 and used == node_spacing:
         return _unchanged(readings, "no echo point matches another stretch of the track")
-    if matched < MATCHES_PER_NODE * nodes.count:
+    if solved.short:
+        which = "other stretches" if used == node_spacing else "stretches not next to their own"
         return _unchanged(
             readings,
-            f"too few echoes match other stretches of the track ({matched} for "
-            f"{nodes.count} nodes; {MATCHES_PER_NODE} per node needed)",
+            f"too few echoes match {which} of the track ({matched} for "
+            f"{nodes.count} nodes {used:.3g} m apart; {MATCHES_PER_NODE} per node needed)",
+            used,
         )
     if np.any(np.abs(calibration) > PLAUSIBLE * CALIBRATION_PRIOR):
         # no working odometry errs this much: the echoes were matched to the wrong walls
@@ -315,13 +314,19 @@ def align_poses(
         x, y, th, raw_path, raw_path + offsets[:, :2], offsets,
         float(diff.max()), float(diff.mean()), float(np.abs(per[:, 2]).max()),
         done, evaluations, matched, cost_before, cost_after, calibration, "",
-        med_before, med_after,
+        med_before, med_after, used,
     )  # fmt: skip
 
 
-def _largest_move(change: FloatArray) -> float:
-    """Largest move of a node by an offset change, its turn counted as at 1 m range."""
-    return float(np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(change[:, 2])))
+def _spacings(node_spacing: float) -> list[float]:
+    """The node spacings tried, finest first: ``node_spacing`` and its multiples up to
+    :data:`MAX_NODE_SPACING` (``node_spacing`` alone when it is already coarser).
+
+    >>> _spacings(1.0), _spacings(5.0)
+    ([1.0, 2.0, 3.0], [5.0])
+    """
+    top = max(MAX_NODE_SPACING, node_spacing)
+    return [node_spacing * k for k in range(1, 4) if node_spacing * k <= top + 1e-9]
 
 
 def corrected_readings(readings: np.ndarray, alignment: Alignment) -> np.ndarray:

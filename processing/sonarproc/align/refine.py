@@ -124,7 +124,7 @@ def refine_alignment(
     alignment: Alignment,
     *,
     speed_of_sound: float = DEFAULT_SPEED_OF_SOUND,
-    node_spacing: float = 1.0,
+    node_spacing: float | None = None,
     turn_radius: float = 0.25,
     drift_fraction: float = 0.005,
     heading_drift: float = math.radians(0.5) / 10.0,
@@ -142,7 +142,10 @@ def refine_alignment(
         The correction :func:`~sonarproc.align.align_poses` solved (with no ``reason``).
     speed_of_sound : float
         m/s.
-    node_spacing, turn_radius, drift_fraction, heading_drift : float
+    node_spacing : float, optional
+        The travel between the correction's nodes (m); by default the one
+        :func:`~sonarproc.align.align_poses` solved for (``alignment.node_spacing_m``).
+    turn_radius, drift_fraction, heading_drift : float
         As given to :func:`~sonarproc.align.align_poses` (the same nodes and the same
         odometry ties).
     position_floor, heading_floor : float
@@ -165,7 +168,8 @@ def refine_alignment(
     track = np.column_stack((r["x"], r["y"], r["theta"])).astype(np.float64)
     u = travel(track[:, 0], track[:, 1], track[:, 2], turn_radius=turn_radius)
     driven = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(track[:, :2], axis=0).T))))
-    nodes = place_nodes(u, spacing=node_spacing, driven=driven)
+    spacing = alignment.node_spacing_m if node_spacing is None else node_spacing
+    nodes = place_nodes(u, spacing=spacing, driven=driven)
     if nodes.count != alignment.node_offsets.shape[0]:
         raise ValueError("refine_alignment: the alignment's nodes do not fit these options")
     rays = echo_rays(readings, sensors, order, speed_of_sound=speed_of_sound)
