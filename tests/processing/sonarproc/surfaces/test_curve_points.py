@@ -13,19 +13,13 @@ from all round, keep their arcs: their readings range to different points of the
 from __future__ import annotations
 
 import numpy as np
+from cornerlogs import HALF_BEAM, quantised, wall_fit
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.curve_points import curves_as_points
 from sonarproc.surfaces.reflectors.points import ClaimedPoints, refine_with_points
-
-INCH = 0.0254
-HALF_BEAM = np.radians(15.0)
-
-
-def _quantised(r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return np.round((r + rng.normal(0.0, 0.005, r.size)) / INCH) * INCH
 
 
 def _arc(centre: np.ndarray, radius: float, a0: float, a1: float) -> SurfaceFit:
@@ -41,12 +35,6 @@ def _cells(fit: SurfaceFit) -> SurfaceCells:
     return SurfaceCells(p[:, 0].copy(), p[:, 1].copy(), s, np.ones(s.size), False)
 
 
-def _line(a: tuple[float, float], b: tuple[float, float]) -> SurfaceFit:
-    t = np.linspace(0.0, 1.0, 1 + round(100 * np.hypot(b[0] - a[0], b[1] - a[1])))
-    poly = np.asarray(a) + t[:, None] * (np.asarray(b) - np.asarray(a))
-    return SurfaceFit("line", poly, float(np.hypot(*np.subtract(b, a))), 0.0, 10, 10)
-
-
 def _refined(fits: list[SurfaceFit], echoes: EchoGeometry) -> list[SurfaceFit]:
     cells = [_cells(f) for f in fits]
     found = ClaimedPoints([], np.zeros(echoes.size, dtype=bool))
@@ -60,7 +48,7 @@ def _corner_far_away(seed: int = 3) -> tuple[EchoGeometry, SurfaceFit]:
     rng = np.random.default_rng(seed)
     ys = np.sort(rng.uniform(0.0, 0.3, 10))
     s = np.c_[np.full(ys.size, 4.0), ys]
-    r = _quantised(np.hypot(4.0, ys - 3.0), rng)
+    r = quantised(np.hypot(4.0, ys - 3.0), rng)
     echoes = EchoGeometry(s, np.full(ys.size, np.radians(140.0)), np.full(ys.size, HALF_BEAM), r)
     u0 = np.array([-4.0, 2.85]) / np.hypot(4.0, 2.85)  # the mean line of sight
     centre = np.array([0.0, 3.0]) + 7.0 * u0
@@ -70,7 +58,7 @@ def _corner_far_away(seed: int = 3) -> tuple[EchoGeometry, SurfaceFit]:
 
 def test_arc_through_a_corners_arcs_becomes_the_corner() -> None:
     echoes, arc = _corner_far_away()
-    wall = _line((0.0, 0.5), (0.0, 2.8))  # x = 0, fitted short of the corner
+    wall = wall_fit((0.0, 0.5), (0.0, 2.8))  # x = 0, fitted short of the corner
     out = _refined([wall, arc], echoes)
     assert sorted(s.model for s in out) == ["corner", "line"]
     corner = next(s for s in out if s.model == "corner")
@@ -88,7 +76,7 @@ def test_arc_without_a_wall_end_or_along_a_wall_stays() -> None:
     # the arc continues a wall through the meeting point: a stretch of it heard head on
     end, chord = arc.polyline[-1], arc.polyline[-1] - arc.polyline[0]
     far = end + chord / np.hypot(*chord)
-    along = _line((float(end[0]), float(end[1])), (float(far[0]), float(far[1])))
+    along = wall_fit((float(end[0]), float(end[1])), (float(far[0]), float(far[1])))
     assert curves_as_points([along, arc], echoes) == ([], [])
 
 
@@ -98,7 +86,7 @@ def test_concave_curved_wall_stays_an_arc() -> None:
     s = np.c_[xs, np.full(xs.size, -1.0)]
     d = np.hypot(xs, 1.0)
     heading = np.arctan2(-1.0, xs)  # each sensor faces the wall along its normal
-    echoes = EchoGeometry(s, heading, np.full(xs.size, HALF_BEAM), _quantised(3.0 - d, rng))
+    echoes = EchoGeometry(s, heading, np.full(xs.size, HALF_BEAM), quantised(3.0 - d, rng))
     wall = _arc(np.zeros(2), 3.0, np.arctan2(-1.0, 1.0), np.arctan2(-1.0, -1.0) - 2 * np.pi)
     assert curves_as_points([wall], echoes) == ([], [])
     assert [f.model for f in _refined([wall], echoes)] == ["arc"]
@@ -109,7 +97,7 @@ def test_pillar_heard_from_round_it_stays_an_arc() -> None:
     a = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
     s = 2.0 * np.c_[np.cos(a), np.sin(a)]
     echoes = EchoGeometry(
-        s, a + np.pi, np.full(a.size, HALF_BEAM), _quantised(np.full(24, 1.7), rng)
+        s, a + np.pi, np.full(a.size, HALF_BEAM), quantised(np.full(24, 1.7), rng)
     )
     pillar = _arc(np.zeros(2), 0.3, 0.0, 2 * np.pi)
     pillar = SurfaceFit("arc", pillar.polyline, pillar.length_m, 0.0, 24, 24, True, pillar.params)

@@ -12,24 +12,12 @@ is heard there too) are no corner.
 from __future__ import annotations
 
 import numpy as np
+from cornerlogs import HALF_BEAM, quantised, wall_fit
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.line_corners import MIN_LINE_POSES, corners_on_wall_lines
 from sonarproc.surfaces.reflectors.rcd import MIN_POSES
-
-INCH = 0.0254
-HALF_BEAM = np.radians(15.0)
-
-
-def _quantised(r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return np.round((r + rng.normal(0.0, 0.005, r.size)) / INCH) * INCH
-
-
-def _line(a: tuple[float, float], b: tuple[float, float]) -> SurfaceFit:
-    t = np.linspace(0.0, 1.0, 1 + round(100 * np.hypot(b[0] - a[0], b[1] - a[1])))
-    poly = np.asarray(a) + t[:, None] * (np.asarray(b) - np.asarray(a))
-    return SurfaceFit("line", poly, float(np.hypot(*np.subtract(b, a))), 0.0, 10, 10)
 
 
 def _log(corner_xy: np.ndarray, seed: int = 7) -> EchoGeometry:
@@ -37,17 +25,17 @@ def _log(corner_xy: np.ndarray, seed: int = 7) -> EchoGeometry:
     rng = np.random.default_rng(seed)
     wall_x = np.linspace(1.2, 3.8, 12)
     south_s, west_s = np.c_[wall_x, np.full(12, 1.5)], np.c_[np.full(12, 1.5), wall_x]
-    walls_r = _quantised(np.full(24, 1.5), rng)
+    walls_r = quantised(np.full(24, 1.5), rng)
     aim = np.arctan2(-corner_xy[:, 1], -corner_xy[:, 0])  # the sensors look at the corner
     heading = np.r_[aim + rng.uniform(-0.1, 0.1, aim.size), np.full(12, -np.pi / 2),
                     np.full(12, np.pi)]  # fmt: skip
     xy = np.r_[corner_xy, south_s, west_s]
-    r = np.r_[_quantised(np.hypot(*corner_xy.T), rng), walls_r]
+    r = np.r_[quantised(np.hypot(*corner_xy.T), rng), walls_r]
     return EchoGeometry(xy, heading, np.full(xy.shape[0], HALF_BEAM), r)
 
 
 def _walls() -> list[SurfaceFit]:
-    return [_line((1.0, 0.0), (4.0, 0.0)), _line((0.0, 1.0), (0.0, 4.0))]
+    return [wall_fit((1.0, 0.0), (4.0, 0.0)), wall_fit((0.0, 1.0), (0.0, 4.0))]
 
 
 def _track(xs: np.ndarray, y: float) -> np.ndarray:

@@ -15,23 +15,10 @@ noise, seeded); its walls are fitted from readings seen head on.
 from __future__ import annotations
 
 import numpy as np
+from cornerlogs import HALF_BEAM, quantised, wall_fit
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
-
-INCH = 0.0254
-HALF_BEAM = np.radians(15.0)
-
-
-def _quantised(r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return np.round((r + rng.normal(0.0, 0.005, r.size)) / INCH) * INCH
-
-
-def _line(a: tuple[float, float], b: tuple[float, float]) -> SurfaceFit:
-    t = np.linspace(0.0, 1.0, 1 + round(100 * np.hypot(b[0] - a[0], b[1] - a[1])))
-    poly = np.asarray(a) + t[:, None] * (np.asarray(b) - np.asarray(a))
-    return SurfaceFit("line", poly, float(np.hypot(*np.subtract(b, a))), 0.0, 10, 10)
 
 
 def _log(corner_xy: np.ndarray, walls: list[tuple[np.ndarray, float]], seed: int) -> EchoGeometry:
@@ -41,7 +28,7 @@ def _log(corner_xy: np.ndarray, walls: list[tuple[np.ndarray, float]], seed: int
     xy = [corner_xy] + [s for s, _ in walls]
     heading = [aim + rng.uniform(-0.05, 0.05, aim.size)]
     heading += [np.full(s.shape[0], h) for s, h in walls]
-    r = [_quantised(np.hypot(*corner_xy.T), rng)] + [_quantised(np.full(s.shape[0], 1.5), rng)
+    r = [quantised(np.hypot(*corner_xy.T), rng)] + [quantised(np.full(s.shape[0], 1.5), rng)
                                                       for s, _ in walls]  # fmt: skip
     xy_all = np.concatenate(xy)
     return EchoGeometry(xy_all, np.concatenate(heading), np.full(xy_all.shape[0], HALF_BEAM),
@@ -58,9 +45,9 @@ def _room_log(seed: int = 11) -> EchoGeometry:
 
 
 def test_a_corner_is_found_without_the_reading_a_fitted_plane_blocks() -> None:
-    walls = [_line((1.0, 0.0), (4.0, 0.0)), _line((0.0, 1.0), (0.0, 4.0))]
+    walls = [wall_fit((1.0, 0.0), (4.0, 0.0)), wall_fit((0.0, 1.0), (0.0, 4.0))]
     # a short plane crossing the last pose's sight line (x = 1.7 at y = 1.9) only
-    stub = _line((1.65, 1.9), (2.2, 1.9))
+    stub = wall_fit((1.65, 1.9), (2.2, 1.9))
     echoes = _room_log()
     found = corners_on_wall_lines(walls, echoes, [])
     assert len(found) == 1 and found[0].poses == 5
@@ -88,7 +75,7 @@ def test_a_tilted_plane_that_misses_the_walls_end_does_not_hide_the_corner() -> 
     # the plane heard by every beam that explains the ranges best lies 12-13 degrees off
     # the wall's line, and passes the wall's end (0, 1.2) 0.3 m off
     for seed in range(4):
-        found = corners_on_wall_lines([_line((0.0, 1.2), (0.0, 4.0))], _normal_log(seed), [])
+        found = corners_on_wall_lines([wall_fit((0.0, 1.2), (0.0, 4.0))], _normal_log(seed), [])
         assert len(found) == 1
         assert float(np.hypot(*found[0].xy)) < 0.03
         assert found[0].poses == 7

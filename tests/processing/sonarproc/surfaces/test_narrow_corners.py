@@ -15,6 +15,7 @@ is not stretched to a corner past an edge on its line.
 from __future__ import annotations
 
 import numpy as np
+from cornerlogs import HALF_BEAM, quantised, wall_fit
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
@@ -23,19 +24,6 @@ from sonarproc.surfaces.reflectors.complete import complete_to_corners
 from sonarproc.surfaces.reflectors.corner_planes import planes_as_corners
 from sonarproc.surfaces.reflectors.line_corners import corners_on_wall_lines
 from sonarproc.surfaces.reflectors.points import ClaimedPoints, refine_with_points
-
-INCH = 0.0254
-HALF_BEAM = np.radians(15.0)
-
-
-def _quantised(r: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    return np.round((r + rng.normal(0.0, 0.005, r.size)) / INCH) * INCH
-
-
-def _line(a: tuple[float, float], b: tuple[float, float]) -> SurfaceFit:
-    t = np.linspace(0.0, 1.0, 1 + round(100 * np.hypot(b[0] - a[0], b[1] - a[1])))
-    poly = np.asarray(a) + t[:, None] * (np.asarray(b) - np.asarray(a))
-    return SurfaceFit("line", poly, float(np.hypot(*np.subtract(b, a))), 0.0, 10, 10)
 
 
 def _cells(fit: SurfaceFit) -> SurfaceCells:
@@ -49,19 +37,19 @@ def _room(seed: int = 11) -> tuple[EchoGeometry, list[SurfaceFit]]:
     rng = np.random.default_rng(seed)
     xs = np.sort(rng.uniform(2.4, 3.2, 10))  # irregular steps: the 1-inch rounding is no line
     corner_s = np.c_[xs, np.full(xs.size, 3.8)]
-    corner_r = _quantised(np.hypot(xs, 3.8), rng)
+    corner_r = quantised(np.hypot(xs, 3.8), rng)
     wall_x = np.linspace(1.2, 3.8, 12)
-    south_s, south_r = np.c_[wall_x, np.full(12, 1.5)], _quantised(np.full(12, 1.5), rng)
-    west_s, west_r = np.c_[np.full(12, 1.5), wall_x], _quantised(np.full(12, 1.5), rng)
+    south_s, south_r = np.c_[wall_x, np.full(12, 1.5)], quantised(np.full(12, 1.5), rng)
+    west_s, west_r = np.c_[np.full(12, 1.5), wall_x], quantised(np.full(12, 1.5), rng)
     xy = np.r_[corner_s, south_s, west_s]
     heading = np.r_[np.full(10, np.radians(-129.0)), np.full(12, -np.pi / 2), np.full(12, np.pi)]
     echoes = EchoGeometry(xy, heading, np.full(xy.shape[0], HALF_BEAM),
                           np.r_[corner_r, south_r, west_r])  # fmt: skip
-    south, west = _line((1.0, 0.0), (4.0, 0.0)), _line((0.0, 1.0), (0.0, 4.0))
+    south, west = wall_fit((1.0, 0.0), (4.0, 0.0)), wall_fit((0.0, 1.0), (0.0, 4.0))
     # the plane through the corner, normal to the mean line of sight
     n = np.array([2.8, 3.8]) / np.hypot(2.8, 3.8)
     u = np.array([n[1], -n[0]]) * 0.35
-    diagonal = _line((-u[0], -u[1]), (u[0], u[1]))
+    diagonal = wall_fit((-u[0], -u[1]), (u[0], u[1]))
     return echoes, [south, west, diagonal]
 
 
@@ -97,7 +85,7 @@ def test_a_short_oblique_wall_seen_head_on_stays() -> None:
     heading = echoes.heading.copy()
     heading[:10] = np.arctan2(-n[1], -n[0])
     r = echoes.range_m.copy()
-    r[:10] = _quantised(np.ones(10), np.random.default_rng(5))
+    r[:10] = quantised(np.ones(10), np.random.default_rng(5))
     wall = EchoGeometry(xy, heading, echoes.half_beam, r)
     gone, points = planes_as_corners(fits, wall)
     assert (gone, points) == ([], [])
@@ -130,13 +118,13 @@ def test_a_walls_echoes_at_the_beam_edge_along_its_normal_make_no_corner() -> No
     wall_x = np.linspace(1.2, 3.8, 12)
     xy = np.r_[np.c_[xs, np.full(12, 0.02)], np.c_[wall_x, np.full(12, 1.5)]]
     heading = np.r_[np.full(12, np.radians(170.0)), np.full(12, -np.pi / 2)]
-    r = np.r_[_quantised(xs, rng), _quantised(np.full(12, 1.5), rng)]
+    r = np.r_[quantised(xs, rng), quantised(np.full(12, 1.5), rng)]
     echoes = EchoGeometry(xy, heading, np.full(24, np.radians(12.5)), r)
-    assert corners_on_wall_lines([_line((1.0, 0.0), (4.0, 0.0))], echoes, []) == []
+    assert corners_on_wall_lines([wall_fit((1.0, 0.0), (4.0, 0.0))], echoes, []) == []
 
 
 def test_no_wall_is_stretched_past_an_edge_to_a_corner() -> None:
-    wall = _line((1.0, 0.0), (4.0, 0.0))
+    wall = wall_fit((1.0, 0.0), (4.0, 0.0))
     corner = SurfaceFit("corner", np.array([[7.0, 0.0]]), 0.0, 0.0, 9, 9, False, {})
     edge = SurfaceFit("edge", np.array([[5.5, 0.0]]), 0.0, 0.0, 9, 9, False, {})
     none = EchoGeometry(np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0))
@@ -154,7 +142,7 @@ def test_a_corner_heard_often_with_a_stray_reading_is_still_the_corner() -> None
     echoes, fits = _room()
     rng = np.random.default_rng(2)
     xs = np.linspace(2.5, 3.1, 30)
-    r = _quantised(np.hypot(xs, 3.8), rng)
+    r = quantised(np.hypot(xs, 3.8), rng)
     r[-1] = np.hypot(xs[-1], 3.8) - 0.033
     n_walls = echoes.size - 10
     xy = np.r_[np.c_[xs, np.full(xs.size, 3.8)], echoes.xy[10:]]
