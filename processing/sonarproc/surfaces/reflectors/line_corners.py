@@ -420,8 +420,8 @@ def corners_on_wall_lines(
         span = sensor_span(xy, x)
         if span > 0.5 * math.pi + CORNER_TOL_RAD:
             continue
-        res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
+        # its misfits are filled in once it passes every test (no test reads them)
+        f = PointFeature(x, idx, poses, math.nan, math.nan, span)
         # less support than a free point needs: a corner's echo alone, heard from far
         weak = idx.size < MIN_READINGS or poses < MIN_POSES
         if weak and far_poses(f, echoes) < MIN_LINE_POSES:
@@ -435,6 +435,8 @@ def corners_on_wall_lines(
         # (last: a circle fit, asked of the few places that passed every other test)
         if pillar_pieces(echoes, idx, x, planes):
             continue
+        res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
+        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
         found.append(f)
         taken.append(x)
         free[idx] = False
