@@ -61,7 +61,7 @@ from sonarproc.surfaces.reflectors.range_models import (
 from sonarproc.surfaces.reflectors.rcd import MIN_POSES, MIN_READINGS, PointFeature
 from sonarproc.surfaces.reflectors.walls import on_wall_lines, side_of_line
 
-__all__ = ["planes_as_corners"]
+__all__ = ["oblique", "passes_through", "planes_as_corners"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -80,16 +80,25 @@ def _crossing(p: Segment, w: Segment) -> FloatArray | None:
     return np.asarray(a + t * u, dtype=np.float64)
 
 
-def _oblique(p: Segment, w: Segment) -> bool:
-    """Whether the lines cross more than :data:`CORNER_TOL_RAD` from parallel and from square."""
-    u, v = p[1] - p[0], w[1] - w[0]
+def oblique(u: FloatArray, v: FloatArray) -> bool:
+    """Whether directions ``u`` and ``v`` differ by more than :data:`CORNER_TOL_RAD` from
+    parallel and from square.
+
+    Examples
+    --------
+    >>> oblique(np.array([1.0, 0.0]), np.array([1.0, 1.0])), oblique(np.array([1.0, 0.0]),
+    ...                                                               np.array([0.0, 2.0]))
+    (True, False)
+    """
     cos = abs(float(u @ v)) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-12)
     angle = math.acos(min(cos, 1.0))  # 0 .. pi/2
     return CORNER_TOL_RAD < angle < 0.5 * math.pi - CORNER_TOL_RAD
 
 
-def _through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
-    """Whether the readings ``idx`` pass through ``x``, but a few strays (module notes)."""
+def passes_through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
+    """Whether the readings ``idx`` pass through ``x``, but a few strays (module notes):
+    within :data:`RANGE_TOL_M` of their range and inside their beam (widened by
+    :data:`BEAM_SLACK`), all but :data:`STRAY_SHARE` of them."""
     v = x - echoes.xy[idx]
     dist = np.hypot(v[:, 0], v[:, 1])
     off = np.abs((np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[idx] + math.pi)
@@ -158,7 +167,7 @@ def planes_as_corners(
         length = math.dist(a, b)
         best: tuple[float, FloatArray] | None = None
         for j in lines:
-            if j == k or j in gone or not _oblique(ends[k], ends[j]):
+            if j == k or j in gone or not oblique(ends[k][1] - ends[k][0], ends[j][1] - ends[j][0]):
                 continue
             x = _crossing(ends[k], ends[j])
             if x is None:
@@ -166,7 +175,7 @@ def planes_as_corners(
             along = float((x - a) @ (b - a)) / max(length, 1e-12)
             if not RANGE_TOL_M < along < length - RANGE_TOL_M:
                 continue
-            if not bool(on_wall_lines(x, [ends[j]])[0]) or not _through(echoes, idx, x):
+            if not bool(on_wall_lines(x, [ends[j]])[0]) or not passes_through(echoes, idx, x):
                 continue
             # the sensors inside the corner's opening: on the side W was seen from
             side = np.sign(side_of_line(*ends[j], echoes.xy[idx]))

@@ -55,8 +55,6 @@ line tolerance.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import numpy.typing as npt
 
@@ -64,12 +62,11 @@ from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.planar.polylines import distance_to_polylines
 from sonarproc.surfaces.reflectors.confirm import line_ends
-from sonarproc.surfaces.reflectors.gathering import BEAM_SLACK
-from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD
+from sonarproc.surfaces.reflectors.corner_planes import oblique, passes_through
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
-    STRAY_SHARE,
     distinct_poses,
+    place_on_line,
     plane_residuals,
     point_beats_plane,
     sensor_span,
@@ -91,42 +88,6 @@ POINT_ITERATIONS = 20
 CURVE_MODELS = ("arc", "spline")
 
 
-def _passes_through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
-    """Whether the readings ``idx`` pass through ``x``, but a few strays (module notes)."""
-    v = x - echoes.xy[idx]
-    dist = np.hypot(v[:, 0], v[:, 1])
-    off = np.abs((np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[idx] + math.pi)
-                 % (2 * math.pi) - math.pi)  # fmt: skip
-    inside = off <= BEAM_SLACK * echoes.half_beam[idx]
-    through = (np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M) & inside
-    return bool(np.count_nonzero(~through) <= STRAY_SHARE * idx.size)
-
-
-def _oblique(u: FloatArray, v: FloatArray) -> bool:
-    """Whether directions ``u`` and ``v`` differ by more than :data:`CORNER_TOL_RAD` from
-    parallel and from square."""
-    cos = abs(float(u @ v)) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-12)
-    angle = math.acos(min(cos, 1.0))  # 0 .. pi/2
-    return CORNER_TOL_RAD < angle < 0.5 * math.pi - CORNER_TOL_RAD
-
-
-def _on_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t0: float) -> float:
-    """The place ``a + t u`` on a line whose distances best match the ranges (Gauss-Newton)."""
-    t = t0
-    for _ in range(POINT_ITERATIONS):
-        d = a + t * u - xy
-        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
-        j = (d @ u) / dist
-        jj = float(j @ j)
-        if jj <= 1e-12:
-            break
-        step = -float(j @ (dist - rng)) / jj
-        t += step
-        if abs(step) < 1e-9:
-            break
-    return t
-
-
 def _corner_on_wall(
     xy: FloatArray, rng: FloatArray, poly: FloatArray, wall: Segment
 ) -> FloatArray | None:
@@ -139,7 +100,7 @@ def _corner_on_wall(
     chord = poly[-1] - poly[0]
     v = b - a
     length = float(np.hypot(v[0], v[1]))
-    if length <= 0 or not _oblique(chord, v):
+    if length <= 0 or not oblique(chord, v):
         return None
     u = v / length
     den = float(chord[0] * u[1] - chord[1] * u[0])
@@ -148,7 +109,7 @@ def _corner_on_wall(
     # the chord's line meets the wall's at a + t0 u
     d = poly[0] - a
     t0 = float(d[0] * chord[1] - d[1] * chord[0]) / -den
-    t = _on_line(xy, rng, a, u, t0)
+    t = place_on_line(xy, rng, a, u, t0, steps=POINT_ITERATIONS, settled=1e-9)
     x = np.asarray(a + t * u, dtype=np.float64)
     return x if bool(np.all(np.isfinite(x))) and bool(on_wall_lines(x, [wall])[0]) else None
 
@@ -184,7 +145,7 @@ def curve_point(
     best: tuple[float, FloatArray] | None = None
     for w in walls:
         x = _corner_on_wall(xy, rng, fit.polyline, w)
-        if x is None or not _passes_through(echoes, idx, x):
+        if x is None or not passes_through(echoes, idx, x):
             continue
         point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
         # neither the curve nor a plane explains the ranges significantly better
@@ -228,6 +189,7 @@ def curves_as_points(
     echo where the wall x = 0 ends (alone, the ranges cannot tell); a circle of radius
     1 m heard from round it stays a curve.
 
+    >>> import math
     >>> ys = np.linspace(0.0, 0.28, 8)
     >>> s = np.c_[np.full(8, 4.0), ys]
     >>> rng = np.hypot(4.0, ys - 3.0)

@@ -103,6 +103,7 @@ from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     distinct_poses,
     heard_plane,
+    place_on_line,
     plane_rms,
     point_beats_plane,
     sensor_span,
@@ -137,20 +138,6 @@ STEP_M = 0.5 * RANGE_TOL_M
 #: Gauss-Newton steps of the position along the line (one unknown; the gather is within
 #: the range tolerance already, two steps settle it to a fraction of a millimetre).
 LINE_FIT_STEPS = 3
-
-
-def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t: float) -> float:
-    """Least-squares position ``t`` along the line ``a + t u`` of a point through the ranges."""
-    for _ in range(LINE_FIT_STEPS):
-        d = a + t * u - xy
-        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
-        res = dist - rng
-        jac = (d @ u) / dist
-        den = float(jac @ jac)
-        if den <= 1e-12:
-            break
-        t -= float(jac @ res) / den
-    return t
 
 
 def _crossings(pool: EchoGeometry, a: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -391,7 +378,14 @@ def corners_on_wall_lines(
         idx = gathers[c][free[gathers[c]]]
         if idx.size < MIN_LINE_POSES:
             continue
-        at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
+        at = place_on_line(
+            echoes.xy[idx],
+            echoes.range_m[idx],
+            a,
+            u,
+            float((starts[c] - a) @ u),
+            steps=LINE_FIT_STEPS,
+        )
         x = a + at * u
         tried[k].append(x)
         idx = gather(echoes, free, x, index)
