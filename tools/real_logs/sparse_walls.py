@@ -63,10 +63,11 @@ SEEN = ("sparse10-door-corridor", "sparse10-junction", "sparse10-hall-loop",
         "sparse14-heldout-zigzag-corridor", "sparse15-heldout-niches",
         "sparse15-heldout-bay-office", "sparse15-heldout-dead-ends",
         "sparse16-heldout-bent-corridor", "sparse16-heldout-pillar-hall",
-        "sparse16-heldout-cluttered-office")  # fmt: skip
+        "sparse16-heldout-cluttered-office", "sparse17-heldout-workshop",
+        "sparse17-heldout-branch-corridor", "sparse17-heldout-curved-lounge")  # fmt: skip
 #: Scenes held out from all tuning, run once after the last rule change.
-HELD_OUT = ("sparse17-heldout-workshop", "sparse17-heldout-branch-corridor",
-            "sparse17-heldout-curved-lounge")  # fmt: skip
+HELD_OUT = ("sparse18-heldout-copy-room", "sparse18-heldout-jog-corridor",
+            "sparse18-heldout-slanted-store")  # fmt: skip
 
 LONG_WALL_M = 2.0
 COVER_TOL_M = 0.10

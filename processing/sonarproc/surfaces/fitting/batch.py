@@ -11,8 +11,7 @@ candidates the criterion needs:
 2. the line, kept at once when its RMS residual is at most ``1.25 floor + 0.25 cell``
    (the criterion would pick it whatever the others give); for echo points the floor is
    at least their scatter about their neighbours (the range noise), which a spline
-   threading sparse points would otherwise undercut, or, with too few points to measure
-   it (:data:`MIN_SCATTER_POINTS`), the range noise the caller states;
+   threading sparse points would otherwise undercut;
 3. otherwise the arc (dropped if it does not bend: radius above 20 times its length);
 4. the spline, only when neither passes the same test and there are at least
    :data:`~sonarproc.surfaces.fitting.models.MIN_SPLINE_CELLS` cells;
@@ -51,15 +50,9 @@ __all__ = ["fit_surface", "fit_surfaces"]
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Fewest echo points whose own scatter about their neighbours sets the floor: the RMS of
-#: m deviations is uncertain by about 1 / sqrt(2 m) of itself, a quarter with the 8
-#: deviations of 10 points. Fewer say too little about the range noise, and the floor is
-#: then the range noise the caller states (``scatter``): a reading's echo point errs by
-#: its range noise (about 1 cm), its range quantum (an inch: 7 mm RMS) and the time walk
-#: of a weak echo (up to 1-2 cm, long), whatever few of them there are. Measured over 5-9
-#: points, their spacing leaves one per bin of the cell-based floor, whose distance to its
-#: own mean is nil, so that one more parameter (an arc threading a few noisy points of a
-#: straight wall, or the arcs of a corner's readings) would always beat the line.
+#: Fewest echo points whose scatter sets the floor (``scatter``): the RMS of m deviations
+#: is uncertain by about 1 / sqrt(2 m) of itself, a quarter with the 8 deviations of 10
+#: points; fewer say too little about the range noise to overrule the floor.
 MIN_SCATTER_POINTS = 10
 
 
@@ -84,8 +77,7 @@ def fit_surfaces(
         refinement's range tolerance as an RMS): the floor is at least the points'
         scatter about their neighbours
         (:func:`~sonarproc.surfaces.fitting.grouped.scatter_rms`, the range noise no
-        model can explain), up to this; with fewer than :data:`MIN_SCATTER_POINTS`
-        points, this itself. Sparse readings leave one echo point or none per
+        model can explain), up to this. Sparse readings leave one echo point or none per
         bin of the floor, whose distance to its own mean is nil, so that a line through
         a straight wall's noisy points would always lose to an arc or a spline threading
         them (which breaks the wall into pieces that no longer join); points scattered
@@ -121,9 +113,7 @@ def fit_surfaces(
     floor = floor_rms(x, y, s, n, cell=cell)
     if scatter > 0:
         noise = np.minimum(scatter_rms(x, y, s, n, lines.point, lines.direction), scatter)
-        # too few points to measure their own scatter: the noise is what a reading's
-        # range may err by, which the caller knows
-        floor = np.maximum(floor, np.where(n >= MIN_SCATTER_POINTS, noise, scatter))
+        floor = np.where(n >= MIN_SCATTER_POINTS, np.maximum(floor, noise), floor)
     bound = SPLINE_FACTOR * floor + CELL_FACTOR * cell
     for k in np.flatnonzero(~lines.ok).tolist():
         out[big[k]] = SurfaceFailure("all cells at one point", int(n[k]))

@@ -18,8 +18,8 @@ into a handful of lines each straight within the range noise if the pieces are s
 again and again, whereas half of it is never straight; a corner is one break, however
 long the walls either side. A surface with two obtuse bends keeps its spline.
 
-Each piece has at least :data:`MIN_PIECE_POINTS` points: with fewer, the points' own
-scatter is not measured and the piece's floor is the whole stated range noise
+Each piece has at least :data:`MIN_PIECE_POINTS` points: with fewer, the points'
+scatter does not set the piece's floor
 (:data:`~sonarproc.surfaces.fitting.batch.MIN_SCATTER_POINTS`), and a handful of points
 threaded by a line would say it is straight whatever the wall does.
 """

@@ -13,26 +13,12 @@ arcs: a diagonal phantom far from every true surface, and a missed corner.
 The map decides (:func:`planes_as_corners`). A fitted plane ``P`` is a corner's echo at
 ``X`` when:
 
-* its readings are enough for a point on a wall's line
-  (:func:`~sonarproc.surfaces.reflectors.wall_points.enough_support`, the test
-  :mod:`~sonarproc.surfaces.reflectors.curve_points` asks of a curve);
-* ``P`` crosses the line of another fitted plane ``W`` (a wall of the corner) inside
-  ``P``, more than the range tolerance
+* ``X`` is where ``P`` crosses the line of another fitted plane ``W`` (a wall of the
+  corner), on ``W``'s line at or past its end
+  (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`: a wall's corner is where
+  it ends) and inside ``P``, more than the range tolerance
   (:data:`~sonarproc.surfaces.reflectors.range_models.RANGE_TOL_M`) from ``P``'s ends
-  (``P`` straddles ``W``'s line), and ``X`` is that crossing, on ``W``'s line at or past
-  its end (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`: a wall's corner is
-  where it ends); when the readings do not pass through the crossing (below: a short
-  ``P`` fitted through a few noisy echo points is tilted a little), ``X`` is where the
-  ranges meet best on ``W``'s line, from that crossing (least squares,
-  :func:`~sonarproc.surfaces.reflectors.wall_points.point_on_wall`), at or past ``W``'s
-  end. Of the walls that pass every test, the corner is on the one whose end ``X`` is
-  nearest (:func:`~sonarproc.surfaces.reflectors.wall_points.nearest_end`);
-* a place fitted along ``W``'s line has one free parameter, so, as for a curve
-  (:mod:`~sonarproc.surfaces.reflectors.curve_points`), neither ``P`` nor the best plane
-  through the readings may explain the ranges significantly better than ``X``
-  (:func:`~sonarproc.surfaces.reflectors.wall_points.no_better_model`: a real plane
-  heard head on by sensors spread along it ranges to the feet of their perpendiculars,
-  which one point explains only to within the spread's sagitta);
+  (``P`` straddles ``W``'s line);
 * ``P`` crosses ``W`` obliquely: more than the retro-reflection tolerance
   :data:`~sonarproc.surfaces.reflectors.point_echoes.CORNER_TOL_RAD` away from both
   parallel and perpendicular (a real wall meeting ``W`` at a corner meets it square,
@@ -63,27 +49,19 @@ import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo_points
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.planar.polylines import distance_to_polylines
+from sonarproc.surfaces.reflectors.gathering import BEAM_SLACK
 from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
+    STRAY_SHARE,
     distinct_poses,
-    plane_residuals,
     plane_rms,
     sensor_span,
 )
-from sonarproc.surfaces.reflectors.rcd import PointFeature
-from sonarproc.surfaces.reflectors.wall_points import (
-    end_distance,
-    enough_support,
-    nearest_end,
-    no_better_model,
-    passes_through,
-    point_on_wall,
-)
+from sonarproc.surfaces.reflectors.rcd import MIN_POSES, MIN_READINGS, PointFeature
 from sonarproc.surfaces.reflectors.walls import on_wall_lines, side_of_line
 
-__all__ = ["planes_as_corners"]
+__all__ = ["oblique", "passes_through", "planes_as_corners"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -102,12 +80,32 @@ def _crossing(p: Segment, w: Segment) -> FloatArray | None:
     return np.asarray(a + t * u, dtype=np.float64)
 
 
-def _oblique(p: Segment, w: Segment) -> bool:
-    """Whether the lines cross more than :data:`CORNER_TOL_RAD` from parallel and from square."""
-    u, v = p[1] - p[0], w[1] - w[0]
+def oblique(u: FloatArray, v: FloatArray) -> bool:
+    """Whether directions ``u`` and ``v`` differ by more than :data:`CORNER_TOL_RAD` from
+    parallel and from square.
+
+    Examples
+    --------
+    >>> oblique(np.array([1.0, 0.0]), np.array([1.0, 1.0])), oblique(np.array([1.0, 0.0]),
+    ...                                                               np.array([0.0, 2.0]))
+    (True, False)
+    """
     cos = abs(float(u @ v)) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-12)
     angle = math.acos(min(cos, 1.0))  # 0 .. pi/2
     return CORNER_TOL_RAD < angle < 0.5 * math.pi - CORNER_TOL_RAD
+
+
+def passes_through(echoes: EchoGeometry, idx: IntArray, x: FloatArray) -> bool:
+    """Whether the readings ``idx`` pass through ``x``, but a few strays (module notes):
+    within :data:`RANGE_TOL_M` of their range and inside their beam (widened by
+    :data:`BEAM_SLACK`), all but :data:`STRAY_SHARE` of them."""
+    v = x - echoes.xy[idx]
+    dist = np.hypot(v[:, 0], v[:, 1])
+    off = np.abs((np.arctan2(v[:, 1], v[:, 0]) - echoes.heading[idx] + math.pi)
+                 % (2 * math.pi) - math.pi)  # fmt: skip
+    inside = off <= BEAM_SLACK * echoes.half_beam[idx]
+    through = (np.abs(dist - echoes.range_m[idx]) <= RANGE_TOL_M) & inside
+    return bool(np.count_nonzero(~through) <= STRAY_SHARE * idx.size)
 
 
 def planes_as_corners(
@@ -163,16 +161,13 @@ def planes_as_corners(
     points: list[PointFeature] = []
     for k in lines:
         idx = got[k].readings
-        if not enough_support(echoes, idx):
+        if idx.size < MIN_READINGS or distinct_poses(echoes.xy[idx]) < MIN_POSES:
             continue
         a, b = ends[k]
         length = math.dist(a, b)
-        xy, rng = echoes.xy[idx], echoes.range_m[idx]
-        line_res = distance_to_polylines(xy, [fits[k].polyline]) - rng
-        plane_res = plane_residuals(xy, rng)
-        found: list[tuple[float, float, FloatArray]] = []
+        best: tuple[float, FloatArray] | None = None
         for j in lines:
-            if j == k or j in gone or not _oblique(ends[k], ends[j]):
+            if j == k or j in gone or not oblique(ends[k][1] - ends[k][0], ends[j][1] - ends[j][0]):
                 continue
             x = _crossing(ends[k], ends[j])
             if x is None:
@@ -180,31 +175,24 @@ def planes_as_corners(
             along = float((x - a) @ (b - a)) / max(length, 1e-12)
             if not RANGE_TOL_M < along < length - RANGE_TOL_M:
                 continue
-            # the crossing itself, fixed by the map; else the place the ranges meet on W's
-            # line, fitted along it
-            fitted = not (bool(on_wall_lines(x, [ends[j]])[0]) and passes_through(echoes, idx, x))
-            if fitted:
-                x = point_on_wall(xy, rng, x, ends[j])
-                if x is None or not passes_through(echoes, idx, x):
-                    continue
+            if not bool(on_wall_lines(x, [ends[j]])[0]) or not passes_through(echoes, idx, x):
+                continue
             # the sensors inside the corner's opening: on the side W was seen from
-            side = np.sign(side_of_line(*ends[j], xy))
+            side = np.sign(side_of_line(*ends[j], echoes.xy[idx]))
             w_idx = got[j].readings
             if w_idx.size == 0:
                 continue
             w_side = float(np.median(np.sign(side_of_line(*ends[j], echoes.xy[w_idx]))))
             if not bool(np.all(side == w_side)):
                 continue
-            res = np.hypot(*(xy - x).T) - rng
-            # neither the plane nor the best plane explains the ranges significantly better
-            if fitted and not no_better_model(res, line_res, plane_res):
-                continue
-            found.append((end_distance(x, ends[j]), float(np.sqrt(np.mean(res**2))), x))
-        x = nearest_end(found)
-        if x is None:
+            res = np.hypot(*(echoes.xy[idx] - x).T) - echoes.range_m[idx]
+            rms = float(np.sqrt(np.mean(res**2)))
+            if best is None or rms < best[0]:
+                best = (rms, x)
+        if best is None:
             continue
-        res = np.hypot(*(xy - x).T) - rng
-        rms = float(np.sqrt(np.mean(res**2)))
+        rms, x = best
+        xy, rng = echoes.xy[idx], echoes.range_m[idx]
         gone.add(k)
         points.append(PointFeature(x, idx, distinct_poses(xy), rms, plane_rms(xy, rng),
                                    sensor_span(xy, x)))  # fmt: skip

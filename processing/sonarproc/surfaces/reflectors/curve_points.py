@@ -17,15 +17,12 @@ does, as for planes (:mod:`sonarproc.surfaces.reflectors.corner_planes`).
 :func:`curves_as_points` turns such a curve back into its point. A fitted ``arc`` or
 ``spline`` ``C`` is a point's echo at ``X`` when:
 
-* its readings are enough for a point on a wall's line
-  (:func:`~sonarproc.surfaces.reflectors.wall_points.enough_support`, the test
-  :mod:`~sonarproc.surfaces.reflectors.corner_planes` asks of a plane);
+* at least :data:`~sonarproc.surfaces.reflectors.rcd.MIN_READINGS` readings from
+  :data:`~sonarproc.surfaces.reflectors.rcd.MIN_POSES` distinct sensor positions echo
+  from it (what any point reflector needs);
 * ``X`` lies on the line of a fitted plane ``W`` at or past its end
   (:func:`~sonarproc.surfaces.reflectors.walls.on_wall_lines`: corners and edges are where
-  walls end), where on that line the ranges meet best (least squares,
-  :func:`~sonarproc.surfaces.reflectors.wall_points.point_on_wall`), of the walls that
-  pass every test the one whose end ``X`` is nearest
-  (:func:`~sonarproc.surfaces.reflectors.wall_points.nearest_end`), and ``C``'s chord
+  walls end), where on that line the ranges meet best (least squares), and ``C``'s chord
   crosses ``W``'s line obliquely, more than
   :data:`~sonarproc.surfaces.reflectors.point_echoes.CORNER_TOL_RAD` from parallel (a
   curve along ``W``'s line continues that wall: a stretch of it heard head on also ranges
@@ -58,8 +55,6 @@ line tolerance.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import numpy.typing as npt
 
@@ -67,22 +62,17 @@ from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.planar.polylines import distance_to_polylines
 from sonarproc.surfaces.reflectors.confirm import line_ends
-from sonarproc.surfaces.reflectors.point_echoes import CORNER_TOL_RAD
+from sonarproc.surfaces.reflectors.corner_planes import oblique, passes_through
 from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     distinct_poses,
+    place_on_line,
     plane_residuals,
+    point_beats_plane,
     sensor_span,
 )
-from sonarproc.surfaces.reflectors.rcd import PointFeature
-from sonarproc.surfaces.reflectors.wall_points import (
-    end_distance,
-    enough_support,
-    nearest_end,
-    no_better_model,
-    passes_through,
-    point_on_wall,
-)
+from sonarproc.surfaces.reflectors.rcd import MIN_POSES, MIN_READINGS, PointFeature
+from sonarproc.surfaces.reflectors.walls import on_wall_lines
 
 __all__ = ["CURVE_MODELS", "curve_point", "curves_as_points"]
 
@@ -90,18 +80,12 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
 #: A plane's two ends.
 Segment = tuple[FloatArray, FloatArray]
+#: Most Gauss-Newton steps of the place on a wall's line (one unknown: a few suffice).
+POINT_ITERATIONS = 20
 
 #: The fitted models a point's echoes may have been taken for (lines are judged by
 #: :mod:`sonarproc.surfaces.reflectors.corner_planes`, against the walls' lines).
 CURVE_MODELS = ("arc", "spline")
-
-
-def _oblique(u: FloatArray, v: FloatArray) -> bool:
-    """Whether directions ``u`` and ``v`` differ by more than :data:`CORNER_TOL_RAD` from
-    parallel and from square."""
-    cos = abs(float(u @ v)) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-12)
-    angle = math.acos(min(cos, 1.0))  # 0 .. pi/2
-    return CORNER_TOL_RAD < angle < 0.5 * math.pi - CORNER_TOL_RAD
 
 
 def _corner_on_wall(
@@ -116,7 +100,7 @@ def _corner_on_wall(
     chord = poly[-1] - poly[0]
     v = b - a
     length = float(np.hypot(v[0], v[1]))
-    if length <= 0 or not _oblique(chord, v):
+    if length <= 0 or not oblique(chord, v):
         return None
     u = v / length
     den = float(chord[0] * u[1] - chord[1] * u[0])
@@ -125,7 +109,9 @@ def _corner_on_wall(
     # the chord's line meets the wall's at a + t0 u
     d = poly[0] - a
     t0 = float(d[0] * chord[1] - d[1] * chord[0]) / -den
-    return point_on_wall(xy, rng, a + t0 * u, wall)
+    t = place_on_line(xy, rng, a, u, t0, steps=POINT_ITERATIONS, settled=1e-9)
+    x = np.asarray(a + t * u, dtype=np.float64)
+    return x if bool(np.all(np.isfinite(x))) and bool(on_wall_lines(x, [wall])[0]) else None
 
 
 def curve_point(
@@ -148,27 +134,29 @@ def curve_point(
     -------
     PointFeature or None
     """
-    if not walls or not enough_support(echoes, idx):
+    if idx.size < MIN_READINGS or not walls:
         return None
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     poses = distinct_poses(xy)
+    if poses < MIN_POSES:
+        return None
     curve_res = distance_to_polylines(xy, [fit.polyline]) - rng
     plane_res = plane_residuals(xy, rng)
-    found: list[tuple[float, float, FloatArray]] = []
+    best: tuple[float, FloatArray] | None = None
     for w in walls:
         x = _corner_on_wall(xy, rng, fit.polyline, w)
         if x is None or not passes_through(echoes, idx, x):
             continue
         point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
         # neither the curve nor a plane explains the ranges significantly better
-        if not no_better_model(point_res, curve_res, plane_res):
+        if point_beats_plane(curve_res, point_res) or point_beats_plane(plane_res, point_res):
             continue
-        found.append((end_distance(x, w), float(np.sqrt(np.mean(point_res**2))), x))
-    x = nearest_end(found)
-    if x is None:
+        rms = float(np.sqrt(np.mean(point_res**2)))
+        if best is None or rms < best[0]:
+            best = (rms, x)
+    if best is None:
         return None
-    point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-    rms = float(np.sqrt(np.mean(point_res**2)))
+    rms, x = best
     plane = float(np.sqrt(np.mean(plane_res**2)))
     return PointFeature(x, idx, poses, rms, plane, sensor_span(xy, x))
 
@@ -201,6 +189,7 @@ def curves_as_points(
     echo where the wall x = 0 ends (alone, the ranges cannot tell); a circle of radius
     1 m heard from round it stays a curve.
 
+    >>> import math
     >>> ys = np.linspace(0.0, 0.28, 8)
     >>> s = np.c_[np.full(8, 4.0), ys]
     >>> rng = np.hypot(4.0, ys - 3.0)

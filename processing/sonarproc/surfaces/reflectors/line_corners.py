@@ -103,6 +103,7 @@ from sonarproc.surfaces.reflectors.range_models import (
     RANGE_TOL_M,
     distinct_poses,
     heard_plane,
+    place_on_line,
     plane_rms,
     point_beats_plane,
     sensor_span,
@@ -137,20 +138,6 @@ STEP_M = 0.5 * RANGE_TOL_M
 #: Gauss-Newton steps of the position along the line (one unknown; the gather is within
 #: the range tolerance already, two steps settle it to a fraction of a millimetre).
 LINE_FIT_STEPS = 3
-
-
-def _along_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t: float) -> float:
-    """Least-squares position ``t`` along the line ``a + t u`` of a point through the ranges."""
-    for _ in range(LINE_FIT_STEPS):
-        d = a + t * u - xy
-        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
-        res = dist - rng
-        jac = (d @ u) / dist
-        den = float(jac @ jac)
-        if den <= 1e-12:
-            break
-        t -= float(jac @ res) / den
-    return t
 
 
 def _crossings(pool: EchoGeometry, a: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -391,7 +378,14 @@ def corners_on_wall_lines(
         idx = gathers[c][free[gathers[c]]]
         if idx.size < MIN_LINE_POSES:
             continue
-        at = _along_line(echoes.xy[idx], echoes.range_m[idx], a, u, float((starts[c] - a) @ u))
+        at = place_on_line(
+            echoes.xy[idx],
+            echoes.range_m[idx],
+            a,
+            u,
+            float((starts[c] - a) @ u),
+            steps=LINE_FIT_STEPS,
+        )
         x = a + at * u
         tried[k].append(x)
         idx = gather(echoes, free, x, index)
@@ -420,8 +414,8 @@ def corners_on_wall_lines(
         span = sensor_span(xy, x)
         if span > 0.5 * math.pi + CORNER_TOL_RAD:
             continue
-        res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
+        # its misfits are filled in once it passes every test (no test reads them)
+        f = PointFeature(x, idx, poses, math.nan, math.nan, span)
         # less support than a free point needs: a corner's echo alone, heard from far
         weak = idx.size < MIN_READINGS or poses < MIN_POSES
         if weak and far_poses(f, echoes) < MIN_LINE_POSES:
@@ -435,6 +429,8 @@ def corners_on_wall_lines(
         # (last: a circle fit, asked of the few places that passed every other test)
         if pillar_pieces(echoes, idx, x, planes):
             continue
+        res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
+        f = PointFeature(x, idx, poses, float(np.sqrt(np.mean(res**2))), plane_rms(xy, rng), span)
         found.append(f)
         taken.append(x)
         free[idx] = False

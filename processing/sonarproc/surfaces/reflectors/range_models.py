@@ -37,6 +37,7 @@ __all__ = [
     "diffuse_rms",
     "distinct_poses",
     "heard_plane",
+    "place_on_line",
     "plane_beam_reach",
     "plane_residuals",
     "plane_rms",
@@ -322,3 +323,34 @@ def sensor_span(xy: FloatArray, p: FloatArray) -> float:
         return 0.0
     gaps = np.diff(np.r_[b, b[0] + 2 * np.pi])
     return float(2 * np.pi - gaps.max())
+
+
+def place_on_line(xy: FloatArray, rng: FloatArray, a: FloatArray, u: FloatArray, t: float, *,
+                  steps: int, settled: float = 0.0) -> float:  # fmt: skip
+    """The place ``a + t u`` on a line whose distances to the sensors ``xy`` best match
+    their ranges ``rng`` (least squares; Gauss-Newton from ``t``, one unknown).
+
+    At most ``steps`` steps; it stops early once a step moves the place by less than
+    ``settled`` (m), or when the distances do not change along the line.
+
+    Examples
+    --------
+    Two sensors 1 m off the x axis, ranging the place (2, 0) on it:
+
+    >>> xy = np.array([[0.0, 1.0], [0.5, 1.0]])
+    >>> rng = np.hypot(2.0 - xy[:, 0], xy[:, 1])
+    >>> round(place_on_line(xy, rng, np.zeros(2), np.array([1.0, 0.0]), 1.5, steps=10), 6)
+    2.0
+    """
+    for _ in range(steps):
+        d = a + t * u - xy
+        dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        jac = (d @ u) / dist
+        den = float(jac @ jac)
+        if den <= 1e-12:
+            break
+        step = float(jac @ (dist - rng)) / den
+        t -= step
+        if abs(step) < settled:
+            break
+    return t
