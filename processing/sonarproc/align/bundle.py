@@ -43,7 +43,9 @@ __all__ = [
     "RANGE_SIGMA_M",
     "WallProblem",
     "bundle_cost",
+    "bundle_costs",
     "echo_constrained_unknowns",
+    "echo_dispersion",
     "lines_start",
     "robust_echoes",
     "solve_bundle",
@@ -182,26 +184,29 @@ def _column_groups(pattern: csc_matrix) -> list[IntArray]:
     return [np.asarray(g, dtype=np.intp) for g in members]
 
 
-def echo_constrained_unknowns(prob: WallProblem, x: FloatArray) -> float:
+def echo_constrained_unknowns(prob: WallProblem, x: FloatArray,
+                              dispersion: float = 1.0) -> float:  # fmt: skip
     """How many of the pose unknowns the walls' echoes determine, at ``x``: the trace of
     the echoes' hat matrix, ``tr((T + E)^-1 E)``, the effective number of parameters of a
     fit with a prior (Hastie and Tibshirani's degrees of freedom of a linear smoother).
 
     ``T`` is the information of the odometry ties and the calibration prior on the pose
-    unknowns, ``E`` the echoes' (each weighted as ``soft_l1`` weighs it at ``x``) with
-    the walls' lines profiled out (they are refitted for every set of poses, so what the
-    poses can explain by moving a wall does not count). An unknown the echoes determine
-    far better than odometry counts one, one they hardly see counts nearly nothing:
-    noise in the ranges can lower their cost only through the unknowns they determine.
-    Near-axis echoes are mostly a side sonar's off the walls beside the track, so on the
-    simulated transducer logs of the tests they determine a node's position across its
-    track (0.8 of an unknown each) but hardly its position along it or its heading (0.1
-    each): about a third of the unknowns.
+    unknowns, ``E`` the echoes' (each weighted as ``soft_l1`` weighs it at ``x``, their
+    variance ``dispersion`` times the nominal one) with the walls' lines profiled out
+    (they are refitted for every set of poses, so what the poses can explain by moving a
+    wall does not count). An unknown the echoes determine far better than odometry
+    counts one, one they hardly see counts nearly nothing: noise in the ranges can lower
+    their cost only through the unknowns they determine. Near-axis echoes are mostly a
+    side sonar's off the walls beside the track, so on the simulated transducer logs of
+    the tests they determine a node's position across its track (0.8 of an unknown each)
+    but hardly its position along it or its heading (0.1 each): about a third of the
+    unknowns.
     """
     jac = prob.jacobian(x)
     f = prob.residuals(x)
     n_pose, first = prob.n_pose, prob.first_echo
-    weight = 1.0 / np.sqrt(1.0 + (f[first:] / ROBUST_SCALE) ** 2)  # soft_l1's, d rho / d z^2
+    # soft_l1's weight (d rho / d z^2), over the echoes' variance in nominal ones
+    weight = 1.0 / np.sqrt(1.0 + (f[first:] / ROBUST_SCALE) ** 2) / dispersion
     echo = csr_matrix(diags(np.sqrt(weight)) @ jac[first:])
     ties = jac[:first, :n_pose]
     # the lines' offsets span the range delay's column (one offset per wall, the delay
@@ -241,8 +246,33 @@ def robust_echoes(first_echo: int) -> Callable[[FloatArray], FloatArray]:
 
 def bundle_cost(prob: WallProblem, x: FloatArray) -> float:
     """Half the sum of the loss of the residuals at ``x`` (what :func:`solve_bundle` minimises)."""
+    return sum(bundle_costs(prob, x))
+
+
+def bundle_costs(prob: WallProblem, x: FloatArray) -> tuple[float, float]:
+    """:func:`bundle_cost` in two parts: the odometry ties' and calibration prior's, and
+    the echoes'."""
     f = prob.residuals(x)
-    return float(0.5 * np.sum(robust_echoes(prob.first_echo)(f**2)[0]))
+    loss = robust_echoes(prob.first_echo)(f**2)[0]
+    ties, echoes = loss[: prob.first_echo], loss[prob.first_echo :]
+    return float(0.5 * np.sum(ties)), float(0.5 * np.sum(echoes))
+
+
+def echo_dispersion(prob: WallProblem, x: FloatArray) -> float:
+    """How widely the echoes scatter about their walls at ``x``, as a fraction of the
+    nominal variance (:data:`RANGE_SIGMA_M` squared): their loss (``soft_l1``, the square
+    of a residual in range deviations where it is small) per residual degree of freedom
+    (echoes less the walls' and the poses' unknowns).
+
+    :data:`RANGE_SIGMA_M` is a nominal figure, wide enough for 1-inch range steps; a
+    log's own echoes say how widely its ranges scatter (on the simulated transducer logs
+    of the tests 0.3 to 0.7 of that variance), and the chance level of a cost drop in
+    nominal deviations scales with it.
+    """
+    f = prob.residuals(x)[prob.first_echo :]
+    loss = robust_echoes(0)(f**2)[0]
+    dof = f.size - (2 * prob.walls.count + 1) - prob.n_pose
+    return float(np.sum(loss) / max(dof, 1))
 
 
 def solve_bundle(prob: WallProblem, x0: FloatArray, *, free_pose: bool,
