@@ -41,7 +41,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import least_squares
 from scipy.sparse import coo_matrix, csr_matrix
 
 from sonarproc.align.echoes import EchoRays
@@ -306,6 +305,10 @@ def solve_graph(
     max_evaluations : int
         Residual evaluations allowed.
     """
+    # imported here: a track whose echoes match too few other stretches is left as it
+    # is without a solve, and scipy.optimize is a tenth of a second of a fresh start
+    from scipy.optimize import least_squares
+
     prob = PoseGraphProblem(nodes, ties, rays, track, matches, echo_sigma)
     x0 = np.concatenate((np.asarray(start[1:], dtype=np.float64).ravel(), calibration))
     before = robust_cost(prob.residuals(np.zeros_like(x0)))

@@ -22,7 +22,6 @@ from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
-from scipy import ndimage
 
 from sonarproc.errors import ParameterError
 from sonarproc.grid import Grid
@@ -125,6 +124,9 @@ class Triangulation(MapMethod):
         inside = grid.contains_index(iy, ix)
         flat = np.bincount(iy[inside] * grid.nx + ix[inside], minlength=grid.ny * grid.nx)
         hits = flat.reshape(grid.shape)
+        # imported here: the registry loads every method, and a run maps with one
+        from scipy import ndimage
+
         support = ndimage.uniform_filter(hits.astype(np.float64), size=3, mode="constant") * 9
         keep = (hits > 0) & (support >= int(o["min_support"]) - 0.5)
         return MethodMap(keep, hits.astype(np.uint32))

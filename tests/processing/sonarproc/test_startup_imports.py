@@ -54,3 +54,29 @@ def test_the_allocator_setting_starts_no_subprocess() -> None:
     # glibc takes the setting; elsewhere it is declined, still without a subprocess
     glibc = sys.platform.startswith("linux") and platform.libc_ver()[0] == "glibc"
     assert _python(_NO_SUBPROCESS) == str(glibc)
+
+
+# What a run with ``--fit polar`` loads for its quality stage and held-out folds.
+_POLAR_STAGES = """
+import sys
+import sonarproc.quality, sonarproc.quality.ahead, sonarproc.auto.holdout
+import sonarproc.methods
+print(*(m in sys.modules for m in (
+    "sonarproc.surfaces.extraction.extract", "sonarproc.auto.select", "scipy.optimize",
+    "scipy.ndimage",
+)))
+"""
+
+
+def test_the_polar_fit_stages_do_not_load_the_surface_fit() -> None:
+    # the packages load their names on first use: a map method's SurfaceFit, or the
+    # held-out folds, do not bring the surface extraction or --auto's selection with them
+    assert _python(_POLAR_STAGES).split() == ["False"] * 4
+
+
+def test_the_lazy_packages_still_give_every_public_name() -> None:
+    code = (
+        "import sonarproc.surfaces as s, sonarproc.auto as a\n"
+        "print(all(getattr(p, n) is not None for p in (s, a) for n in p.__all__))"
+    )
+    assert _python(code) == "True"
