@@ -445,8 +445,9 @@ def corners_on_wall_lines(
             continue
         # the place with the time walk of its weak echoes taken out: seen over a narrow
         # span of bearings, the walk growing across the beam shifts it along the line
-        at, walked = place_on_line_with_walk(xy, rng, echoes.heading[idx],
-                                             echoes.half_beam[idx], a, u, float((x - a) @ u))  # fmt: skip
+        at, walked = place_on_line_with_walk(
+            xy, rng, echoes.heading[idx], echoes.half_beam[idx], a, u, float((x - a) @ u)
+        )
         x = a + at * u
         if not _no_plane(echoes, idx, x, u, end, walked, resolved_ok=not weak):
             continue

@@ -45,4 +45,3 @@ def test_a_corner_heard_from_one_far_row_is_found_within_5_cm(seed: int) -> None
     assert len(found) == 1
     assert float(np.hypot(*found[0].xy)) < 0.05
     assert found[0].poses == 9
-
