@@ -72,13 +72,15 @@ is a corner when:
   explains any point's ranges heard over a narrow spread of bearings. An oblique plane
   crossing the wall's line just where the readings' arcs meet is what
   :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects. The point is judged,
-  and placed, with the time walk of its weak echoes taken out
+  and placed, when it holds a free point's support, with the time walk of its weak
+  echoes taken out
   (:func:`~sonarproc.surfaces.reflectors.time_walk.place_on_line_with_walk`: seen over
   a narrow span of bearings from far, the walk growing across the beam shifts it along
-  the line by centimetres). A corner with a free point's support that the ranges place
-  within their 1-inch resolution is not beaten by a plane: heard from one straight
-  stretch of track far off, a point's ranges step by whole inches as evenly as a
-  plane's, and the plane's smaller residual is the rounding's.
+  the line by centimetres; from fewer readings the walk fitted beside the place takes up
+  the range steps' noise instead). Such a corner, when the ranges place it within their
+  1-inch resolution, is not beaten by a plane: heard from one straight stretch of track
+  far off, a point's ranges step by whole inches as evenly as a plane's, and the plane's
+  smaller residual is the rounding's.
 
 Its kind is then decided like every other point's.
 """
@@ -443,12 +445,16 @@ def corners_on_wall_lines(
         end = a if float(np.hypot(*(x - a))) <= float(np.hypot(*(x - b))) else b
         if not answers_its_beams(f, echoes, beams):
             continue
-        # the place with the time walk of its weak echoes taken out: seen over a narrow
-        # span of bearings, the walk growing across the beam shifts it along the line
-        at, walked = place_on_line_with_walk(
-            xy, rng, echoes.heading[idx], echoes.half_beam[idx], a, u, float((x - a) @ u)
-        )
-        x = a + at * u
+        # with a free point's support, the place with the time walk of its weak echoes
+        # taken out: seen over a narrow span of bearings, the walk growing across the beam
+        # shifts it along the line (with fewer readings the walk fitted beside the place
+        # takes up the noise of the range steps instead, and moves the place as much)
+        walked = None
+        if not weak:
+            at, walked = place_on_line_with_walk(
+                xy, rng, echoes.heading[idx], echoes.half_beam[idx], a, u, float((x - a) @ u)
+            )
+            x = a + at * u
         if not _no_plane(echoes, idx, x, u, end, walked, resolved_ok=not weak):
             continue
         # where planes fitted to a pillar leave its surface: one cylinder explains them all
