@@ -29,7 +29,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 from scipy.optimize import least_squares
-from scipy.sparse import csr_matrix
+from scipy.sparse import csc_matrix, csr_matrix, diags
 
 from sonarlog import DEFAULT_SPEED_OF_SOUND
 from sonarproc.align.echoes import EchoRays
@@ -43,6 +43,9 @@ __all__ = [
     "RANGE_SIGMA_M",
     "WallProblem",
     "bundle_cost",
+    "bundle_costs",
+    "echo_constrained_unknowns",
+    "echo_dispersion",
     "lines_start",
     "robust_echoes",
     "solve_bundle",
@@ -50,6 +53,7 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 #: Standard deviation (m) of a first echo's range about its sensor's distance from a flat
 #: wall: 1-inch range steps (2.54 cm / sqrt(12) = 0.73 cm) and a few millimetres of
@@ -135,6 +139,87 @@ class WallProblem:
         shape = (odo.shape[0] + m, x.size)
         return csr_matrix((np.ones(r.size), (r, c)), shape=shape)
 
+    def jacobian(self, params: FloatArray, diff_step: float = 1e-7) -> csr_matrix:
+        """The residuals' derivatives at ``params`` by forward differences (steps relative
+        to ``max(1, |x|)``, as :func:`solve_bundle`'s), unknowns that share no residual
+        stepped together (a few residual evaluations, not one per unknown)."""
+        pattern = csc_matrix(self.sparsity())
+        pattern.sum_duplicates()
+        f0 = self.residuals(params)
+        h = diff_step * np.maximum(1.0, np.abs(params))
+        rows: list[IntArray] = []
+        cols: list[IntArray] = []
+        vals: list[FloatArray] = []
+        for group in _column_groups(pattern):
+            x = params.copy()
+            x[group] += h[group]
+            df = self.residuals(x) - f0
+            for j in group:
+                r = pattern.indices[pattern.indptr[j] : pattern.indptr[j + 1]]
+                rows.append(r)
+                cols.append(np.full(r.size, j, dtype=np.intp))
+                vals.append(df[r] / h[j])
+        data = (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols)))
+        return csr_matrix(data, shape=pattern.shape)
+
+
+def _column_groups(pattern: csc_matrix) -> list[IntArray]:
+    """The columns of a sparsity pattern in groups that share no row, greedily in order
+    (a node's offsets share residuals only with its neighbours' and the calibration's;
+    different walls' lines share none)."""
+    taken: list[npt.NDArray[np.bool_]] = []
+    members: list[list[int]] = []
+    for j in range(pattern.shape[1]):
+        r = pattern.indices[pattern.indptr[j] : pattern.indptr[j + 1]]
+        for mask, group in zip(taken, members, strict=True):
+            if not mask[r].any():
+                mask[r] = True
+                group.append(j)
+                break
+        else:
+            mask = np.zeros(pattern.shape[0], dtype=bool)
+            mask[r] = True
+            taken.append(mask)
+            members.append([j])
+    return [np.asarray(g, dtype=np.intp) for g in members]
+
+
+def echo_constrained_unknowns(prob: WallProblem, x: FloatArray,
+                              dispersion: float = 1.0) -> float:  # fmt: skip
+    """How many of the pose unknowns the walls' echoes determine, at ``x``: the trace of
+    the echoes' hat matrix, ``tr((T + E)^-1 E)``, the effective number of parameters of a
+    fit with a prior (Hastie and Tibshirani's degrees of freedom of a linear smoother).
+
+    ``T`` is the information of the odometry ties and the calibration prior on the pose
+    unknowns, ``E`` the echoes' (each weighted as ``soft_l1`` weighs it at ``x``, their
+    variance ``dispersion`` times the nominal one) with the walls' lines profiled out
+    (they are refitted for every set of poses, so what the poses can explain by moving a
+    wall does not count). An unknown the echoes determine far better than odometry
+    counts one, one they hardly see counts nearly nothing: noise in the ranges can lower
+    their cost only through the unknowns they determine. Near-axis echoes are mostly a
+    side sonar's off the walls beside the track, so on the simulated transducer logs of
+    the tests they determine a node's position across its track (0.8 of an unknown each)
+    but hardly its position along it or its heading (0.1 each): about a third of the
+    unknowns.
+    """
+    jac = prob.jacobian(x)
+    f = prob.residuals(x)
+    n_pose, first = prob.n_pose, prob.first_echo
+    # soft_l1's weight (d rho / d z^2), over the echoes' variance in nominal ones
+    weight = 1.0 / np.sqrt(1.0 + (f[first:] / ROBUST_SCALE) ** 2) / dispersion
+    echo = csr_matrix(diags(np.sqrt(weight)) @ jac[first:])
+    ties = jac[:first, :n_pose]
+    # the lines' offsets span the range delay's column (one offset per wall, the delay
+    # shifts them all), so the lines alone are profiled out
+    n_lines = 2 * prob.walls.count
+    pose, lines = echo[:, :n_pose], echo[:, n_pose : n_pose + n_lines]
+    info = (pose.T @ pose).toarray()
+    cross = (lines.T @ pose).toarray()
+    gram = (lines.T @ lines).toarray()
+    e = info - cross.T @ np.linalg.lstsq(gram, cross, rcond=None)[0]
+    t = (ties.T @ ties).toarray()
+    return float(np.trace(np.linalg.solve(t + e, e)))
+
 
 def robust_echoes(first_echo: int) -> Callable[[FloatArray], FloatArray]:
     """A :func:`least_squares` loss: ``soft_l1`` (scale :data:`ROBUST_SCALE`) on the echo
@@ -161,8 +246,33 @@ def robust_echoes(first_echo: int) -> Callable[[FloatArray], FloatArray]:
 
 def bundle_cost(prob: WallProblem, x: FloatArray) -> float:
     """Half the sum of the loss of the residuals at ``x`` (what :func:`solve_bundle` minimises)."""
+    return sum(bundle_costs(prob, x))
+
+
+def bundle_costs(prob: WallProblem, x: FloatArray) -> tuple[float, float]:
+    """:func:`bundle_cost` in two parts: the odometry ties' and calibration prior's, and
+    the echoes'."""
     f = prob.residuals(x)
-    return float(0.5 * np.sum(robust_echoes(prob.first_echo)(f**2)[0]))
+    loss = robust_echoes(prob.first_echo)(f**2)[0]
+    ties, echoes = loss[: prob.first_echo], loss[prob.first_echo :]
+    return float(0.5 * np.sum(ties)), float(0.5 * np.sum(echoes))
+
+
+def echo_dispersion(prob: WallProblem, x: FloatArray) -> float:
+    """How widely the echoes scatter about their walls at ``x``, as a fraction of the
+    nominal variance (:data:`RANGE_SIGMA_M` squared): their loss (``soft_l1``, the square
+    of a residual in range deviations where it is small) per residual degree of freedom
+    (echoes less the walls' and the poses' unknowns).
+
+    :data:`RANGE_SIGMA_M` is a nominal figure, wide enough for 1-inch range steps; a
+    log's own echoes say how widely its ranges scatter (on the simulated transducer logs
+    of the tests 0.3 to 0.7 of that variance), and the chance level of a cost drop in
+    nominal deviations scales with it.
+    """
+    f = prob.residuals(x)[prob.first_echo :]
+    loss = robust_echoes(0)(f**2)[0]
+    dof = f.size - (2 * prob.walls.count + 1) - prob.n_pose
+    return float(np.sum(loss) / max(dof, 1))
 
 
 def solve_bundle(prob: WallProblem, x0: FloatArray, *, free_pose: bool,

@@ -32,6 +32,11 @@ MIN_STEP = 0.01
 #: Most threads the neighbour search runs on: the queries are independent (the answer is
 #: the same on any number), and beyond a few cores memory bandwidth gains nothing more.
 MAX_SEARCH_THREADS = 4
+#: Shortest length (m) over which a line counts as seen (see :func:`line_matches`): a
+#: line's neighbours come from one stretch of track (a node spacing, about 1 m) and at
+#: least three places 1 cm apart; seen over less than this, their spread is the range
+#: noise's, not the wall's extent.
+FOOT_FLOOR = 0.1
 
 
 def _search_threads() -> int:
@@ -177,6 +182,18 @@ def line_matches(
     normal. The line is anchored where its readings were taken (their mean travel and
     robot position), so that the least-squares problem moves it with the correction of
     its own stretch.
+
+    The query's specular foot must also lie on the part of the line its neighbours saw,
+    widened by that part's own length on either side (:data:`FOOT_FLOOR` at least). A
+    reading's foot lies, along the wall, where its sensor does, so this compares the
+    sensors' positions along the line. A corner or an edge echoes like a point: seen
+    from one stretch its echoes fit a line tangent to the circle round it, which agrees
+    with the readings of that stretch but not with a query seen from metres further
+    away, whose range to the point differs from its distance to that line in proportion
+    to the distance between them. Along a corridor driven to its end wall and back those
+    matches (the end wall's corners, seen from 1.7 m and from 5 m) read as a 3 %
+    odometry scale error and passed the significance test on a drift-free log; a real
+    wall's line is matched where it was seen, where a plane and a point agree.
     """
     member = neighbours >= 0
     nb = np.where(member, neighbours, 0)
@@ -211,8 +228,19 @@ def line_matches(
     ex = mean(raw.sensor_xy[:, 0], member) + reach * normal[:, 0]
     ey = mean(raw.sensor_xy[:, 1], member) + reach * normal[:, 1]
     q = np.column_stack((np.cos(query_look), np.sin(query_look)))
+    # along the wall, each reading's specular foot lies where its sensor does (the foot
+    # is the sensor moved along the normal): the line is known where its readings' feet
+    # are; a point's echoes fit it there only, a plane's everywhere
+    along = np.column_stack((-normal[:, 1], normal[:, 0]))
+    t = raw.sensor_xy[nb, 0] * along[:, None, 0] + raw.sensor_xy[nb, 1] * along[:, None, 1]
+    lo = np.where(member, t, np.inf).min(axis=1)
+    hi = np.where(member, t, -np.inf).max(axis=1)
+    seen_len = np.maximum(hi - lo, FOOT_FLOOR)
+    tq = np.sum(raw.sensor_xy[query] * along, axis=1)
+    on_seen = (tq >= lo - seen_len) & (tq <= hi + seen_len)
     keep = (
-        (member.sum(axis=1) >= min_points)
+        on_seen
+        & (member.sum(axis=1) >= min_points)
         & (places >= min_places)
         & (np.sum(q * normal, axis=1) >= np.cos(raw.half_beam[query]))
     )

@@ -27,7 +27,15 @@ is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`); so i
 that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through (their
 range reaches beyond it: a chance crossing of arcs in free space, which the sound
 crossed; a real surface is seen through only by a stray long echo). The rounds
-count the readings whose arcs end near a surface; after the last, a surface fewer than
+count the readings whose arcs end near a surface, and only between the feet of its
+outermost echoes: a fit runs on past its echoes over its ridge (the tails of the arcs
+reach beyond a desk's or a workbench's face), sound passing beyond those feet says where
+the surface ends (the openings' cut ends it there), not that it is absent, and a chance
+crossing of arcs is crossed by sound between its echoes, where it would stand. That holds
+for a surface heard by few readings (a sparse log's short face) as for one heard by
+many, once its echoes' feet span :data:`MIN_SPREAD_M` (echoes at one spot span nothing
+to be seen through, and the readings beside them are then the only test). After the
+last round, a surface fewer than
 :data:`WEAK_ECHOES` readings echo from is tested against every reading, between its
 outermost echo points (the phantoms have few echoes, and the sound that crossed them may
 end far behind; a fit's ends are stretched beyond its echoes, and sound passing the end
@@ -344,11 +352,11 @@ def refine_fits(
     noise = STRAIGHT_SHARE * rounds[-1] if rounds else 0.0
     for r, tol in enumerate(rounds):
         scored, need = _scored(echoes, r, len(rounds), min_echoes)
-        # a surface of :data:`WEAK_ECHOES` (scaled as ``need``) is seen through only where
-        # its echoes are, as after the last round: its ridge may run on past them
-        strong = math.ceil(WEAK_ECHOES * scored.size / max(echoes.size, 1))
+        # a surface with echoes enough to stay, over a stretch of its own, is seen through
+        # only between them, as after the last round: its ridge may run on past them
+        # (module notes)
         got = echo_points([f.polyline for f in cur], [f.closed for f in cur], scored, tol=tol,
-                          spanned_from=strong)  # fmt: skip
+                          spanned_from=need, spanned_over=MIN_SPREAD_M)  # fmt: skip
         view = viewpoint_ids(scored.xy)
         nxt: list[SurfaceFit] = []
         nxt_ridge: list[SurfaceCells] = []

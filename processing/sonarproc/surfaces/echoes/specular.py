@@ -186,6 +186,7 @@ def echo_points(
     *,
     tol: float,
     spanned_from: int | None = None,
+    spanned_over: float = 0.0,
 ) -> list[SurfaceEchoes]:
     """The readings that echo from each surface, their echo points and the feet's arc length.
 
@@ -206,6 +207,10 @@ def echo_points(
         echoes over its ridge, and sound passing the end of a wall that many readings
         heard says where the wall ends (:mod:`sonarproc.surfaces.echoes.openings` cuts
         it there), not that it is not there; a phantom has few echoes.
+    spanned_over : float
+        ... and whose echoes' feet span at least this (m): echoes at one spot span no
+        stretch to be seen through, and the readings beside it are then the only test
+        of a surface there (default: any span).
 
     Returns
     -------
@@ -262,6 +267,7 @@ def echo_points(
         np.minimum.at(lo, surf[ok], along[ok])
         np.maximum.at(hi, surf[ok], along[ok])
         whole = (count[surf] < spanned_from) | np.asarray(closed, dtype=bool)[surf]
+        whole |= (hi - lo < spanned_over)[surf]
         beyond &= whole | ((along >= lo[surf]) & (along <= hi[surf]))
     through = np.bincount(surf[beyond], minlength=m)
     resid = np.abs(d - rng)

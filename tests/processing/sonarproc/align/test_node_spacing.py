@@ -5,8 +5,8 @@ a fifth of its firings hearing a spurious echo, has too few echo matches for a n
 every metre (three unknowns each), but as many that see a wall again from the far side
 of the loop whatever the spacing: on 2 m nodes the drift (2 % of the distance, 2
 degrees per 10 m) is observed with half the unknowns. A single pass round a corner has
-matches only into the next stretch along each wall, which observe no drift: it stays
-refused at every spacing (on 2 m nodes, counting those matches too, the correction
+matches only into the next stretch along each wall, which observe no drift: its
+correction is refused (on 2 m nodes, counting those matches too, the correction
 passed the significance test and doubled the pose error).
 """
 
@@ -20,7 +20,6 @@ import yaml
 from drift import drifted_readings, pose_error_rms, scenario_path
 
 from sonarproc.align import align_poses
-from sonarproc.align.poses import MAX_NODE_SPACING
 
 
 @cache
@@ -50,11 +49,20 @@ def test_a_cluttered_sparse_loop_is_aligned_on_coarser_nodes() -> None:
 
 
 def test_a_single_sparse_pass_stays_refused() -> None:
+    """Its echoes match only the next stretch along each wall: on 1 m nodes enough of
+    them to solve, but the correction they give is not significant, and the run keeps
+    the poses (measured: twice the cost drop 11.9 against 61.2; it once fell short of
+    matches in a later round, after a first round whose corner echoes, matched to
+    lines seen from elsewhere, had moved the track)."""
+    from scipy.special import chdtri
+
+    from sonarproc.pipeline.alignment import SIGNIFICANCE
+
     _, drifted, sensors, c = _sparse("sparse10-l-corridor", 0.0)
     a = align_poses(drifted, sensors, speed_of_sound=c)
-    assert "not next to their own" in a.reason
-    assert f"{MAX_NODE_SPACING:.3g} m apart" in a.reason
-    assert np.array_equal(a.x, drifted["x"]) and np.array_equal(a.y, drifted["y"])
+    assert a.reason == "" and a.node_spacing_m == 1.0
+    unknowns = 3 * (a.node_offsets.shape[0] - 1) + a.calibration.size
+    assert 2.0 * (a.cost_before - a.cost_after) < 0.5 * float(chdtri(unknowns, SIGNIFICANCE))
 
 
 @pytest.mark.slow

@@ -62,8 +62,10 @@ def test_a_declined_or_empty_alignment_is_not_refined() -> None:
 def test_the_refinement_restores_the_surfaces_of_a_drifted_transducer_log(tmp_path: Path) -> None:
     """pioneer-hall (transducer physics), seed 7, route driven three times, 2 % drift.
 
-    Measured: the pose graph alone leaves 2.1 cm of pose error and a precision 3.1x the
-    drift-free run's; refined, 0.5 cm and 1.02x (margin about 1.5 / 1.02 = 1.47x).
+    Measured: the pose graph alone leaves 0.91 cm of pose error and a precision 1.04x the
+    drift-free run's; refined, 0.28 cm and 0.75x (margin about 1.5 / 0.75 = 2x). Twice the
+    refinement's cost drop is 156, against 93 for the 63 unknowns the walls' echoes
+    determine (of 179).
     """
     res = looped_scenario("pioneer-hall", 3, seed=7)
     logs = []
@@ -132,9 +134,9 @@ def test_the_bundle_reads_a_walls_ranges_with_their_time_walk() -> None:
 def test_the_refinement_of_a_drifted_transducer_log_fits_the_ranges_less_their_walk() -> None:
     """office-door (transducer physics), seed 13, route driven twice, 2 % drift.
 
-    Measured: the pose graph leaves 2.95 cm of pose error. With the ranges' time walk left
-    in, the refinement does not lower the walls' cost significantly and is not kept; with
-    it taken out, it is kept and leaves 0.71 cm.
+    Measured: the pose graph leaves 1.67 cm of pose error. With the ranges' time walk left
+    in, the refinement leaves 0.80 cm; with it taken out, 0.48 cm (twice the cost drop 158
+    against 70 for the 45 unknowns the walls' echoes determine).
     """
     res = looped_scenario("office-door", 2, seed=13)
     truth = res.readings
@@ -145,4 +147,4 @@ def test_the_refinement_of_a_drifted_transducer_log_fits_the_ranges_less_their_w
     ref = refine_alignment(drifted, res.sensors, a, speed_of_sound=c)
     assert ref.kept, ref.summary()
     refined = pose_error_rms(truth, ref.alignment.x, ref.alignment.y)
-    assert graph > 0.02 and refined <= 0.4 * graph, (graph, refined)
+    assert graph > 0.01 and refined <= 0.4 * graph, (graph, refined)

@@ -52,7 +52,8 @@ def test_run_removes_the_drift_and_restores_the_surfaces(name: str, seed: int, t
     # hall-pillar 231 against 140, about 1.6x)
     assert record.cost_drop_x2 > 1.25 * record.threshold
     # drift displaces every echo of a wall seen again: the typical echo agrees far better
-    assert record.summary["echo_median_after_m"] < 0.5 * record.summary["echo_median_before_m"]
+    # (measured: room-box 1.04 -> 0.64 cm, hall-pillar 1.36 -> 0.46 cm)
+    assert record.summary["echo_median_after_m"] < 0.7 * record.summary["echo_median_before_m"]
     truth = exact.readings
     before = pose_error_rms(truth, drifted.readings["x"], drifted.readings["y"])
     after = pose_error_rms(truth, aligned.readings["x"], aligned.readings["y"])
@@ -130,13 +131,20 @@ def test_the_alignment_figure_is_drawn_when_applied(tmp: str, tmp_path: Path) ->
     [
         "office-door",
         str(Path(__file__).resolve().parents[3] / "data/scenarios/heldout-u-hall.yaml"),
+        str(
+            Path(__file__).resolve().parents[3]
+            / "data/scenarios/sparse17-heldout-branch-corridor.yaml"
+        ),
     ],
 )
 def test_a_drift_free_transducer_log_keeps_its_poses(scenario: str, tmp_path: Path) -> None:
     """Corner and edge echoes and time walk are not drift: judged on the matches found at
     the raw poses, the correction of these exact-pose logs is not significant (measured:
     twice the cost drop 70.6 against 83.5 and 45.2 against 68.7; judged on the solver's
-    last matches it passed, and moved their poses by 11 and 38 cm)."""
+    last matches it passed, and moved their poses by 11 and 38 cm). On a corridor driven
+    to its end wall and back, the corners' echoes matched to lines whose readings were
+    taken metres nearer passed the test as a 3 % odometry scale error (146 against 90.8,
+    poses moved by 26 cm); matched only where the line was seen, they do not (16.6)."""
     log = tmp_path / "log.h5"
     assert main(["simulate", scenario, "--out", str(log)]) == 0
     _, record = align_log(read_log(log))
@@ -147,17 +155,18 @@ def test_a_drift_free_transducer_log_keeps_its_poses(scenario: str, tmp_path: Pa
 
 def test_a_correction_that_worsens_the_typical_echo_is_refused(tmp_path: Path) -> None:
     """A drift-free sparse log of two crossing corridors (Pioneer front ring, transducer
-    physics): the solver's correction passes the chi-square test on its robust cost
+    physics): the solver's correction once passed the chi-square test on its robust cost
     (measured: twice the drop 116 against 87.2), but only by pulling in a few outlying
-    echoes: the median echo residual grows from 0.98 to 1.3 cm. Applied, it moved the
-    east arm's walls by about 10 cm; it is refused and the poses stay exact."""
+    echoes (corners' echoes matched to lines seen from elsewhere): the median echo
+    residual grew from 0.98 to 1.3 cm, and the median rule refused it. With echoes
+    matched only where their line was seen, the drop is no longer significant (26.2
+    against 87.2). Either way it is refused and the poses stay exact."""
     scenario = Path(__file__).resolve().parents[3] / "data/scenarios/sparse10-heldout-cross.yaml"
     log = tmp_path / "log.h5"
     assert main(["simulate", str(scenario), "--out", str(log)]) == 0
     _, record = align_log(read_log(log))
-    assert record.cost_drop_x2 > record.threshold
     s = record.summary
-    assert s["echo_median_after_m"] > s["echo_median_before_m"] > 0.0
+    significant = record.cost_drop_x2 > record.threshold
+    assert not significant or s["echo_median_after_m"] > s["echo_median_before_m"] > 0.0
     assert record.applied is False
-    assert "typical echo agree worse" in record.reason
     assert record.max_shift_m == 0.0
