@@ -71,7 +71,16 @@ is a corner when:
   would leave a step at its end; it is the plane normal to the line of sight that
   explains any point's ranges heard over a narrow spread of bearings. An oblique plane
   crossing the wall's line just where the readings' arcs meet is what
-  :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects.
+  :mod:`~sonarproc.surfaces.reflectors.corner_planes` rejects. The point is judged,
+  and placed, when it holds a free point's support, with the time walk of its weak
+  echoes taken out
+  (:func:`~sonarproc.surfaces.reflectors.time_walk.place_on_line_with_walk`: seen over
+  a narrow span of bearings from far, the walk growing across the beam shifts it along
+  the line by centimetres; from fewer readings the walk fitted beside the place takes up
+  the range steps' noise instead). Such a corner, when the ranges place it within their
+  1-inch resolution, is not beaten by a plane: heard from one straight stretch of track
+  far off, a point's ranges step by whole inches as evenly as a plane's, and the plane's
+  smaller residual is the rounding's.
 
 Its kind is then decided like every other point's.
 """
@@ -100,6 +109,7 @@ from sonarproc.surfaces.reflectors.point_echoes import (
     far_poses,
 )
 from sonarproc.surfaces.reflectors.range_models import (
+    RANGE_STEP_NOISE_M,
     RANGE_TOL_M,
     distinct_poses,
     heard_plane,
@@ -109,6 +119,7 @@ from sonarproc.surfaces.reflectors.range_models import (
     sensor_span,
 )
 from sonarproc.surfaces.reflectors.rcd import MIN_POSES, MIN_READINGS, PointFeature
+from sonarproc.surfaces.reflectors.time_walk import place_on_line_with_walk
 from sonarproc.surfaces.reflectors.walls import (
     END_REACH_M,
     WALL_GAP_M,
@@ -220,7 +231,14 @@ def _occluded(
 
 
 def _no_plane(
-    echoes: EchoGeometry, idx: IntArray, x: FloatArray, u: FloatArray, end: FloatArray
+    echoes: EchoGeometry,
+    idx: IntArray,
+    x: FloatArray,
+    u: FloatArray,
+    end: FloatArray,
+    point_res: FloatArray | None = None,
+    *,
+    resolved_ok: bool = False,
 ) -> bool:
     """Whether no plane explains the readings ``idx`` in place of a corner at ``x`` (module notes).
 
@@ -254,8 +272,10 @@ def _no_plane(
     if plane is None:
         return True
     n, plane_res = plane
-    point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
-    if point_beats_plane(plane_res, point_res):
+    if point_res is None:
+        point_res = np.hypot(xy[:, 0] - x[0], xy[:, 1] - x[1]) - rng
+    resolved = resolved_ok and float(np.sqrt(np.mean(point_res**2))) <= RANGE_STEP_NOISE_M
+    if not resolved and point_beats_plane(plane_res, point_res):
         return False
     cross = abs(float(n @ u))  # the sine of the angle between the plane and the line
     if cross <= math.sin(CORNER_TOL_RAD):
@@ -423,7 +443,19 @@ def corners_on_wall_lines(
         # the retro-reflection test first: it turns down the chance crossings of a long log
         beams = BeamIndex(echoes) if beams is None else beams
         end = a if float(np.hypot(*(x - a))) <= float(np.hypot(*(x - b))) else b
-        if not answers_its_beams(f, echoes, beams) or not _no_plane(echoes, idx, x, u, end):
+        if not answers_its_beams(f, echoes, beams):
+            continue
+        # with a free point's support, the place with the time walk of its weak echoes
+        # taken out: seen over a narrow span of bearings, the walk growing across the beam
+        # shifts it along the line (with fewer readings the walk fitted beside the place
+        # takes up the noise of the range steps instead, and moves the place as much)
+        walked = None
+        if not weak:
+            at, walked = place_on_line_with_walk(
+                xy, rng, echoes.heading[idx], echoes.half_beam[idx], a, u, float((x - a) @ u)
+            )
+            x = a + at * u
+        if not _no_plane(echoes, idx, x, u, end, walked, resolved_ok=not weak):
             continue
         # where planes fitted to a pillar leave its surface: one cylinder explains them all
         # (last: a circle fit, asked of the few places that passed every other test)

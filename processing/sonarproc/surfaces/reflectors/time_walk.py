@@ -20,7 +20,8 @@ half-width taken as the piston's first null (``ka sin(half width) = 3.8317``), a
 spreading as ``1 / r^2``.
 :func:`fit_point_with_walk` fits the point and the walk of its weakest echo together,
 that walk bounded by :data:`TIME_WALK_M` (an echo is heard only above the threshold,
-where the walk is largest).
+where the walk is largest); :func:`place_on_line_with_walk` does the same for a point
+known to lie on a line (a corner on a fitted wall's line: one unknown of place).
 """
 
 from __future__ import annotations
@@ -31,7 +32,13 @@ from scipy.optimize import least_squares
 
 from sonarsim.transducer import PISTON_FIRST_NULL, main_lobe_amplitude
 
-__all__ = ["PISTON_FIRST_NULL", "TIME_WALK_M", "fit_point_with_walk", "walk_shape"]
+__all__ = [
+    "PISTON_FIRST_NULL",
+    "TIME_WALK_M",
+    "fit_point_with_walk",
+    "place_on_line_with_walk",
+    "walk_shape",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -40,6 +47,10 @@ FloatArray = npt.NDArray[np.float64]
 #: circle's radius ``R`` shows in the ranges only as the sag ``R (1 - cos(span / 2))``
 #: across the sensors' span; a sag under this bias is no evidence of a radius.
 TIME_WALK_M = 0.015
+#: Rounds of :func:`place_on_line_with_walk`, each with the walk's shape at the place the
+#: round before found: the shape changes by a few per cent over the centimetres a round
+#: moves the place, so the third round moves it by well under a millimetre.
+WALK_ROUNDS = 3
 # J1's first zero to the 4 decimals a nominal half-width given to 0.1 degree warrants
 _FIRST_NULL = round(PISTON_FIRST_NULL, 4)
 
@@ -108,3 +119,56 @@ def fit_point_with_walk(
     scale = np.array([0.1, 0.1, 0.01])
     sol = least_squares(res, x0, jac=jac, bounds=(lo, hi), method="trf", x_scale=scale)
     return np.asarray(sol.x[:2], dtype=np.float64), float(sol.x[2])
+
+
+def place_on_line_with_walk(
+    xy: FloatArray,
+    rng: FloatArray,
+    heading: FloatArray,
+    half_beam: FloatArray,
+    a: FloatArray,
+    u: FloatArray,
+    t: float,
+) -> tuple[float, FloatArray]:
+    """The place ``a + t u`` on a line and the walk of its weakest echo, fitted together.
+
+    ``range = |a + t u - sensor| + w shape`` with ``0 <= w <= TIME_WALK_M``, the walk's
+    :func:`walk_shape` taken at the place of the round before (:data:`WALK_ROUNDS`
+    rounds from the place given: the shape changes little over the few centimetres a
+    round moves the place). Returns ``t`` (m along the line from ``a``)
+    and the range residuals (m) there.
+
+    Examples
+    --------
+    Sensors on a row 4 m from the x axis ranging the place (2, 0) on it with a walk of
+    1 cm times the shape: the place comes back.
+
+    >>> xy = np.c_[np.linspace(4.0, 4.4, 9), np.full(9, 4.0)]
+    >>> heading = np.full(9, np.radians(-120.0))
+    >>> half = np.full(9, np.radians(12.5))
+    >>> shape = walk_shape(xy, heading, half, np.array([2.0, 0.0]))
+    >>> rng = np.hypot(2.0 - xy[:, 0], xy[:, 1]) + 0.01 * shape
+    >>> t, res = place_on_line_with_walk(xy, rng, heading, half, np.zeros(2),
+    ...                                  np.array([1.0, 0.0]), 1.9)
+    >>> round(t, 3), float(np.abs(res).max()) < 1e-4
+    (2.0, True)
+    """
+    q = np.array([t, 0.5 * TIME_WALK_M])
+    bounds = (np.array([-np.inf, 0.0]), np.array([np.inf, TIME_WALK_M]))
+    fun = np.zeros(0)
+    for _ in range(WALK_ROUNDS):
+        shape = walk_shape(xy, heading, half_beam, a + q[0] * u)
+
+        def res(c: FloatArray, shape: FloatArray = shape) -> FloatArray:
+            d = a + c[0] * u - xy
+            return np.asarray(np.hypot(d[:, 0], d[:, 1]) + c[1] * shape - rng)
+
+        def jac(c: FloatArray, shape: FloatArray = shape) -> FloatArray:
+            d = a + c[0] * u - xy
+            dist = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+            return np.column_stack(((d @ u) / dist, shape))
+
+        sol = least_squares(res, q, jac=jac, bounds=bounds, method="trf",
+                            x_scale=np.array([0.1, 0.01]))  # fmt: skip
+        q, fun = np.asarray(sol.x, dtype=np.float64), sol.fun
+    return float(q[0]), np.asarray(fun, dtype=np.float64)

@@ -21,6 +21,13 @@ straight walls cross when:
   dihedral returns the sound along its path; walls meeting otherwise are not a corner
   that was heard, and a plane crossing a wall obliquely is
   :mod:`~sonarproc.surfaces.reflectors.corner_planes`' business);
+* a wall heard from both sides (at least
+  :data:`~sonarproc.surfaces.reflectors.line_corners.MIN_LINE_POSES` distinct poses on
+  each, their feet spread over :data:`MIN_FACE_M` at least) is thin, and one fit may span
+  both its faces (a door's wall, seen from the corridor and from the room, runs on past
+  the corridor's corner as the room's wall): each face is a wall of its own, over the
+  feet of its side's echoes, and the readings from behind a face (its other face's) are
+  no readings of a corner on it;
 * the crossing lies on each wall's line at its end: from
   :data:`~sonarproc.surfaces.reflectors.walls.END_REACH_M` inside it (a wall seen head
   on is fitted up to ``sqrt(2 d tol)`` past its corner, above) to at most
@@ -72,7 +79,7 @@ from sonarproc.surfaces.reflectors.range_models import (
 from sonarproc.surfaces.reflectors.rcd import PointFeature
 from sonarproc.surfaces.reflectors.walls import END_REACH_M, side_of_line
 
-__all__ = ["MAX_REACH_SHARE", "corners_where_walls_meet"]
+__all__ = ["MAX_REACH_SHARE", "MIN_FACE_M", "corners_where_walls_meet"]
 
 FloatArray = npt.NDArray[np.float64]
 Wall = tuple[FloatArray, FloatArray]
@@ -86,6 +93,10 @@ Wall = tuple[FloatArray, FloatArray]
 #: corner's place is not known to a point's precision (a pillar's short face, extended,
 #: crosses a wall anywhere).
 MAX_REACH_SHARE = 0.5
+#: Shortest face (m) a wall heard from both sides is split into: two range tolerances,
+#: the spacing at which two points are told apart (a shorter spread of feet does not
+#: tell where the face ends).
+MIN_FACE_M = 2 * RANGE_TOL_M
 
 
 def _crossing(w: Wall, v: Wall) -> FloatArray | None:
@@ -138,6 +149,37 @@ def _seen_through(
     return False
 
 
+def _faces(
+    k: int, fit: SurfaceFit, a: FloatArray, b: FloatArray, echoes: EchoGeometry
+) -> list[tuple[int, FloatArray, FloatArray, FloatArray, bool]]:
+    """The wall ``a b`` (fit ``k``) as ``(k, start, end, sensors, thin)`` faces.
+
+    One face, the whole wall with every sensor that heard it, unless at least
+    :data:`~sonarproc.surfaces.reflectors.line_corners.MIN_LINE_POSES` distinct poses heard
+    it from each side: then it is a thin wall (a door's wall seen from the corridor and
+    from the room), and each side's face runs over the feet of that side's echoes only
+    (a corner on one face is no corner of the other; one fit may span both).
+    """
+    # only a reading ranging the line's distance can echo from it: asked first, cheaply
+    length = float(np.hypot(*(b - a)))
+    d = np.abs(side_of_line(a, b, echoes.xy)) / length
+    sub = echoes.subset(np.abs(d - echoes.range_m) <= RANGE_TOL_M)
+    got = echo_points([fit.polyline], [False], sub, tol=RANGE_TOL_M)[0]
+    sensors = sub.xy[got.readings]
+    sides = np.sign(side_of_line(a, b, sensors))
+    u = (b - a) / length
+    faces = []
+    for side in (1.0, -1.0):
+        mine = sides == side
+        along = (got.points[mine] - a) @ u
+        # too few poses, or feet too close together to tell the face's ends: one wall
+        if distinct_poses(sensors[mine]) < MIN_LINE_POSES or float(np.ptp(along)) < MIN_FACE_M:
+            return [(k, a, b, sensors, False)]
+        lo, hi = float(along.min()), float(along.max())
+        faces.append((k, a + lo * u, a + hi * u, sensors[mine], True))
+    return faces
+
+
 def corners_where_walls_meet(
     fits: list[SurfaceFit], echoes: EchoGeometry, points: list[PointFeature]
 ) -> list[PointFeature]:
@@ -176,33 +218,27 @@ def corners_where_walls_meet(
     >>> [np.round(p.xy, 3).tolist() for p in corners_where_walls_meet([end, side], echoes, [])]
     [[0.0, 1.6]]
     """
-    walls = [(k, np.asarray(f.polyline[0], dtype=np.float64), np.asarray(f.polyline[-1]))
+    lines = [(k, np.asarray(f.polyline[0], dtype=np.float64), np.asarray(f.polyline[-1]))
              for k, f in enumerate(fits)
              if f.model == "line" and not f.closed and len(f.polyline) >= 2
              and float(np.hypot(*(f.polyline[-1] - f.polyline[0]))) > 0]  # fmt: skip
-    if len(walls) < 2:
+    if len(lines) < 2:
         return []
+    # each wall's faces: its stretch heard from each side, when it was heard from both
+    walls = [face for k, a, b in lines for face in _faces(k, fits[k], a, b, echoes)]
     found = [p.xy for p in points]
     cones: FreeCones | None = None
     everyone = np.ones(echoes.size, dtype=bool)
     out: list[PointFeature] = []
-    heard_by: dict[int, FloatArray] = {}
 
-    def seen(k: int, n: FloatArray, f: FloatArray) -> float:
-        """The side of line ``n -> f`` (fit ``k``'s) its echoes came from (+1, -1; 0 none)."""
-        if k not in heard_by:
-            # only a reading ranging the line's distance can echo from it: asked first, cheaply
-            a, b = fits[k].polyline[0], fits[k].polyline[-1]
-            d = np.abs(side_of_line(a, b, echoes.xy)) / float(np.hypot(*(b - a)))
-            near = np.abs(d - echoes.range_m) <= RANGE_TOL_M
-            sub = echoes.subset(near)
-            got = echo_points([fits[k].polyline], [False], sub, tol=RANGE_TOL_M)[0].readings
-            heard_by[k] = sub.xy[got]
-        sensors = heard_by[k]
+    def seen(sensors: FloatArray, n: FloatArray, f: FloatArray) -> float:
+        """The side of line ``n -> f`` its echoes' ``sensors`` lie on (+1, -1; 0 none)."""
         return float(np.median(np.sign(side_of_line(n, f, sensors)))) if sensors.size else 0.0
 
-    for i, (ki, ai, bi) in enumerate(walls):
-        for kj, aj, bj in walls[i + 1 :]:
+    for i, (ki, ai, bi, si, thin_i) in enumerate(walls):
+        for kj, aj, bj, sj, thin_j in walls[i + 1 :]:
+            if ki == kj:
+                continue
             x = _crossing((ai, bi), (aj, bj))
             if x is None or any(math.dist(x, q) < CANDIDATE_SPACING_M for q in found):
                 continue
@@ -210,13 +246,19 @@ def corners_where_walls_meet(
             if ei is None or ej is None:
                 continue
             idx = gather(echoes, everyone, x, None)
+            # a wall heard from both sides is thin: a reading from behind the face at hand
+            # heard the other face, not a corner on this one
+            for thin, sensors, (n, f) in ((thin_i, si, ei), (thin_j, sj, ej)):
+                if thin and idx.size:
+                    side = seen(sensors, n, f)
+                    idx = idx[np.sign(side_of_line(n, f, echoes.xy[idx])) == side]
             xy = echoes.xy[idx]
             if idx.size == 0 or distinct_poses(xy) < MIN_LINE_POSES:
                 continue
             # concave: each wall's far end on the side of the other that the wall was seen
             # from, and every sensor there too
-            if not all(np.all(np.sign(side_of_line(n, f, np.vstack((xy, g)))) == seen(k, n, f))
-                       for k, (n, f), (_, g) in ((ki, ei, ej), (kj, ej, ei))):  # fmt: skip
+            if not all(np.all(np.sign(side_of_line(n, f, np.vstack((xy, g)))) == seen(sk, n, f))
+                       for sk, (n, f), (_, g) in ((si, ei, ej), (sj, ej, ei))):  # fmt: skip
                 continue
             if cones is None:
                 cones = FreeCones.of(echoes.xy, echoes.heading, echoes.half_beam, echoes.range_m)

@@ -99,3 +99,27 @@ def test_a_short_walls_line_extended_far_places_no_corner() -> None:
     # the north wall 0.6 m long, ending 0.7 m short of the corner
     end, north = _wall((0.0, 0.2), (0.0, 1.65)), _wall((0.7, 1.6), (1.3, 1.6))
     assert _corners(_refined([end, north], _log(_track()))) == []
+
+
+def _thin_wall_log() -> EchoGeometry:
+    """The corridor's readings, plus the end wall heard head on from a room behind it
+    (x = -0.8, y 0.3 to 2.3) and from the corridor along y 0.3 to 1.2 (x = 0.4)."""
+    room = [((-0.8, y), 0.0, 0.8) for y in np.linspace(0.3, 2.3, 12)]
+    corridor = [((0.4, y), np.pi, 0.4) for y in np.linspace(0.3, 1.2, 8)]
+    return _log(_track(), room + corridor)
+
+
+def test_a_thin_walls_corridor_face_meets_its_corner() -> None:
+    # the end wall is thin: one fit spans its corridor face (to the corner at y = 1.6)
+    # and its room face, which runs on to y = 2.4; the corner is on the corridor face
+    end, north = _wall((0.0, 0.2), (0.0, 2.4)), _wall((0.7, 1.6), (3.0, 1.6))
+    corners = _corners(_refined([end, north], _thin_wall_log()))
+    assert len(corners) == 1
+    assert float(np.hypot(*(corners[0] - CORNER))) < 0.02
+
+
+def test_a_wall_heard_from_one_side_past_the_corner_is_no_corner() -> None:
+    # the same fit heard from the corridor only: the crossing lies inside the wall
+    end, north = _wall((0.0, 0.2), (0.0, 2.4)), _wall((0.7, 1.6), (3.0, 1.6))
+    corridor = [((0.4, y), np.pi, 0.4) for y in np.linspace(0.3, 1.2, 8)]
+    assert _corners(_refined([end, north], _log(_track(), corridor))) == []
