@@ -17,6 +17,8 @@ child fails, :meth:`~HeldOutAhead.residual` computes it here, as before.
 
 from __future__ import annotations
 
+import contextlib
+import os
 from typing import Any
 
 import numpy.typing as npt
@@ -28,7 +30,12 @@ from sonarproc.pipeline.mapping import MapBuilder
 from sonarproc.pipeline.selection import Beams
 from sonarproc.quality.measure import HeldOutResidual, held_out, heldout_residual
 
-__all__ = ["HeldOutAhead"]
+__all__ = ["CHILD_NICENESS", "HeldOutAhead"]
+
+#: The child's niceness (added to the run's): with two cores, the run's fit and the
+#: figure child's drawing come first, and the refit takes the time they leave (its
+#: answer is collected only after the fit; the figures drawn after it leave a core free).
+CHILD_NICENESS = 5
 
 
 class HeldOutAhead(AheadJob):
@@ -72,8 +79,15 @@ class HeldOutAhead(AheadJob):
         """The residual of this map, its child forked now where that is safe."""
         job = cls(build, beams, grid, params, counts)
         if fork_is_safe():
-            job.fork(job._compute)
+            job.fork(job._in_child)
         return job
+
+    def _in_child(self) -> HeldOutResidual:
+        # the run's fit, and the figures drawn meanwhile, are what the run waits for
+        # first; the residual is wanted only as the quality stage starts, after both
+        with contextlib.suppress(OSError):
+            os.nice(CHILD_NICENESS)
+        return self._compute()
 
     def _compute(self) -> HeldOutResidual:
         build, beams, grid, params, counts = self._args

@@ -95,19 +95,28 @@ def _circles(
     for _ in range(CIRCLE_ITERATIONS):
         if not active.any():
             break
-        dx, dy = u - p[gid, 0], v - p[gid, 1]
+        # the steps of the groups still moving, from their own points only: a group's
+        # sums are the same whichever other groups' points are left out
+        at = np.flatnonzero(active[gid])
+        ga, wa = gid[at], weight[at]
+
+        def part(w: FloatArray, ga: IntArray = ga, wa: FloatArray = wa) -> FloatArray:
+            return np.asarray(np.bincount(ga, weights=w * wa, minlength=g), dtype=np.float64)
+
+        dx, dy = u[at] - p[ga, 0], v[at] - p[ga, 1]
         dist = np.maximum(np.hypot(dx, dy), 1e-12)
         jx, jy = -dx / dist, -dy / dist
-        res = p[gid, 2] - dist
+        res = p[ga, 2] - dist
+        sxx, sxy, syy, sx, sy = part(jx * jx), part(jx * jy), part(jy * jy), part(jx), part(jy)
         jtj = np.stack(
             (
-                np.stack((total(jx * jx), total(jx * jy), -total(jx)), 1),
-                np.stack((total(jx * jy), total(jy * jy), -total(jy)), 1),
-                np.stack((-total(jx), -total(jy), n), 1),
+                np.stack((sxx, sxy, -sx), 1),
+                np.stack((sxy, syy, -sy), 1),
+                np.stack((-sx, -sy, n), 1),
             ),
             1,
         )
-        step, solvable = _solve3(jtj, np.stack((total(jx * res), total(jy * res), -total(res)), 1))
+        step, solvable = _solve3(jtj, np.stack((part(jx * res), part(jy * res), -part(res)), 1))
         move = active & solvable
         p[move] += step[move]
         diverged = move & ~np.all(np.isfinite(p), axis=1)
