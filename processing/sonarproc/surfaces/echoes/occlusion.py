@@ -14,6 +14,15 @@ by up to :data:`~sonarproc.surfaces.echoes.refine.MAX_STRETCH_M`): crossings wit
 surface whose paths they are (a phantom seen through a wall near a corner). The paths run
 to the feet on the surfaces as they stand (:func:`path_ends`).
 
+A concave corner retro-reflects and an edge diffracts towards every sensor with it in its
+beam. When at least :data:`POINT_SHARE` of the readings of ``a`` have the range, within
+:data:`CORNER_RANGE_TOL_M`, of one point at an end of ``b`` or on ``b``'s line up to
+:data:`CORNER_REACH_M` beyond an end (where ``b``'s corner would be, found short of it as
+below), ``a`` is that point's arc, not a plane; those of its paths that cross ``b`` are
+the point's echoes, no evidence that the sound crossed ``b`` (:func:`corner_echoes`). A
+plane fitted through a corner's retro-echoes from one pass stands tilted behind the
+corner's wall; its paths cross the wall's middle but do not make the wall lose.
+
 Walls seen from the middle of a room are found short of its corners: the readings near a
 corner echo from its double reflections, not from the walls. The late echoes of those
 reflections map to phantoms just behind the corner, and their paths pass between the
@@ -32,8 +41,10 @@ import numpy.typing as npt
 from sonarproc.surfaces.planar.feet import feet_on_polylines, straight_polylines
 
 __all__ = [
-    "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_REACH_M", "END_MARGIN_M", "END_ZONE_M",
-    "MIN_CROSSINGS", "contradicted", "corner_extensions", "path_ends", "segment_crossings",
+    "CORNER_MIN_DEG", "CORNER_MIN_LENGTH_M", "CORNER_RANGE_TOL_M", "CORNER_REACH_M",
+    "END_MARGIN_M", "END_ZONE_M", "MIN_CROSSINGS", "POINT_SHARE", "contradicted",
+    "corner_candidates", "corner_echoes", "corner_extensions", "path_ends",
+    "segment_crossings",
 ]  # fmt: skip
 
 FloatArray = npt.NDArray[np.float64]
@@ -50,6 +61,17 @@ CORNER_MIN_LENGTH_M = 1.0
 CORNER_MIN_DEG = 45.0
 #: ... when the corner is at most this far (m) beyond the end of each.
 CORNER_REACH_M = 1.0
+#: A reading this close (m) in range to a surface's corner or edge may be its echo:
+#: the robot's 1-inch range steps (+-1.27 cm), a few mm of noise and the time walk of a
+#: weak corner echo (up to about 1.5 cm long, Kleeman & Kuc 1995) add up to it (the
+#: point reflectors' gathering tolerance,
+#: :data:`sonarproc.surfaces.reflectors.range_models.RANGE_TOL_M`).
+CORNER_RANGE_TOL_M = 0.03
+#: The share of a surface's readings one point must explain for it to be that point's arc:
+#: a plane's echoes come from feet spread along it, and one point's distance matches
+#: their ranges only where the foot is near it, so a plane heard from more than a
+#: stretch of its length keeps most readings unexplained.
+POINT_SHARE = 0.5
 #: Echo paths tested against all segments at once, at most (bounds the memory).
 _CHUNK = 4096
 
@@ -164,6 +186,67 @@ def segment_crossings(
     return rows, cols, u
 
 
+def corner_candidates(polyline: FloatArray, straight: bool, *, cell: float) -> FloatArray:
+    """Where a surface's corner or edge may be: its ends and, if straight, its line every
+    ``cell`` up to :data:`CORNER_REACH_M` beyond each end (module notes).
+
+    Examples
+    --------
+    >>> corner_candidates(np.array([[0.0, 0.0], [1.0, 0.0]]), True, cell=0.5).tolist()
+    [[0.0, 0.0], [-0.5, 0.0], [-1.0, 0.0], [1.0, 0.0], [1.5, 0.0], [2.0, 0.0]]
+    """
+    p = np.asarray(polyline, dtype=np.float64).reshape(-1, 2)
+    if len(p) < 2 or not straight:
+        return p[[0, -1]] if len(p) else p
+    d = p[-1] - p[0]
+    d /= max(float(np.hypot(*d)), 1e-12)
+    step = np.arange(0.0, CORNER_REACH_M + cell / 2, cell)[:, None]
+    return np.concatenate((p[0] - step * d, p[-1] + step * d))
+
+
+def corner_echoes(
+    sensors: FloatArray, ranges: FloatArray, candidates: FloatArray
+) -> npt.NDArray[np.bool_]:
+    """Which readings one point among ``candidates`` explains (module notes).
+
+    Parameters
+    ----------
+    sensors : ndarray, shape (E, 2)
+        Where each reading was sensed from.
+    ranges : ndarray, shape (E,)
+        Its range (m).
+    candidates : ndarray, shape (C, 2)
+        Where the point may be (:func:`corner_candidates`).
+
+    Returns
+    -------
+    ndarray of bool, shape (E,)
+        The readings whose range is within :data:`CORNER_RANGE_TOL_M` of their distance
+        to the candidate that explains the most of them, if it explains at least
+        :data:`MIN_CROSSINGS` and :data:`POINT_SHARE` of them; else none.
+
+    Examples
+    --------
+    A corner at (8, 6) heard on a pass northwards along x = 7, and a reading 0.5 m long:
+
+    >>> y = np.array([1.0, 2.0, 3.0, 3.5])
+    >>> r = np.hypot(1.0, 6.0 - y) + np.array([0.0, 0.01, -0.01, 0.5])
+    >>> corner_echoes(np.c_[7 + 0 * y, y], r, np.array([[8.0, 5.0], [8.0, 6.0]])).tolist()
+    [True, True, True, False]
+    """
+    q = np.asarray(sensors, dtype=np.float64).reshape(-1, 2)
+    c = np.asarray(candidates, dtype=np.float64).reshape(-1, 2)
+    none = np.zeros(q.shape[0], dtype=bool)
+    if q.shape[0] < MIN_CROSSINGS or c.shape[0] == 0:
+        return none
+    dist = np.hypot(q[:, None, 0] - c[None, :, 0], q[:, None, 1] - c[None, :, 1])
+    near = np.abs(dist - np.asarray(ranges, dtype=np.float64).reshape(-1, 1)) <= CORNER_RANGE_TOL_M
+    count = near.sum(axis=0)
+    best = int(np.argmax(count))
+    enough = count[best] >= max(MIN_CROSSINGS, POINT_SHARE * q.shape[0])
+    return near[:, best] if enough else none
+
+
 def path_ends(
     polylines: list[FloatArray], closed: list[bool], sensors: list[FloatArray],
     ranges: list[FloatArray],
@@ -251,6 +334,8 @@ def contradicted(
     b0, b1 = np.concatenate((b0, ext0)), np.concatenate((b1, ext1))
     s0 = np.concatenate((s0, np.full(ext_owner.size, -np.inf)))
     owner = np.concatenate((owner, ext_owner))
+    # where each surface's corner or edge may be, whose echoes do not cross it
+    ends = [corner_candidates(p, bool(f), cell=cell) for p, f in zip(polys, straight, strict=True)]
     total = np.array([float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in polylines])
     echoes = np.array([len(p) for p in points], dtype=np.int64)
     cross_any = np.zeros((m, m), dtype=np.int64)  # a's paths crossing b anywhere
@@ -263,11 +348,18 @@ def contradicted(
         v = e - s
         length = np.hypot(*v.T)
         e = s + v * (np.maximum(length - END_MARGIN_M, 0.0) / np.maximum(length, 1e-12))[:, None]
+        arcs: dict[int, npt.NDArray[np.bool_]] = {}  # a's readings each surface's point explains
         for c0 in range(0, len(s), _CHUNK):
             rows, cols, u = segment_crossings(s[c0 : c0 + _CHUNK], e[c0 : c0 + _CHUNK], b0, b1)
             crossed = owner[cols]
             at = s0[cols] + u * np.hypot(*(b1 - b0)[cols].T)
             mid = (at > END_ZONE_M) & (at < total[crossed] - END_ZONE_M)
+            for k in np.unique(crossed[mid]):
+                # a crossed surface's corner heard in the beam is no evidence against it
+                if int(k) not in arcs:
+                    arcs[int(k)] = corner_echoes(s, length, ends[k])
+                at_k = np.flatnonzero(mid & (crossed == k))
+                mid[at_k[arcs[int(k)][rows[at_k] + c0]]] = False
             for counts, sel in ((cross_any, slice(None)), (cross_mid, mid)):
                 # a path counts once per surface it crosses
                 pairs = np.unique(rows[sel] * m + crossed[sel])

@@ -40,9 +40,19 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M, distinct_poses, pose_keys
+from sonarproc.surfaces.reflectors.range_models import (
+    RANGE_TOL_M,
+    distinct_poses,
+    pose_keys,
+)
 
-__all__ = ["HEADING_BIN_RAD", "MIN_HEAD_ON_POSES", "head_on_echoes", "hold_length_m"]
+__all__ = [
+    "HEADING_BIN_RAD",
+    "MIN_HEAD_ON_POSES",
+    "head_on_echoes",
+    "head_on_split",
+    "hold_length_m",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.intp]
@@ -109,6 +119,8 @@ def _run(
 def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt.NDArray[np.bool_]:
     """Which of a point's readings are a plane's head-on echoes (module notes).
 
+    The first of :func:`head_on_split`'s masks.
+
     Parameters
     ----------
     echoes : EchoGeometry
@@ -149,9 +161,38 @@ def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt
     >>> bool(head_on_echoes(g, near, [4.0, -1.0]).any())
     False
     """
+    return head_on_split(echoes, idx, p)[0]
+
+
+def head_on_split(
+    echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]:
+    """A point's readings that are a plane's head-on echoes, and those no range tells apart.
+
+    Parameters
+    ----------
+    echoes : EchoGeometry
+        Every reading of the log.
+    idx : ndarray of int
+        The point's readings (indices into ``echoes``).
+    p : array_like, shape (2,)
+        The point fitted through them (m).
+
+    Returns
+    -------
+    plane, level : ndarray of bool, shape (len(idx),)
+        ``plane``: the readings to leave to the plane (:func:`head_on_echoes`).
+        ``level``: the readings of a run of one heading and pass (module notes) over
+        which the point's range changes by :data:`RANGE_TOL_M` or less while one
+        constant range fits them at least as well as the point: a plane facing the pass
+        explains them as well as the point does, so they are no evidence for the point,
+        which must be made by readings such a plane cannot return (far off, a point on a
+        wall's middle holds the wall's range over the whole stretch a pass hears).
+    """
     p = np.asarray(p, dtype=np.float64)
     idx = np.asarray(idx, dtype=np.intp)
     out = np.zeros(idx.size, dtype=bool)
+    level = np.zeros(idx.size, dtype=bool)
     xy, rng = echoes.xy[idx], echoes.range_m[idx]
     bins = _bins(echoes.heading[idx])
     u = np.column_stack((np.cos(bins * HEADING_BIN_RAD), np.sin(bins * HEADING_BIN_RAD)))
@@ -175,11 +216,13 @@ def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt
         if distinct_poses(echoes.xy[run]) < MIN_HEAD_ON_POSES:
             continue
         dist = np.hypot(echoes.xy[run, 0] - p[0], echoes.xy[run, 1] - p[1])
-        # the point must say the range changes along the run, or the two do not differ
-        if float(np.ptp(dist)) <= RANGE_TOL_M:
-            continue
         r = echoes.range_m[run]
         if float(np.std(r)) > float(np.sqrt(np.mean((dist - r) ** 2))):
+            continue
+        # the point must say the range changes along the run, or the two do not differ
+        # (and then the run is no evidence for the point either)
+        if float(np.ptp(dist)) <= RANGE_TOL_M:
+            level[k[np.isin(idx[k], run)]] = True
             continue
         # where along the plane, from the point's foot: the run's feet and the group's
         n = np.array([-u[k[0], 1], u[k[0], 0]])
@@ -194,4 +237,4 @@ def head_on_echoes(echoes: EchoGeometry, idx: IntArray, p: npt.ArrayLike) -> npt
             side = np.sign(np.median(feet))
             mine = mine[(xy[mine] @ n - foot) * side > hold]
         out[mine] = True
-    return out
+    return out, level

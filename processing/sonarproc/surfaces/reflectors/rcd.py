@@ -76,7 +76,7 @@ from sonarproc.surfaces.reflectors.gathering import (
 from sonarproc.surfaces.reflectors.gathering import ArcIndex as _ArcIndex
 from sonarproc.surfaces.reflectors.gathering import gather as _gather
 from sonarproc.surfaces.reflectors.gathering import gather_all as _gather_all
-from sonarproc.surfaces.reflectors.head_on import head_on_echoes
+from sonarproc.surfaces.reflectors.head_on import head_on_split
 from sonarproc.surfaces.reflectors.range_models import (
     POINT_FALSE_ALARM,
     RANGE_STEP_NOISE_M,
@@ -345,6 +345,11 @@ def _near_found(c: FloatArray, found_xy: FloatArray, found: list[PointFeature]) 
     return min(math.dist(c, f.xy) for f in found) < CANDIDATE_SPACING_M
 
 
+def _counted(echoes: EchoGeometry, idx: IntArray) -> bool:
+    """At least :data:`MIN_READINGS` readings from :data:`MIN_POSES` distinct positions."""
+    return idx.size >= MIN_READINGS and distinct_poses(echoes.xy[idx]) >= MIN_POSES
+
+
 def _enough(echoes: EchoGeometry, idx: IntArray) -> bool:
     """The cheap tests: readings, distinct poses, and no plane within the range steps' error."""
     return _cheap_tests(echoes, idx) is not None
@@ -424,9 +429,14 @@ def _test_point(
 def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> PointFeature | None:
     """The point through the readings ``idx`` if it passes every test (module notes), else None.
 
-    A point that passes is tested once more without the head-on echoes of a plane among
-    its readings (:func:`~sonarproc.surfaces.reflectors.head_on.head_on_echoes`: near its
-    foot a plane's range is within the tolerance of the point's, judged on the plane's whole
+    A point that passes must keep :data:`MIN_READINGS` readings from :data:`MIN_POSES`
+    distinct positions without those of a pass whose ranges a plane facing it explains
+    as well as the point, over which the point's range changes by the range tolerance or
+    less (the second mask of :func:`~sonarproc.surfaces.reflectors.head_on.head_on_split`):
+    they are no evidence for it. It is then tested once more without the head-on echoes
+    of a plane among its readings
+    (:func:`~sonarproc.surfaces.reflectors.head_on.head_on_echoes`: near its foot a
+    plane's range is within the tolerance of the point's, judged on the plane's whole
     pass), which it leaves to the plane. Only a point found with them may leave them:
     readings a plane explains are no evidence for a point, so taking some away must not
     make a point of the rest.
@@ -447,7 +457,14 @@ def point_feature(echoes: EchoGeometry, idx: IntArray, start: npt.ArrayLike) -> 
     found = _tested_point(echoes, idx, start)
     if found is None:
         return None
-    wall = head_on_echoes(echoes, found.readings, found.xy)
+    wall, level = head_on_split(echoes, found.readings, found.xy)
+    # readings a plane facing their pass explains as well as the point are no evidence
+    # for it: the others must be enough to locate a point (on a wall's middle, a long way
+    # off, a pass's head-on echoes hold the point's range too, and a few stray echoes of
+    # other reflectors at its distance would make a point of them)
+    level &= ~wall
+    if level.any() and not _counted(echoes, found.readings[~(wall | level)]):
+        return None
     if not wall.any():
         return found
     kept = _tested_point(echoes, found.readings[~wall], found.xy)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from sonarproc.surfaces.echoes.specular import EchoGeometry
-from sonarproc.surfaces.reflectors.head_on import head_on_echoes, hold_length_m
+from sonarproc.surfaces.reflectors.head_on import head_on_echoes, head_on_split, hold_length_m
 from sonarproc.surfaces.reflectors.range_models import RANGE_TOL_M
 from sonarproc.surfaces.reflectors.rcd import point_feature
 
@@ -91,3 +91,29 @@ def test_a_corner_at_a_walls_end_keeps_its_echoes_and_those_near_its_foot() -> N
     assert left.size and (heading[left] == -math.pi / 2).all()
     assert (xy[left, 0] - p[0] > np.array([hold_length_m(v) for v in r[left]]) - 0.05).all()
     assert not set(left) & set(f.readings)
+
+
+def test_a_far_walls_head_on_pass_and_three_strays_make_no_point() -> None:
+    """The wall x = 8 heard head on from one pass 3.35 m off (y 4.5 .. 5.3), and three
+    echoes of something else from the south whose ranges happen to equal their distance
+    to (8, 4.95): over the pass a point there holds the wall's range within the range
+    tolerance, so only the three strays could tell it from the wall, and three are not a
+    point."""
+    rng = np.random.default_rng(7)
+    y = np.arange(4.5, 5.31, 0.07)
+    wall_xy = np.c_[np.full(y.size, 4.65), y]
+    p = np.array([8.0, 4.95])
+    s_xy = np.c_[[6.37, 6.44, 6.51], [1.12, 1.12, 1.12]]
+    xy = np.vstack((wall_xy, s_xy))
+    heading = np.r_[np.zeros(y.size), np.full(3, math.radians(55.0))]
+    r = np.r_[
+        _quantised(8.0 - wall_xy[:, 0], rng),
+        _quantised(np.hypot(p[0] - s_xy[:, 0], p[1] - s_xy[:, 1]), rng),
+    ]
+    g = EchoGeometry(xy, heading, np.full(heading.size, HALF_BEAM), r)
+    wall, level = head_on_split(g, np.arange(r.size), p)
+    # the pass's ranges do not change as a point's would by more than the tolerance: not
+    # the plane's alone, but no evidence for the point either
+    assert not wall.any()
+    assert level.tolist() == [True] * y.size + [False] * 3
+    assert point_feature(g, np.arange(r.size), p) is None

@@ -188,3 +188,31 @@ def test_crossings_agree_with_the_orientation_test(
     off = (p[:, 0] - aa[rows, 0]) * da[:, 1] - (p[:, 1] - aa[rows, 1]) * da[:, 0]
     assert np.all((u >= -1e-9) & (u <= 1 + 1e-9))
     np.testing.assert_allclose(off / np.maximum(np.hypot(*da.T), 1e-12), 0.0, atol=1e-6)
+
+
+def test_a_plane_through_a_corners_echoes_does_not_drop_the_corners_wall() -> None:
+    # room corner (8, 6): east wall x = 8 heard head on by 12 readings and found 0.4 m
+    # short of the corner, the north wall found only far from it; a plane fitted through
+    # the corner's retro-echoes from one northbound pass stands tilted behind the east
+    # wall and has more echoes (15); their ranges are the distance to one point on the
+    # east wall's line, so their paths crossing it are that corner's echoes
+    east = _line((8.0, 2.0), (8.0, 5.6))
+    north = _line((2.0, 6.0), (4.0, 6.0))
+    tilted = _line((8.45, 5.89), (7.76, 6.06))
+    ye = np.linspace(2.3, 5.3, 12)
+    east_s = np.c_[np.full_like(ye, 6.5), ye]
+    xn = np.linspace(2.3, 7.3, 20)
+    north_s = np.c_[xn, np.full_like(xn, 4.5)]
+    north_s[:, 0] = np.linspace(2.1, 3.9, 20)
+    yp = np.linspace(1.5, 3.0, 15)
+    tilt_s = np.c_[np.full_like(yp, 7.4), yp]
+    tilt_r = np.hypot(*(np.array([8.0, 6.0]) - tilt_s).T)
+    polys = [east, north, tilted]
+    sensors = [east_s, north_s, tilt_s]
+    ranges = [np.full(12, 1.5), np.full(20, 1.5), tilt_r]
+    points = occlusion.path_ends(polys, [False] * 3, sensors, ranges)
+    assert np.all(points[2][:, 0] > 8.0)  # the tilted plane's echo points are behind x = 8
+    assert contradicted(polys, sensors, points, cell=CELL) == []
+    # one range from the whole pass is no point's on the wall's line: through the wall
+    points = occlusion.path_ends(polys, [False] * 3, sensors, [*ranges[:2], np.full(15, 4.0)])
+    assert contradicted(polys, sensors, points, cell=CELL) == [0]
