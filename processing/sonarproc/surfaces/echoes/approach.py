@@ -17,6 +17,14 @@ points only; the refinement then stretches it over its ridge as any other line
 (by at most its ``MAX_STRETCH_M`` at each end), and such a piece, having no direction of
 its own, is joined to no other as collinear with it.
 
+The map's ridge of such a wall is the crest of the pass's range arcs, all tangent at the
+foot: it bends towards the sensors with their curvature, and is often fitted as an arc
+centred among them, whose every point lies nearer the sensors beyond its centre than its
+middle does, so that no reading's foot falls inside it and it would go for want of
+echoes. :func:`apex_tangent` is the line tangent to it at its middle, where the arcs
+touch; it is kept in the arc's place only when its echoes come from such a pass
+(:func:`driven_at`: sensors of one heading carried along their axis).
+
 Kleeman & Kuc (1995) and Leonard & Durrant-Whyte (1991) describe such head-on returns
 (the strongest a plane gives); a point reflector straight ahead answers the same ranges,
 and :mod:`sonarproc.surfaces.reflectors` claims the readings of the corners and edges it
@@ -37,6 +45,7 @@ from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.planar.polylines import resample
 
 __all__ = [
+    "HEADING_STEP_RAD",
     "HEAD_ON_DEPTH_M",
     "Pieces",
     "apex_tangent",

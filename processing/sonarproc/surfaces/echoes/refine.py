@@ -23,7 +23,9 @@ round, which scores every reading); a surface that fewer than :data:`MIN_ECHOES`
 readings echo from, or whose echo points span less than :data:`MIN_SPREAD_M`, is dropped
 (no reading reflected there, or only at one point), unless those readings came from
 depths along one pass far enough apart to fix its direction: a wall heard head on, which
-is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`); so is one
+is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`; its ridge,
+fitted as an arc none of its readings echoes from, is first replaced by the tangent
+where the arcs touch); so is one
 that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through (their
 range reaches beyond it: a chance crossing of arcs in free space, which the sound
 crossed; a real surface is seen through only by a stray long echo). The rounds
