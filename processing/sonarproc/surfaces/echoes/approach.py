@@ -17,6 +17,14 @@ points only; the refinement then stretches it over its ridge as any other line
 (by at most its ``MAX_STRETCH_M`` at each end), and such a piece, having no direction of
 its own, is joined to no other as collinear with it.
 
+The map's ridge of such a wall is the crest of the pass's range arcs, all tangent at the
+foot: it bends towards the sensors with their curvature, and is often fitted as an arc
+centred among them, whose every point lies nearer the sensors beyond its centre than its
+middle does, so that no reading's foot falls inside it and it would go for want of
+echoes. :func:`apex_tangent` is the line tangent to it at its middle, where the arcs
+touch; it is kept in the arc's place only when its echoes come from such a pass
+(:func:`driven_at`: sensors of one heading carried along their axis).
+
 Kleeman & Kuc (1995) and Leonard & Durrant-Whyte (1991) describe such head-on returns
 (the strongest a plane gives); a point reflector straight ahead answers the same ranges,
 and :mod:`sonarproc.surfaces.reflectors` claims the readings of the corners and edges it
@@ -25,6 +33,7 @@ finds before the walls are refitted.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -36,9 +45,12 @@ from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.planar.polylines import resample
 
 __all__ = [
+    "HEADING_STEP_RAD",
     "HEAD_ON_DEPTH_M",
     "Pieces",
+    "apex_tangent",
     "approach_line",
+    "driven_at",
     "heard_head_on",
     "join_directed",
     "spread_m",
@@ -77,6 +89,45 @@ def heard_head_on(readings: IntArray, range_m: FloatArray) -> bool:
     """
     r = np.asarray(range_m, dtype=np.float64)[np.asarray(readings, dtype=np.intp)]
     return r.size > 0 and float(np.ptp(r)) >= HEAD_ON_DEPTH_M
+
+
+#: Readings whose headings round to one step this wide (rad) point one way: one sensor of
+#: a ring (its neighbours point a ring's spacing, 20 degrees and more, away), while the
+#: robot drives straight; over the metre of a pass, 1 degree moves the axis 2 cm across.
+HEADING_STEP_RAD = math.radians(1.0)
+
+
+def driven_at(xy: FloatArray, heading: FloatArray, *, across: float) -> bool:
+    """Whether some sensors ``xy`` pointing one way (``heading``, to
+    :data:`HEADING_STEP_RAD`) lie within ``across`` (m) of one line along their axis and
+    at least :data:`HEAD_ON_DEPTH_M` apart along it: a pass along the heard wall's normal.
+
+    Sensors carried sideways past a spot (their depth changing only as the spot's bearing
+    does) are no such pass: a corner heard from a corridor passing its room's doorway
+    gives ranges as far apart, from sensors spread across their axes.
+
+    >>> xy = np.column_stack((np.linspace(0.0, 1.0, 11), np.zeros(11)))
+    >>> driven_at(xy, np.zeros(11), across=0.1), driven_at(xy, np.full(11, np.pi / 2),
+    ...                                                     across=0.1)
+    (True, False)
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    h = np.asarray(heading, dtype=np.float64)
+    steps = np.round(h / HEADING_STEP_RAD).astype(np.int64) % round(2 * math.pi / HEADING_STEP_RAD)
+    for b in np.unique(steps):
+        sel = steps == b
+        if np.count_nonzero(sel) < 2:
+            continue
+        mid = float(b) * HEADING_STEP_RAD
+        along = xy[sel] @ np.array([math.cos(mid), math.sin(mid)])
+        side = xy[sel] @ np.array([-math.sin(mid), math.cos(mid)])
+        order = np.argsort(side, kind="stable")
+        side, along = side[order], along[order]
+        ends = np.searchsorted(side, side + across, side="right")
+        for i, j in enumerate(ends):
+            if j - i >= 2 and float(np.ptp(along[i:j])) >= HEAD_ON_DEPTH_M:
+                return True
+    return False
 
 
 def approach_line(points: SurfaceCells, sensors: FloatArray, *, cell: float) -> SurfaceFit:
@@ -126,6 +177,45 @@ def approach_line(points: SurfaceCells, sensors: FloatArray, *, cell: float) -> 
     length = float(np.hypot(*(poly[-1] - poly[0])))
     return SurfaceFit("line", poly, length, rms, points.size, points.size, False,
                       line_params(c, t), {"line": rms})  # fmt: skip
+
+
+def apex_tangent(fit: SurfaceFit, *, cell: float) -> SurfaceFit:
+    """The line tangent to the open arc ``fit`` at its middle, as long as its chord.
+
+    Arcs of readings tangent at one spot (a wall heard head on, from depths along one
+    pass) make a ridge that bends towards the sensors with the arcs' own curvature: it is
+    fitted as an arc centred near the sensors, whose ends lie nearer them than its
+    middle, so that no reading's foot (the nearest point) falls inside it and it has no
+    echoes. The wall stands at the arc's middle, where the arcs touch, square to the
+    pass: the tangent there. Off the pass's direction by an angle phi (the ridge's
+    ends heard unequally far to the sides), a sensor at distance ``d`` from the centre
+    ranges the tangent ``d (1 - cos phi)`` off the wall's range, a millimetre for 5
+    degrees at a metre, well inside the first round's tolerance, and the head-on test
+    (module notes) then refits it square to the pass.
+
+    Examples
+    --------
+    A quarter arc of radius 2 about the origin, from -45 to 45 degrees:
+
+    >>> a = np.radians(np.linspace(-45.0, 45.0, 91))
+    >>> arc = SurfaceFit("arc", 2 * np.column_stack((np.cos(a), np.sin(a))), 3.14, 0.0, 91,
+    ...                  91, False, {"centre": [0.0, 0.0], "radius": 2.0,
+    ...                  "start_rad": -np.pi / 4, "sweep_rad": np.pi / 2})
+    >>> f = apex_tangent(arc, cell=0.01)
+    >>> f.model, [round(abs(v), 3) for v in f.params["direction"]], round(f.length_m, 2)
+    ('line', [0.0, 1.0], 2.83)
+    >>> round(float(f.polyline[0, 0]), 3), round(float(f.polyline[-1, 0]), 3)
+    (2.0, 2.0)
+    """
+    c = np.asarray(fit.params["centre"], dtype=np.float64)
+    mid = float(fit.params["start_rad"]) + 0.5 * float(fit.params["sweep_rad"])
+    p = c + float(fit.params["radius"]) * np.array([math.cos(mid), math.sin(mid)])
+    t = np.array([-math.sin(mid), math.cos(mid)])
+    half = 0.5 * max(float(np.hypot(*(fit.polyline[-1] - fit.polyline[0]))), cell)
+    poly = resample(np.stack((p - half * t, p + half * t)), cell)
+    length = float(np.hypot(*(poly[-1] - poly[0])))
+    return SurfaceFit("line", poly, length, fit.rms_m, fit.support, fit.arcs, False,
+                      line_params(p, t), dict(fit.candidates))  # fmt: skip
 
 
 #: Surfaces, their echo points and their readings' indices, in one order.

@@ -23,7 +23,9 @@ round, which scores every reading); a surface that fewer than :data:`MIN_ECHOES`
 readings echo from, or whose echo points span less than :data:`MIN_SPREAD_M`, is dropped
 (no reading reflected there, or only at one point), unless those readings came from
 depths along one pass far enough apart to fix its direction: a wall heard head on, which
-is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`); so is one
+is refitted square to the pass (:mod:`sonarproc.surfaces.echoes.approach`; its ridge,
+fitted as an arc none of its readings echoes from, is first replaced by the tangent
+where the arcs touch); so is one
 that more than :data:`MAX_SEEN_THROUGH` of the readings facing it see through (their
 range reaches beyond it: a chance crossing of arcs in free space, which the sound
 crossed; a real surface is seen through only by a stray long echo). The rounds
@@ -60,7 +62,9 @@ import numpy as np
 import numpy.typing as npt
 
 from sonarproc.surfaces.echoes.approach import (
+    apex_tangent,
     approach_line,
+    driven_at,
     heard_head_on,
     join_directed,
     spread_m,
@@ -250,6 +254,46 @@ def _unsupported(
     ]
 
 
+def _head_on_arcs(
+    fits: list[SurfaceFit], echoes: EchoGeometry, tol: float, need: int, cell: float
+) -> list[SurfaceFit]:
+    """``fits`` with each open arc that no reading echoes from enough (:func:`_enough`)
+    replaced by its tangent at its middle
+    (:func:`~sonarproc.surfaces.echoes.approach.apex_tangent`) where that tangent is a
+    wall heard head on: echoes enough (:func:`_enough`), not seen through, at ranges
+    from depths along the pass
+    (:func:`~sonarproc.surfaces.echoes.approach.heard_head_on`), from sensors of one
+    heading that drove along their axis within :data:`MIN_SPREAD_M` of one line
+    (:func:`~sonarproc.surfaces.echoes.approach.driven_at`).
+    The crest of range arcs tangent at one spot is such an arc; a chance crossing of
+    arcs or a curved surface that its readings do not reach keeps its arc (and goes as
+    before, for want of echoes)."""
+    arcs = [i for i, f in enumerate(fits) if f.model == "arc" and not f.closed]
+    if not arcs:
+        return fits
+    view = viewpoint_ids(echoes.xy)
+    got = echo_points([fits[i].polyline for i in arcs], [False] * len(arcs), echoes, tol=tol)
+    dead = [
+        i
+        for i, (idx, pts, _, _) in zip(arcs, got, strict=True)
+        if not _enough(idx, pts, view, need, echoes.range_m)
+    ]
+    if not dead:
+        return fits
+    lines = [apex_tangent(fits[i], cell=cell) for i in dead]
+    got = echo_points([f.polyline for f in lines], [False] * len(lines), echoes, tol=tol)
+    out = list(fits)
+    for i, line, (idx, pts, _, through) in zip(dead, lines, got, strict=True):
+        if (
+            heard_head_on(idx, echoes.range_m)
+            and driven_at(echoes.xy[idx], echoes.heading[idx], across=MIN_SPREAD_M)
+            and _enough(idx, pts, view, need, echoes.range_m)
+            and not _seen_through(idx.size, through)
+        ):
+            out[i] = line
+    return out
+
+
 def _joined(a: EchoGeometry, b: EchoGeometry) -> EchoGeometry:
     """The readings of ``a``, then those of ``b`` (``a``'s rows keep their indices)."""
     return EchoGeometry(np.concatenate((a.xy, b.xy)), np.concatenate((a.heading, b.heading)),
@@ -345,6 +389,11 @@ def refine_fits(
     # the ridge lies up to the first round's tolerance off the wall
     cur, ridge = merge_collinear(cur, ridge, cell=cell, cones=cones,
                                  margin=rounds[0] if rounds else ROUNDS_M[0])  # fmt: skip
+    if rounds:
+        # the crest of a wall heard head on bends towards the sensors and is fitted as an
+        # arc none of them echoes from: the wall is its tangent where the arcs touch
+        first, need = _scored(echoes, 0, len(rounds), min_echoes)
+        cur = _head_on_arcs(cur, first, rounds[0], need, cell)
     pts_cells: list[SurfaceCells] = []
     pts_idx: list[IntArray] = []
     # the most a reading's echo point scatters about its surface: the last round's range

@@ -18,6 +18,7 @@ from sonarproc.surfaces.echoes.approach import (
     HEAD_ON_DEPTH_M,
     Pieces,
     approach_line,
+    driven_at,
     heard_head_on,
     join_directed,
 )
@@ -108,3 +109,39 @@ def test_head_on_pieces_are_not_joined() -> None:
     assert calls == [1]
     assert out_p == [wide, spot]
     assert [r.tolist() for r in out_r] == [[2, 3], [0, 1]]
+
+
+def _crest(centre_y: float, radius: float) -> tuple[SurfaceFit, SurfaceCells]:
+    """The ridge of the pass's arcs, all tangent at the foot (0, WALL_Y): it bends towards
+    the sensors with their own curvature and is fitted as an arc centred among them."""
+    a = np.radians(np.linspace(60.0, 120.0, 121))
+    xy = np.c_[radius * np.cos(a), centre_y + radius * np.sin(a)]
+    cells = SurfaceCells(xy[:, 0], xy[:, 1], np.arange(len(xy)) * CELL, np.ones(len(xy)), False)
+    fit = fit_surface(cells, cell=CELL)
+    assert isinstance(fit, SurfaceFit) and fit.model == "arc"
+    return fit, cells
+
+
+def test_a_pass_whose_crest_is_fitted_as_an_arc_keeps_its_wall() -> None:
+    g = _pass(1.2)
+    fit, cells = _crest(1.25, WALL_Y - 1.25)
+    kept, _ = refine_fits([fit], [cells], g, cell=CELL)
+    # no sensor's foot falls inside the arc (they lie beyond its centre): the wall is its
+    # tangent where the arcs touch, refitted square to the pass
+    assert len(kept) == 1 and kept[0].model == "line"
+    d = np.asarray(kept[0].params["direction"])
+    assert abs(d[1]) < math.sin(math.radians(3.0))
+    np.testing.assert_allclose(kept[0].polyline[:, 1], WALL_Y, atol=0.015)
+
+
+def test_an_arc_heard_from_sensors_drifting_sideways_stays_dropped() -> None:
+    # the same ranges, from sensors that drift 0.6 m across their axis on the way (feet
+    # spread along the wall, no pass along its normal): the head-on rule is not theirs
+    g = _pass(1.2)
+    moved = EchoGeometry(np.c_[0.5 * g.xy[:, 1] - 0.3, g.xy[:, 1]], g.heading, g.half_beam,
+                         g.range_m)  # fmt: skip
+    assert not driven_at(moved.xy, moved.heading, across=MIN_SPREAD_M)
+    assert driven_at(g.xy, g.heading, across=MIN_SPREAD_M)
+    fit, cells = _crest(1.25, WALL_Y - 1.25)
+    kept, _ = refine_fits([fit], [cells], moved, cell=CELL)
+    assert kept == []
