@@ -96,12 +96,12 @@ from sonarproc.surfaces.echoes.specular import EchoGeometry, SurfaceEchoes, echo
 from sonarproc.surfaces.fitting.models import SurfaceFit
 from sonarproc.surfaces.reflectors.cylinders import pillar_pieces
 from sonarproc.surfaces.reflectors.gathering import (
-    BEAM_SLACK,
     CANDIDATE_SPACING_M,
     ArcIndex,
     gather,
     gather_all,
 )
+from sonarproc.surfaces.reflectors.line_crossings import arc_crossings, crossing_counts, local_peaks
 from sonarproc.surfaces.reflectors.point_echoes import (
     CORNER_TOL_RAD,
     BeamIndex,
@@ -149,61 +149,6 @@ STEP_M = 0.5 * RANGE_TOL_M
 #: Gauss-Newton steps of the position along the line (one unknown; the gather is within
 #: the range tolerance already, two steps settle it to a fraction of a millimetre).
 LINE_FIT_STEPS = 3
-
-
-def _crossings(pool: EchoGeometry, a: FloatArray, u: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Where the arcs of readings ``pool`` cross the line ``a + t u``, and how far round.
-
-    A reading's circle (its sensor, its range) meets the line at up to two places; those
-    inside its beam (widened by :data:`BEAM_SLACK`) count. A reading passes within the
-    range tolerance of a place within that tolerance over the cosine ``c`` of its sight
-    line's angle to the line of the crossing. Sight lines within :data:`CORNER_TOL_RAD` of
-    square to the line do not count: such readings face the wall's line head on, where a
-    plane along the line explains them (:func:`_no_plane`), and their tolerance along the
-    line would be unbounded.
-
-    Returns each counted crossing's ``t`` (m along the line) and its reach along it (m).
-    Both ends of a line are searched with the same crossings (:func:`_crossing_counts`).
-    """
-    d = pool.xy - a
-    along = d @ u
-    off = d[:, 0] * u[1] - d[:, 1] * u[0]
-    rng = pool.range_m
-    reach = np.flatnonzero(np.abs(off) <= rng + RANGE_TOL_M)
-    half = np.sqrt(np.maximum(rng[reach] ** 2 - off[reach] ** 2, 0.0))
-    tc = np.concatenate((along[reach] - half, along[reach] + half))
-    rows = np.concatenate((reach, reach))
-    v = a + tc[:, None] * u - pool.xy[rows]
-    bearing = np.arctan2(v[:, 1], v[:, 0]) - pool.heading[rows]
-    off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-    c = np.abs(v @ u) / np.maximum(pool.range_m[rows], 1e-9)
-    ok = (off_axis <= BEAM_SLACK * pool.half_beam[rows]) & (c > math.sin(CORNER_TOL_RAD))
-    return tc[ok], RANGE_TOL_M / c[ok]
-
-
-def _crossing_counts(crossings: tuple[FloatArray, FloatArray], t: FloatArray) -> IntArray:
-    """How many arcs pass near each place ``t`` (evenly spaced, m along the line), given
-    their crossings of the line (:func:`_crossings`)."""
-    tc, width = crossings
-    step = float(t[1] - t[0]) if t.size > 1 else 1.0
-    lo = np.clip(np.ceil((tc - width - t[0]) / step), 0, t.size).astype(np.intp)
-    hi = np.clip(np.floor((tc + width - t[0]) / step) + 1, 0, t.size).astype(np.intp)
-    # each crossing adds one from its first place to its last (a difference array)
-    diff = np.bincount(lo, minlength=t.size + 1) - np.bincount(hi, minlength=t.size + 1)
-    return np.asarray(np.cumsum(diff)[:-1], dtype=np.intp)
-
-
-def _peaks(t: FloatArray, sizes: IntArray) -> npt.NDArray[np.bool_]:
-    """Which places ``t`` (ascending, m along a line) gather no fewer readings than every
-    place within :data:`CANDIDATE_SPACING_M` of them."""
-    if t.size == 0:
-        return np.zeros(0, dtype=bool)
-    lo = np.searchsorted(t, t - CANDIDATE_SPACING_M)
-    hi = np.searchsorted(t, t + CANDIDATE_SPACING_M, "right")
-    # the most of each window [lo, hi) (never empty: it holds its own place); a last
-    # element past the end lets a window end there
-    best = np.maximum.reduceat(np.r_[sizes, 0], np.column_stack((lo, hi)).ravel())[::2]
-    return np.asarray(sizes >= best.astype(sizes.dtype))
 
 
 def _occluded(
@@ -357,15 +302,15 @@ def corners_on_wall_lines(
             continue
         u = (b - a) / length
         inner = min(END_REACH_M, 0.5 * length)
-        crossings = _crossings(pool, a, u)
+        crossings = arc_crossings(pool, a, u)
         for t in (
             np.arange(-WALL_GAP_M, inner, STEP_M),
             np.arange(length - inner, length + WALL_GAP_M, STEP_M),
         ):
             # where the most arcs cross the line: a place within the candidate spacing of
             # one with more is that one's (its arcs spread over the range tolerance round it)
-            counts = _crossing_counts(crossings, t)
-            t = t[_peaks(t, counts) & (counts >= MIN_LINE_POSES)]
+            counts = crossing_counts(crossings, t)
+            t = t[local_peaks(t, counts) & (counts >= MIN_LINE_POSES)]
             if t.size:
                 places.append(a + t[:, None] * u)
                 owner.append(np.full(t.size, k))
@@ -379,7 +324,9 @@ def corners_on_wall_lines(
     # candidate spacing of one with more is that one's (its arcs spread over the range
     # tolerance round it)
     cuts = np.cumsum([t.size for t in along])[:-1]
-    peak = np.concatenate([_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)])
+    peak = np.concatenate(
+        [local_peaks(t, n) for t, n in zip(along, np.split(sizes, cuts), strict=True)]
+    )
     found: list[PointFeature] = []
     taken = [p.xy for p in points]
     tried: dict[int, list[FloatArray]] = {k: [] for k in range(len(walls))}
