@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+from ridges import straight_ridge
 
 from sonarproc.surfaces.echoes.approach import (
     HEAD_ON_DEPTH_M,
@@ -27,7 +28,6 @@ from sonarproc.surfaces.echoes.specular import EchoGeometry
 from sonarproc.surfaces.extraction.extract import SurfaceCells
 from sonarproc.surfaces.fitting.batch import fit_surface
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.planar.polylines import resample
 
 IntArray = npt.NDArray[np.intp]
 
@@ -50,12 +50,7 @@ def _pass(depth_m: float, seed: int = 3) -> EchoGeometry:
 
 def _ridge() -> tuple[SurfaceFit, SurfaceCells]:
     """The map's ridge of the wall, as a short line where the arcs touch it."""
-    line = resample(np.array([[-0.3, WALL_Y - 0.02], [0.3, WALL_Y - 0.02]]), CELL)
-    cells = SurfaceCells(line[:, 0], line[:, 1], np.arange(len(line)) * CELL,
-                         np.ones(len(line)), False)  # fmt: skip
-    fit = fit_surface(cells, cell=CELL)
-    assert isinstance(fit, SurfaceFit)
-    return fit, cells
+    return straight_ridge((-0.3, WALL_Y - 0.02), (0.3, WALL_Y - 0.02), CELL)
 
 
 def test_a_pass_straight_at_a_wall_fixes_its_direction() -> None:

@@ -14,13 +14,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from ridges import straight_ridge
 
 from sonarproc.surfaces.echoes.refine import MAX_SEEN_THROUGH, WEAK_ECHOES, refine_fits
 from sonarproc.surfaces.echoes.specular import EchoGeometry, echo_points
 from sonarproc.surfaces.extraction.extract import SurfaceCells
-from sonarproc.surfaces.fitting.batch import fit_surface
 from sonarproc.surfaces.fitting.models import SurfaceFit
-from sonarproc.surfaces.planar.polylines import resample
 
 CELL = 0.01
 HALF_BEAM = math.radians(15.0)
@@ -36,12 +35,7 @@ def _readings(n_face: int) -> EchoGeometry:
 
 
 def _ridge() -> tuple[SurfaceFit, SurfaceCells]:
-    line = resample(np.array([[-2.0, 0.98], [2.0, 0.98]]), CELL)
-    cells = SurfaceCells(line[:, 0], line[:, 1], np.arange(len(line)) * CELL,
-                         np.ones(len(line)), False)  # fmt: skip
-    fit = fit_surface(cells, cell=CELL)
-    assert isinstance(fit, SurfaceFit)
-    return fit, cells
+    return straight_ridge((-2.0, 0.98), (2.0, 0.98), CELL)
 
 
 def test_readings_past_the_ends_see_through_the_ridge_only_there() -> None:
